@@ -1,0 +1,1 @@
+"""Scene definitions and procedural texture/terrain generators (seeded; nothing downloaded)."""

@@ -1,0 +1,1 @@
+"""Simulation: MuJoCo models, trajectories, rendering, sensors, ground truth, dataset writing."""

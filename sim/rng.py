@@ -1,0 +1,19 @@
+"""Separate, named, seeded random streams (one per sensor / purpose), as OpenVINS's simulator does.
+
+Adding a new stream never changes the draws of an existing one: each stream's
+generator is seeded from ``(seed, crc32(name))``.
+"""
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+
+STREAMS = ("motion", "imu_white", "imu_bias", "image_noise", "scene", "wheels", "dynamic")
+
+
+def stream(seed: int, name: str) -> np.random.Generator:
+    """The generator of stream ``name`` for master ``seed``."""
+    if name not in STREAMS:
+        raise ValueError(f"unknown random stream {name!r}; valid: {', '.join(STREAMS)}")
+    return np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(name.encode())]))

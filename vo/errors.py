@@ -1,0 +1,13 @@
+"""Exception root of the ``vo`` package."""
+
+
+class VoError(Exception):
+    """Base of every error raised by ``vo``; messages name the file, field or bad value."""
+
+
+class DatasetError(VoError):
+    """A dataset folder is missing, partial, marked incomplete, or malformed."""
+
+
+class EstimatorError(VoError):
+    """An estimator name is unknown or an estimator failed irrecoverably."""
