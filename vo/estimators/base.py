@@ -1,0 +1,54 @@
+"""The estimator interface: a plug-in consumes stereo frames (and optionally IMU) and emits poses.
+
+Output poses are ``T_o_c0``: the left camera in the frame ``o`` of the first left camera
+(seed 000's object frame O). Evaluation anchors ``o`` to the world with the true first pose.
+"""
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from rigs.model import Rig
+from vo.dataset.types import ImuData, StereoFrame
+
+STATUSES = ("init", "ok", "keyframe", "few_features", "lost", "reinit")
+
+
+@dataclass
+class FrameResult:
+    """What an estimator says about one frame.
+
+    ``T_o_c0`` (4,4) is always finite (on failure: the last good pose propagated, never NaN);
+    ``cov`` (6,6) optional covariance of ``[rotation vector (rad), position (m)]`` of ``T_o_c0``
+    (rotation perturbation on the left: ``R = exp(dphi) R_hat``);
+    ``status`` one of :data:`STATUSES`; ``message`` says why in words (e.g. "12 features < 30: white wall?").
+    """
+
+    t_ns: int
+    T_o_c0: np.ndarray
+    status: str = "ok"
+    n_features: int = 0
+    n_inliers: int = 0
+    cov: Optional[np.ndarray] = None
+    message: str = ""
+    timings_ms: dict = field(default_factory=dict)
+
+
+class Estimator(abc.ABC):
+    """Base class of every VO / VINS estimator. Subclasses set ``name`` and implement ``process``."""
+
+    name: str = ""
+
+    def __init__(self, rig: Rig, **options):
+        self.rig = rig
+        self.options = options
+
+    def set_imu(self, imu: Optional[ImuData]) -> None:
+        """Give the whole IMU stream up front (VINS estimators use it; VO ignores it)."""
+
+    @abc.abstractmethod
+    def process(self, frame: StereoFrame) -> FrameResult:
+        """Consume one stereo frame, return the pose of the left camera at ``frame.t_ns``."""
