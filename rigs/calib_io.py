@@ -1,0 +1,304 @@
+"""Calibration files of other tools: Kalibr camchain/imu YAML, EuRoC sensor.yaml, KITTI calib.txt.
+
+Frame conventions at this boundary (``T_a_b`` maps points of b into a):
+
+- Kalibr: ``T_cam_imu`` = ``T_c_i`` (OpenVINS' ``T_imu_cam`` = ``T_i_c`` is read too);
+  ``T_cn_cnm1`` = ``T_c1_c0`` (camera n from camera n-1).
+  Distortion ``radtan`` ``[k1, k2, r1, r2]`` = OpenCV ``(k1, k2, p1, p2)``; a non-zero ``k3`` is
+  written as a fifth value (Kalibr itself only has four; our reader accepts 4 or 5).
+  Read back, the body frame is the IMU frame (``T_b_c = inv(T_cam_imu)``, ``T_b_i = I``).
+- EuRoC ``sensor.yaml``: ``T_BS`` = ``T_B_S`` (sensor S into body B; in EuRoC B is the IMU frame).
+  Real files start with OpenCV's ``%YAML:1.0`` line, which the reader skips.
+- KITTI odometry ``calib.txt``: rectified ``P_k = K [I | t_k]`` (3x4, row-major), camera 0 the
+  reference, ``P1[0,3] = -fx * baseline``.
+
+All writers are atomic (temp file + ``os.replace``); readers raise one-line RigErrors naming
+the file and the field.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from rigs.errors import RigError
+from rigs.imu_models import get_imu_model
+from rigs.io_yaml import (check_keys, dump_yaml, field_error, field_floats, field_int, field_number,
+                          read_yaml_file, write_text_atomic)
+from rigs.model import Camera, Imu, Rig, as_matrix4
+from vo.geometry.se3 import inv_T
+
+ORTHO_TOL = 1e-4   # calibration files print ~9-12 digits; re-orthonormalise rotations within this
+
+
+def _rows(T) -> list:
+    return [[float(x) for x in row] for row in np.asarray(T, dtype=float)]
+
+
+def _opencv_dist(values) -> tuple:
+    """4 or 5 coefficients (k1, k2, p1, p2[, k3]) -> OpenCV 5-tuple."""
+    d = tuple(float(v) for v in values)
+    return d + (0.0,) * (5 - len(d))
+
+
+def _file_dist(dist) -> list:
+    """OpenCV 5-tuple -> list of 4, plus k3 only if non-zero."""
+    return [float(x) for x in (dist if dist[4] != 0.0 else dist[:4])]
+
+
+def _rigid(rows, source, path) -> tuple:
+    """4x4 nested list from a file -> validated rigid transform; rotations within ORTHO_TOL of
+    orthonormal (printed with finite digits, as in EuRoC's T_BS) are projected onto SO(3)."""
+    T = np.asarray(rows, dtype=float)
+    U, _, Vt = np.linalg.svd(T[:3, :3])
+    R = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+    if 1e-9 < np.max(np.abs(R - T[:3, :3])) < ORTHO_TOL:
+        T[:3, :3] = R
+    try:
+        return as_matrix4(T, path)
+    except RigError as exc:
+        raise RigError(f"{source}: {exc}") from None
+
+
+def _resolution(value, source, path) -> tuple[int, int]:
+    """``[width, height]`` -> two positive ints."""
+    wh = field_floats(value, source, path, (2,))
+    return field_int(wh[0], source, f"{path}[0]"), field_int(wh[1], source, f"{path}[1]")
+
+
+def _matrix_field(value, source, path) -> tuple:
+    if not isinstance(value, (list, tuple)) or len(value) != 4:
+        raise field_error(source, path, f"expected 4 rows of 4 numbers, got {value!r}")
+    return _rigid([field_floats(r, source, f"{path}[{i}]", (4,)) for i, r in enumerate(value)], source, path)
+
+
+# ----------------------------------------------------------------------------- Kalibr
+def kalibr_camchain_dict(rig: Rig) -> dict:
+    """Rig -> Kalibr camchain dict (``camK`` entries, ``T_cam_imu`` = ``T_c_i``)."""
+    T_b_i = rig.imu.T_b_i_array
+    out = {}
+    for k, cam in enumerate(rig.cameras):
+        T_c_b = inv_T(cam.T_b_c_array)
+        entry = {"camera_model": "pinhole", "intrinsics": [cam.fx, cam.fy, cam.cx, cam.cy],
+                 "distortion_model": "radtan", "distortion_coeffs": _file_dist(cam.dist),
+                 "resolution": [cam.width, cam.height], "T_cam_imu": _rows(T_c_b @ T_b_i)}
+        if k > 0:
+            entry["T_cn_cnm1"] = _rows(T_c_b @ rig.cameras[k - 1].T_b_c_array)
+        entry.update({"timeshift_cam_imu": 0.0, "rostopic": f"/cam{k}/image_raw"})
+        out[f"cam{k}"] = entry
+    return out
+
+
+def kalibr_imu_dict(imu: Imu) -> dict:
+    return {"imu0": {"accelerometer_noise_density": imu.accel_noise_density,
+                     "accelerometer_random_walk": imu.accel_random_walk,
+                     "gyroscope_noise_density": imu.gyro_noise_density,
+                     "gyroscope_random_walk": imu.gyro_random_walk,
+                     "model": "calibrated", "rostopic": "/imu0", "update_rate": imu.rate_hz}}
+
+
+def write_kalibr(rig: Rig, camchain_path, imu_path=None) -> None:
+    """Write Kalibr ``camchain.yaml`` (and ``imu.yaml`` if ``imu_path``), atomically."""
+    write_text_atomic(camchain_path, dump_yaml(kalibr_camchain_dict(rig), header=f"Kalibr camchain of rig {rig.name}"))
+    if imu_path is not None:
+        write_text_atomic(imu_path, dump_yaml(kalibr_imu_dict(rig.imu), header=f"Kalibr imu of rig {rig.name}"))
+
+
+_KALIBR_CAM_REQ = ("camera_model", "intrinsics", "distortion_model", "distortion_coeffs", "resolution")
+_KALIBR_CAM_OPT = ("T_cam_imu", "T_imu_cam", "T_cn_cnm1", "timeshift_cam_imu", "rostopic", "cam_overlaps")
+
+
+def _kalibr_camera(d, k, T_c_prev_b, source) -> Camera:
+    """One ``camK`` entry -> Camera with ``T_b_c`` in the IMU (=body) frame."""
+    p = f"cam{k}"
+    check_keys(d, _KALIBR_CAM_REQ, _KALIBR_CAM_OPT, source, p)
+    for key, want in (("camera_model", "pinhole"), ("distortion_model", "radtan")):
+        if d[key] != want:
+            raise field_error(source, f"{p}.{key}", f"only {want!r} is supported, got {d[key]!r}")
+    fu, fv, pu, pv = field_floats(d["intrinsics"], source, f"{p}.intrinsics", (4,))
+    w, h = _resolution(d["resolution"], source, f"{p}.resolution")
+    if "T_cam_imu" in d:
+        T_b_c = inv_T(np.asarray(_matrix_field(d["T_cam_imu"], source, f"{p}.T_cam_imu")))
+    elif "T_imu_cam" in d:     # OpenVINS' variant of the Kalibr file
+        T_b_c = np.asarray(_matrix_field(d["T_imu_cam"], source, f"{p}.T_imu_cam"))
+    elif "T_cn_cnm1" in d and T_c_prev_b is not None:
+        T_b_c = inv_T(np.asarray(_matrix_field(d["T_cn_cnm1"], source, f"{p}.T_cn_cnm1")) @ T_c_prev_b)
+    elif k == 0:
+        T_b_c = np.eye(4)
+    else:
+        raise field_error(source, f"{p}.T_cam_imu", "missing field (and no T_cn_cnm1)")
+    return Camera(name=p, width=w, height=h, fx=fu, fy=fv, cx=pu, cy=pv,
+                  dist=_opencv_dist(field_floats(d["distortion_coeffs"], source, f"{p}.distortion_coeffs", (4, 5))),
+                  T_b_c=_rigid(T_b_c, source, f"{p}.T_cam_imu"))
+
+
+def read_kalibr_imu(imu_path) -> Imu:
+    """Kalibr ``imu.yaml`` (``imu0:`` section, or the fields at top level) -> Imu with ``T_b_i = I``."""
+    source = str(imu_path)
+    d = read_yaml_file(imu_path)
+    if isinstance(d, dict) and "imu0" in d:
+        d, p = d["imu0"], "imu0"
+    else:
+        p = ""
+    keys = ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
+            "gyroscope_random_walk", "update_rate")
+    check_keys(d, keys, ("rostopic", "model", "T_i_b", "time_offset"), source, p)
+    v = {k: field_number(d[k], source, f"{p}.{k}" if p else k, nonneg=True) for k in keys}
+    try:
+        return Imu(name="kalibr", rate_hz=v["update_rate"], accel_noise_density=v["accelerometer_noise_density"],
+                   gyro_noise_density=v["gyroscope_noise_density"], accel_random_walk=v["accelerometer_random_walk"],
+                   gyro_random_walk=v["gyroscope_random_walk"])
+    except RigError as exc:
+        raise RigError(f"{source}: {exc}") from None
+
+
+def read_kalibr(camchain_path, imu_path=None, name: str = "kalibr", camera_rate_hz: float = 20.0) -> Rig:
+    """Kalibr camchain (+ optional imu.yaml) -> Rig whose body frame is the IMU frame.
+
+    Without ``imu_path`` the IMU is the ``ideal`` model at the body origin.
+    """
+    source = str(camchain_path)
+    d = read_yaml_file(camchain_path)
+    if not isinstance(d, dict) or "cam0" not in d:
+        raise field_error(source, "cam0", "missing field (expected cam0:, cam1:, ... sections)")
+    cams, T_c_prev_b = [], None
+    for k in range(len(d)):
+        if f"cam{k}" not in d:
+            raise field_error(source, sorted(set(d) - {f"cam{j}" for j in range(k)})[0],
+                              "unknown key; valid keys: cam0, cam1, ... (consecutive)")
+        cams.append(_kalibr_camera(d[f"cam{k}"], k, T_c_prev_b, source))
+        T_c_prev_b = inv_T(cams[-1].T_b_c_array)
+    imu = get_imu_model("ideal") if imu_path is None else read_kalibr_imu(imu_path)
+    return Rig(name=name, cameras=tuple(cams), imu=imu, camera_rate_hz=camera_rate_hz, mount="kalibr")
+
+
+# ----------------------------------------------------------------------------- EuRoC sensor.yaml
+def _T_BS_dict(T_B_S) -> dict:
+    return {"cols": 4, "rows": 4, "data": [float(x) for x in np.asarray(T_B_S, dtype=float).reshape(16)]}
+
+
+def write_euroc_camera_yaml(path, camera: Camera, T_B_S, rate_hz: float) -> None:
+    """EuRoC ``camK/sensor.yaml`` with ``T_BS`` = ``T_B_S`` (camera into body/IMU frame)."""
+    d = {"sensor_type": "camera", "comment": f"simulated {camera.name}", "T_BS": _T_BS_dict(T_B_S),
+         "rate_hz": float(rate_hz), "resolution": [camera.width, camera.height], "camera_model": "pinhole",
+         "intrinsics": [camera.fx, camera.fy, camera.cx, camera.cy],
+         "distortion_model": "radial-tangential", "distortion_coefficients": _file_dist(camera.dist)}
+    write_text_atomic(path, "%YAML:1.0\n" + dump_yaml(d, header="General sensor definitions (EuRoC layout)."))
+
+
+def write_euroc_imu_yaml(path, imu: Imu, T_B_S) -> None:
+    """EuRoC ``imu0/sensor.yaml`` (Kalibr densities) with ``T_BS`` = ``T_B_S``."""
+    d = {"sensor_type": "imu", "comment": f"simulated IMU ({imu.name})", "T_BS": _T_BS_dict(T_B_S),
+         "rate_hz": float(imu.rate_hz), "gyroscope_noise_density": imu.gyro_noise_density,
+         "gyroscope_random_walk": imu.gyro_random_walk, "accelerometer_noise_density": imu.accel_noise_density,
+         "accelerometer_random_walk": imu.accel_random_walk}
+    write_text_atomic(path, "%YAML:1.0\n" + dump_yaml(d, header="Default imu sensor yaml file (EuRoC layout)."))
+
+
+def _read_T_BS(d, source) -> tuple:
+    check_keys(d, ("cols", "rows", "data"), (), source, "T_BS")
+    if d["cols"] != 4 or d["rows"] != 4:
+        raise field_error(source, "T_BS", f"expected rows: 4 and cols: 4, got {d['rows']!r}x{d['cols']!r}")
+    data = field_floats(d["data"], source, "T_BS.data", (16,))
+    return _rigid(np.reshape(data, (4, 4)), source, "T_BS")
+
+
+def _read_sensor(path, sensor_type, required, optional) -> tuple[dict, str]:
+    source = str(path)
+    d = read_yaml_file(path)
+    check_keys(d, required, optional, source, "")
+    if d["sensor_type"] != sensor_type:
+        raise field_error(source, "sensor_type", f"expected {sensor_type!r}, got {d['sensor_type']!r}")
+    return d, source
+
+
+def read_euroc_camera_yaml(path, name: str = "cam0") -> tuple[Camera, float]:
+    """EuRoC camera ``sensor.yaml`` -> (Camera with ``T_b_c = T_BS``, rate_hz)."""
+    d, src = _read_sensor(path, "camera", ("sensor_type", "T_BS", "rate_hz", "resolution", "camera_model",
+                                           "intrinsics", "distortion_model", "distortion_coefficients"), ("comment",))
+    for key, want in (("camera_model", "pinhole"), ("distortion_model", "radial-tangential")):
+        if d[key] != want:
+            raise field_error(src, key, f"only {want!r} is supported, got {d[key]!r}")
+    fu, fv, cu, cv = field_floats(d["intrinsics"], src, "intrinsics", (4,))
+    w, h = _resolution(d["resolution"], src, "resolution")
+    dist = _opencv_dist(field_floats(d["distortion_coefficients"], src, "distortion_coefficients", (4, 5)))
+    cam = Camera(name=name, width=w, height=h, fx=fu, fy=fv, cx=cu, cy=cv, dist=dist, T_b_c=_read_T_BS(d["T_BS"], src))
+    return cam, field_number(d["rate_hz"], src, "rate_hz", positive=True)
+
+
+def read_euroc_imu_yaml(path, name: str = "euroc-imu") -> Imu:
+    """EuRoC IMU ``sensor.yaml`` -> Imu with ``T_b_i = T_BS``."""
+    keys = ("gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density",
+            "accelerometer_random_walk")
+    d, src = _read_sensor(path, "imu", ("sensor_type", "T_BS", "rate_hz") + keys, ("comment",))
+    v = {k: field_number(d[k], src, k, nonneg=True) for k in keys}
+    return Imu(name=name, rate_hz=field_number(d["rate_hz"], src, "rate_hz", positive=True),
+               accel_noise_density=v["accelerometer_noise_density"], gyro_noise_density=v["gyroscope_noise_density"],
+               accel_random_walk=v["accelerometer_random_walk"], gyro_random_walk=v["gyroscope_random_walk"],
+               T_b_i=_read_T_BS(d["T_BS"], src))
+
+
+# ----------------------------------------------------------------------------- KITTI calib.txt
+def _fmt_row(M) -> str:
+    return " ".join(f"{x:.12e}" for x in np.asarray(M, dtype=float).reshape(-1))
+
+
+def write_kitti_calib(path, P0, P1, Tr=None) -> None:
+    """KITTI odometry ``calib.txt``: P0, P1, P2 = P0, P3 = P1 (3x4 row-major), optional ``Tr`` (3x4)."""
+    P0, P1 = np.asarray(P0, dtype=float), np.asarray(P1, dtype=float)
+    if P0.shape != (3, 4) or P1.shape != (3, 4):
+        raise RigError(f"{path}: P0/P1: expected 3x4 projection matrices, got {P0.shape} and {P1.shape}")
+    lines = [f"P{k}: {_fmt_row(P)}" for k, P in enumerate((P0, P1, P0, P1))]
+    if Tr is not None:
+        lines.append(f"Tr: {_fmt_row(np.asarray(Tr, dtype=float)[:3])}")
+    write_text_atomic(path, "\n".join(lines) + "\n")
+
+
+def parse_kitti_calib(path) -> dict:
+    """``calib.txt`` -> {'P0': (3,4), ..., 'Tr': (3,4)} for every ``KEY: 12 numbers`` line."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RigError(f"{path}: cannot read file: {getattr(exc, 'strerror', None) or exc}") from None
+    out = {}
+    for n, line in enumerate(text.splitlines(), 1):
+        if not line.strip():
+            continue
+        key, _, rest = line.partition(":")
+        try:
+            vals = np.array([float(x) for x in rest.split()])
+        except ValueError:
+            raise RigError(f"{path}: line {n} ({key.strip()}): expected numbers, got {rest.strip()[:40]!r}") from None
+        if len(vals) != 12 or not np.all(np.isfinite(vals)):
+            raise RigError(f"{path}: line {n} ({key.strip()}): expected 12 finite numbers, got {len(vals)}")
+        out[key.strip()] = vals.reshape(3, 4)
+    for k in ("P0", "P1"):
+        if k not in out:
+            raise RigError(f"{path}: {k}: missing field (lines P0: .. P3:, optional Tr:)")
+    return out
+
+
+def read_kitti_calib(path, rate_hz: float = 10.0, width: int = 1241, height: int = 376,
+                     name: str = "kitti") -> Rig:
+    """Rectified pinhole stereo rig from ``calib.txt``: both cameras use K of P0, body = c0,
+    parallel axes, ``baseline = (P0[0,3] - P1[0,3]) / P1[0,0]`` (= ``-P1[0,3]/fx`` when P0 has no
+    translation, as in KITTI). The IMU is the ``ideal`` model at the body origin."""
+    P = parse_kitti_calib(path)
+    P0, P1 = P["P0"], P["P1"]
+    fx, fy, cx, cy = P0[0, 0], P0[1, 1], P0[0, 2], P0[1, 2]
+    B = (P0[0, 3] - P1[0, 3]) / P1[0, 0]
+    if not B > 0:
+        raise RigError(f"{path}: P1: baseline -P1[0,3]/P1[0,0] must be positive, got {B!r}")
+    T_c0_c1 = np.eye(4)
+    T_c0_c1[0, 3] = B
+    try:
+        cams = tuple(Camera(name=f"cam{k}", width=width, height=height, fx=fx, fy=fy, cx=cx, cy=cy, T_b_c=T)
+                     for k, T in enumerate((np.eye(4), T_c0_c1)))
+        return Rig(name=name, cameras=cams, imu=get_imu_model("ideal"), camera_rate_hz=rate_hz, mount="kitti")
+    except RigError as exc:
+        raise RigError(f"{path}: {exc}") from None
+
+
+__all__ = ["write_kalibr", "read_kalibr", "read_kalibr_imu", "write_euroc_camera_yaml", "write_euroc_imu_yaml",
+           "read_euroc_camera_yaml", "read_euroc_imu_yaml", "write_kitti_calib", "read_kitti_calib",
+           "parse_kitti_calib", "kalibr_camchain_dict", "kalibr_imu_dict"]

@@ -1,0 +1,68 @@
+"""Common base of the procedural scenes built with :class:`scenes.spec_helpers.SceneBuilder`."""
+from __future__ import annotations
+
+import abc
+import zlib
+
+import numpy as np
+
+from scenes.base import Scene, SceneConfig
+from scenes.routes import polyline_length
+
+
+class BuiltScene(Scene):
+    """A scene whose geometry is produced by ``_build(builder)``; keeps footprints and geom ids.
+
+    Subclasses set ``corridor_half_width_m`` / ``corridor_height_m`` (free space around the route
+    that no geom enters) and implement ``route``, ``gcp_sites``, ``path_xy`` and ``_build``.
+    """
+
+    corridor_half_width_m: float = 1.5
+    corridor_height_m: float = 3.0
+
+    def __init__(self, config: SceneConfig):
+        super().__init__(config)
+        self._footprints = None
+        self._object_ids = None
+        self.texture_bytes = 0
+
+    def rng(self, purpose: str) -> np.random.Generator:
+        """Seeded generator for one purpose: ``default_rng(SeedSequence([seed, crc32(purpose)]))``."""
+        key = zlib.crc32(f"{self.name}/{purpose}".encode())
+        return np.random.default_rng(np.random.SeedSequence([int(self.config.seed), key]))
+
+    @property
+    @abc.abstractmethod
+    def path_xy(self) -> np.ndarray:
+        """Dense (N, 2) polyline of the route centre line (m), the curve the waypoints sample."""
+
+    def route_length(self) -> float:
+        return polyline_length(self.path_xy, closed=self.route.closed)
+
+    @abc.abstractmethod
+    def _build(self, b) -> None:
+        """Add everything through the ``SceneBuilder`` ``b``."""
+
+    def add_to_spec(self, spec) -> None:
+        from scenes.spec_helpers import SceneBuilder   # mujoco only when building
+        c = self.config
+        b = SceneBuilder(spec, c.seed, c.texture_richness, c.lighting, c.shadows)
+        self._build(b)
+        self._footprints = list(b.footprints)
+        self._object_ids = b.object_ids()
+        self.texture_bytes = b.texture_bytes
+
+    def _ensure_built(self):
+        if self._footprints is None:
+            import mujoco
+            self.add_to_spec(mujoco.MjSpec())
+
+    def footprints(self) -> list:
+        """Top-down ``Footprint`` list of every static geom (builds a throw-away spec if needed)."""
+        self._ensure_built()
+        return list(self._footprints)
+
+    def object_ids(self) -> dict:
+        """Geom name -> stable int id (1-based, sorted by name) for segmentation images."""
+        self._ensure_built()
+        return dict(self._object_ids)

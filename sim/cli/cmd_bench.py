@@ -1,0 +1,32 @@
+"""``vo-testbed bench``: speed benchmarks that print figures."""
+from __future__ import annotations
+
+import click
+
+from sim.cli.options import echo_json, json_option
+
+
+@click.group("bench")
+def bench():
+    """Benchmarks (rendering speed, estimator speed)."""
+
+
+@bench.command("render")
+@click.option("--scene", "scenes", multiple=True, help="Scene(s) to time; default: all.")
+@click.option("--pairs", type=int, default=40, show_default=True, help="Stereo pairs rendered per scene.")
+@click.option("--shadows", is_flag=True, help="Also time with shadows on.")
+@json_option
+def render(scenes, pairs, shadows, as_json):
+    """Stereo pairs per second at 752x480 for each scene (stereo27 rig)."""
+    from scenes.registry import scene_names
+    from sim.bench import bench_render
+    names = tuple(scenes) or tuple(scene_names())
+    results = list(bench_render(names, n_pairs=pairs, shadows=False))
+    if shadows:
+        results += list(bench_render(names, n_pairs=pairs, shadows=True))
+    if as_json:
+        echo_json([r.__dict__ if not hasattr(r, "to_dict") else r.to_dict() for r in results])
+        return
+    click.echo(f"{'scene':<10} {'size':>9} {'shadows':>7} {'pairs/s':>8} {'ms/pair':>8}")
+    for r in results:
+        click.echo(f"{r.scene:<10} {r.width}x{r.height:<5} {str(r.shadows):>7} {r.pairs_per_s:8.1f} {r.ms_per_pair:8.1f}")

@@ -1,0 +1,63 @@
+"""``vo-testbed predict``: error-propagation predictions (seed 001 section 3)."""
+from __future__ import annotations
+
+import click
+
+from sim.cli.options import echo_json, json_option, set_option
+
+
+@click.group("predict")
+def predict():
+    """Error-propagation predictions: stereo range error, cross-site localisation accuracy."""
+
+
+@predict.command("range")
+@click.option("--rig", "rig_name", default="stereo27", show_default=True)
+@click.option("--ranges", default="1:30", show_default=True, help="'5,10,20' or 'start:stop[:step]' metres.")
+@click.option("--sigma-p", type=float, default=1 / 3, show_default=True, help="Parallax (disparity) error, px.")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None, help="Write a PNG plot.")
+@set_option
+@json_option
+def range_cmd(rig_name, ranges, sigma_p, plot_path, overrides, as_json):
+    """Range error against range for a rig (eq. 7 and the general triangulation covariance)."""
+    from rigs.overrides import apply_overrides
+    from rigs.presets import get_rig
+    from vo.errorprop.predict import parse_ranges, plot_range_prediction, predict_range
+    rig = apply_overrides(get_rig(rig_name), list(overrides))
+    pred = predict_range(rig, parse_ranges(ranges), sigma_p)
+    if plot_path:
+        plot_range_prediction(pred, plot_path)
+    echo_json(pred.to_dict()) if as_json else click.echo(pred.table())
+
+
+@predict.command("cross-site")
+@click.option("--preset", type=click.Choice(["paper-ff", "paper-fb"]), default=None)
+@click.option("--landmarks", "landmarks_file", type=click.Path(dir_okay=False), default=None,
+              help="YAML with CrossSiteConfig fields (f_px, baseline_m, sigma_p_px, sigma_theta_px, "
+                   "previous_site, current_site, landmarks).")
+@click.option("--monte-carlo", "mc", type=int, default=0, help="Also run N Monte-Carlo draws of the same model.")
+@click.option("--seed", type=int, default=0)
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None)
+@json_option
+def cross_site_cmd(preset, landmarks_file, mc, seed, plot_path, as_json):
+    """Cross-site localisation accuracy in percent of distance travelled (eq. 9-13)."""
+    import numpy as np
+    from vo.errorprop.crosssite import (CROSS_SITE_PRESETS, cross_site_accuracy, cross_site_monte_carlo,
+                                        load_cross_site_config)
+    from vo.errorprop.predict import plot_cross_site
+    if bool(preset) == bool(landmarks_file):
+        raise click.UsageError("give exactly one of --preset or --landmarks")
+    cfg = CROSS_SITE_PRESETS[preset] if preset else load_cross_site_config(landmarks_file)
+    res = cross_site_accuracy(cfg)
+    out = {"config": preset or landmarks_file, "analytic": res.to_dict()}
+    if mc:
+        out["monte_carlo"] = cross_site_monte_carlo(cfg, mc, np.random.default_rng(seed)).to_dict()
+    if plot_path:
+        plot_cross_site(cfg, res, plot_path)
+    if as_json:
+        echo_json(out)
+        return
+    click.echo(f"{out['config']}: new-site sigma {res.sigma_pos_m:.4f} m over {res.distance_m:.2f} m "
+               f"= {res.accuracy_percent:.3f}% of distance travelled")
+    if mc:
+        click.echo(f"Monte Carlo ({mc} draws): {out['monte_carlo']['accuracy_percent']:.3f}%")

@@ -1,0 +1,29 @@
+"""Shared click options and output helpers for the subcommands."""
+from __future__ import annotations
+
+import json
+
+import click
+
+json_option = click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of a table.")
+set_option = click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+                          help="Override any field: baseline=0.063, imu.rate_hz=400, imu=paper002, "
+                               "scene.texture_richness=0.3, scene.lighting=0.7, motion.vibration_pitch_deg=0.5, "
+                               "image_noise=2.")
+
+
+def echo_json(obj) -> None:
+    click.echo(json.dumps(obj, indent=2, sort_keys=True, default=_default))
+
+
+def _default(o):
+    import numpy as np
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    if isinstance(o, (np.floating,)):
+        return float(o)
+    if hasattr(o, "to_dict"):
+        return o.to_dict()
+    return str(o)

@@ -1,0 +1,254 @@
+"""EuRoC ASL writer (``mav0/...``) plus our extras at the dataset root.
+
+Layout (as the real EuRoC MAV recordings, body ``B`` = IMU frame ``S``)::
+
+    out_dir/
+      INCOMPLETE                       # only while writing
+      metadata.yaml  rig.yaml  groundtruth_tum.txt (T_w_c0 at frame times)  gcps.csv
+      mav0/cam0/data.csv  data/<t_ns>.png  sensor.yaml (T_BS = T_i_c0)
+           cam0/depth/<t_ns>.npy                      # float32 metres along the optical axis
+           cam0/segmentation/<t_ns>.png               # uint16, object id + 1 (0 = background, id -1)
+           cam0/segmentation/<t_ns>_dynamic.png       # uint8 0/1 mask (only when seg has 2 channels)
+           cam1/...  imu0/data.csv  imu0/sensor.yaml (T_BS = I)
+           state_groundtruth_estimate0/data.csv  sensor.yaml   # T_w_i, v_w, b_g, b_a
+
+Floats are written with Python ``repr`` (shortest exact round trip of float64).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sim.dataset.common import (CsvStream, MARKER, config_hash, finalize_folder, fmt_float, prepare_folder,
+                                write_marker, write_npy, write_png)
+from sim.errors import SimError
+
+CAM_HEADER = "#timestamp [ns],filename"
+IMU_HEADER = ("#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
+              "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]")
+GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], q_RS_z [], "
+             "v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], b_w_RS_S_x [rad s^-1], "
+             "b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], "
+             "b_a_RS_S_z [m s^-2]")
+CAM0_TRUTH_HEADER = "#timestamp [ns],T_w_c0 row-major 3x4 (12 numbers)"
+GCP_HEADER = "#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z"
+GT_SENSOR_YAML = """# Additional sensor information
+sensor_type: visual-inertial
+comment: Exact simulator ground truth of the IMU frame S in the world R (z up).
+
+# Sensor extrinsics wrt. the body-frame (the IMU frame).
+T_BS:
+  cols: 4
+  rows: 4
+  data: [1.0, 0.0, 0.0, 0.0,
+         0.0, 1.0, 0.0, 0.0,
+         0.0, 0.0, 1.0, 0.0,
+         0.0, 0.0, 0.0, 1.0]
+"""
+
+
+def calib_io():
+    """``rigs.calib_io`` (imported lazily)."""
+    import rigs.calib_io as m
+    return m
+
+
+def T_i_c(rig, k: int) -> np.ndarray:
+    """(4,4) pose of camera ``k`` in the IMU frame: ``inv(T_b_i) @ T_b_c``."""
+    from vo.geometry import inv_T
+    return inv_T(rig.imu.T_b_i_array) @ rig.cameras[k].T_b_c_array
+
+
+def _per_camera(value, n_cams: int, what: str) -> list:
+    """``None`` | one array (cam0) | list of arrays/None per camera -> list of length ``n_cams``."""
+    if value is None:
+        return [None] * n_cams
+    if isinstance(value, np.ndarray):
+        return [value] + [None] * (n_cams - 1)
+    value = list(value)
+    if len(value) > n_cams:
+        raise SimError(f"add_frame: {what} has {len(value)} entries for {n_cams} cameras")
+    return value + [None] * (n_cams - len(value))
+
+
+def euroc_resume_state(out_dir) -> int:
+    """Frames fully written in a EuRoC folder: both csv rows (same t_ns) and both PNGs exist."""
+    mav0 = Path(out_dir) / "mav0"
+    rows = []
+    for cam in ("cam0", "cam1"):
+        p = mav0 / cam / "data.csv"
+        text = p.read_text() if p.exists() else ""
+        lines = [ln for ln in text.split("\n")[:-1] if ln.strip() and not ln.startswith("#")]
+        rows.append(lines)
+    n = 0
+    for r0, r1 in zip(*rows):
+        t0, f0 = r0.split(",", 1)
+        t1, f1 = r1.split(",", 1)
+        if t0 != t1 or not (mav0 / "cam0/data" / f0).exists() or not (mav0 / "cam1/data" / f1).exists():
+            break
+        n += 1
+    return n
+
+
+class EurocWriter:
+    """Stream a stereo-inertial sequence to disk in the EuRoC ASL layout (see module docstring).
+
+    ``rig``: a stereo ``rigs.Rig``; ``metadata``: the fully resolved configuration (plain dict,
+    no wall-clock times). A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames
+    are already on disk, and replayed samples at or before each stream's last row are skipped.
+    """
+
+    def __init__(self, out_dir, rig, metadata: dict, depth: bool = False, segmentation: bool = False,
+                 overwrite: bool = False):
+        if not rig.is_stereo:
+            raise SimError(f"EurocWriter: rig {rig.name!r} has {len(rig.cameras)} camera(s); need 2")
+        self.rig, self.metadata = rig, dict(metadata)
+        self.depth, self.segmentation = bool(depth), bool(segmentation)
+        self.out_dir, resuming = prepare_folder(out_dir, self.metadata, overwrite)
+        self._hash = config_hash(self.metadata)
+        self.resumed_frames = euroc_resume_state(self.out_dir) if resuming else 0
+        self.mav0 = self.out_dir / "mav0"
+        self._write_static_files()
+        n = self.resumed_frames
+        self._cams = [CsvStream(self.mav0 / f"cam{k}" / "data.csv", CAM_HEADER, resuming, keep_rows=n)
+                      for k in (0, 1)]
+        self._imu = CsvStream(self.mav0 / "imu0" / "data.csv", IMU_HEADER, resuming)
+        self._gt = CsvStream(self.mav0 / "state_groundtruth_estimate0" / "data.csv", GT_HEADER, resuming)
+        self._c0 = CsvStream(self.out_dir / "cam0_truth.csv", CAM0_TRUTH_HEADER, resuming)
+        self._gcps: list = []
+        self.finalized = False
+
+    # ------------------------------------------------------------------ static files
+    def _write_static_files(self) -> None:
+        from rigs.io_yaml import save_rig, write_text_atomic
+        cio = calib_io()
+        for k in (0, 1):
+            d = self.mav0 / f"cam{k}"
+            (d / "data").mkdir(parents=True, exist_ok=True)
+            if self.depth:
+                (d / "depth").mkdir(exist_ok=True)
+            if self.segmentation:
+                (d / "segmentation").mkdir(exist_ok=True)
+            cio.write_euroc_camera_yaml(d / "sensor.yaml", self.rig.cameras[k], T_i_c(self.rig, k),
+                                        self.rig.camera_rate_hz)
+        (self.mav0 / "imu0").mkdir(parents=True, exist_ok=True)
+        cio.write_euroc_imu_yaml(self.mav0 / "imu0" / "sensor.yaml", self.rig.imu, np.eye(4))
+        write_text_atomic(self.mav0 / "state_groundtruth_estimate0" / "sensor.yaml", GT_SENSOR_YAML)
+        save_rig(self.rig, self.out_dir / "rig.yaml")
+
+    # ------------------------------------------------------------------ streams
+    def add_frame(self, t_ns: int, images, depth=None, seg=None) -> None:
+        """Write one stereo epoch: ``images`` [left, right] (H,W) gray or (H,W,3) RGB uint8.
+
+        ``depth``/``seg``: None, one (H,W) array for cam0, or a list per camera. ``seg`` is (H,W)
+        object ids (-1 background) or (H,W,2) with channel 1 a dynamic-object mask.
+        """
+        t_ns = int(t_ns)
+        if self._cams[0].resume_t is not None and t_ns <= self._cams[0].resume_t:
+            return
+        if len(images) != 2:
+            raise SimError(f"add_frame: expected 2 images (left, right), got {len(images)}")
+        for k, d in enumerate(_per_camera(depth, 2, "depth")):
+            if d is not None:
+                if not self.depth:
+                    raise SimError("add_frame: depth given but the writer was created with depth=False")
+                write_npy(self.mav0 / f"cam{k}" / "depth" / f"{t_ns}.npy", np.asarray(d, dtype=np.float32))
+        for k, s in enumerate(_per_camera(seg, 2, "seg")):
+            if s is not None:
+                if not self.segmentation:
+                    raise SimError("add_frame: seg given but the writer was created with segmentation=False")
+                self._write_seg(k, t_ns, np.asarray(s))
+        for k in (0, 1):
+            write_png(self.mav0 / f"cam{k}" / "data" / f"{t_ns}.png", images[k])
+        for cam in self._cams:
+            cam.append(t_ns, [f"{t_ns}.png"])
+        write_marker(self.out_dir, self._hash, f"frames={self._cams[0].rows}")
+
+    def _write_seg(self, k: int, t_ns: int, seg: np.ndarray) -> None:
+        folder = self.mav0 / f"cam{k}" / "segmentation"
+        ids = seg[..., 0] if seg.ndim == 3 else seg
+        if ids.min() < -1 or ids.max() > 65534:
+            raise SimError(f"add_frame: segmentation ids must be in [-1, 65534], got [{ids.min()}, {ids.max()}]")
+        write_png(folder / f"{t_ns}.png", (ids.astype(np.int64) + 1).astype(np.uint16), rgb=False)
+        if seg.ndim == 3:
+            write_png(folder / f"{t_ns}_dynamic.png", (seg[..., 1] != 0).astype(np.uint8), rgb=False)
+
+    def add_imu(self, t_ns, gyro=None, accel=None) -> None:
+        """Append IMU samples: ``t_ns`` (N,), ``gyro``/``accel`` (N,3) in the IMU frame; or one
+        object with ``.t_ns, .gyro, .accel`` (ImuSamples/ImuData). Chunks may follow each other."""
+        if gyro is None and hasattr(t_ns, "gyro"):
+            t_ns, gyro, accel = t_ns.t_ns, t_ns.gyro, t_ns.accel
+        t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
+        g = np.asarray(gyro, dtype=float).reshape(-1, 3)
+        a = np.asarray(accel, dtype=float).reshape(-1, 3)
+        if not (len(t) == len(g) == len(a)):
+            raise SimError(f"add_imu: t_ns, gyro, accel lengths differ: {len(t)}, {len(g)}, {len(a)}")
+        for k in range(len(t)):
+            self._imu.append(t[k], [fmt_float(v) for v in (*g[k], *a[k])])
+
+    def add_groundtruth(self, t_ns, T_w_i, v_w, b_g=None, b_a=None) -> None:
+        """Append ground-truth states of the IMU frame: ``T_w_i`` (N,4,4), ``v_w`` (N,3),
+        biases ``b_g``/``b_a`` (N,3) (zeros when None). Quaternion written Hamilton w, x, y, z."""
+        from vo.geometry import quat_wxyz_from_R
+        t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
+        T = np.asarray(T_w_i, dtype=float).reshape(-1, 4, 4)
+        n = len(t)
+        v = np.asarray(v_w, dtype=float).reshape(-1, 3)
+        bg = np.zeros((n, 3)) if b_g is None else np.asarray(b_g, dtype=float).reshape(-1, 3)
+        ba = np.zeros((n, 3)) if b_a is None else np.asarray(b_a, dtype=float).reshape(-1, 3)
+        if not (len(T) == len(v) == len(bg) == len(ba) == n):
+            raise SimError(f"add_groundtruth: lengths differ: t {n}, T {len(T)}, v {len(v)}, b_g {len(bg)}, b_a {len(ba)}")
+        q = quat_wxyz_from_R(T[:, :3, :3])
+        for k in range(n):
+            vals = (*T[k, :3, 3], *q[k], *v[k], *bg[k], *ba[k])
+            self._gt.append(t[k], [fmt_float(x) for x in vals])
+
+    def add_cam0_truth(self, t_ns, T_w_c0) -> None:
+        """Append the exact left-camera pose(s) ``T_w_c0`` (N,4,4) at frame time(s)."""
+        t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
+        T = np.asarray(T_w_c0, dtype=float).reshape(-1, 4, 4)
+        for k in range(len(t)):
+            self._c0.append(t[k], [fmt_float(x) for x in T[k, :3, :4].reshape(-1)])
+
+    def add_gcps(self, gcps) -> None:
+        """Ground check points (list of ``vo.dataset.Gcp``); written at ``finalize()``."""
+        self._gcps.extend(gcps)
+
+    # ------------------------------------------------------------------ finish
+    def finalize(self) -> Path:
+        """Write gcps.csv, groundtruth_tum.txt and metadata.yaml, then remove INCOMPLETE."""
+        for s in (*self._cams, self._imu, self._gt, self._c0):
+            s.close()
+        write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
+        self._write_tum()
+        counts = {"n_frames": self._cams[0].rows, "n_imu": self._imu.rows, "n_groundtruth": self._gt.rows,
+                  "n_gcps": len(self._gcps)}
+        meta = dict(self.metadata, format="euroc")
+        finalize_folder(self.out_dir, meta, counts)
+        self.finalized = True
+        return self.out_dir
+
+    def _write_tum(self) -> None:
+        """groundtruth_tum.txt from the streamed cam0 truth (T_w_c0), then drop the helper csv."""
+        from vo.trajfile import write_tum
+        from vo.trajectory import Trajectory
+        rows = [ln.split(",") for ln in self._c0.path.read_text().splitlines()[1:] if ln.strip()]
+        if rows:
+            t = np.array([int(r[0]) for r in rows], dtype=np.int64)
+            T = np.tile(np.eye(4), (len(rows), 1, 1))
+            T[:, :3, :4] = np.array([[float(x) for x in r[1:]] for r in rows]).reshape(-1, 3, 4)
+            write_tum(self.out_dir / "groundtruth_tum.txt", Trajectory(t, T, "w", "c0"))
+        self._c0.path.unlink()
+
+
+def write_gcps_csv(path: Path, gcps) -> None:
+    """``#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z`` sorted as given."""
+    from rigs.io_yaml import write_text_atomic
+    lines = [GCP_HEADER]
+    for g in gcps:
+        if "," in g.name:
+            raise SimError(f"gcps: name {g.name!r} must not contain a comma")
+        vals = [fmt_float(x) for x in (*np.asarray(g.ground_w).reshape(3), *np.asarray(g.p_w_c0).reshape(3))]
+        lines.append(",".join([g.name, str(int(g.t_ns))] + vals))
+    write_text_atomic(path, "\n".join(lines) + "\n")

@@ -1,0 +1,123 @@
+"""Lens distortion as an image warp: render a pinhole canvas, remap it to the distorted image.
+
+For every pixel ``(u_d, v_d)`` of the distorted image we need the undistorted pixel it came from.
+OpenCV's model maps normalised undistorted ``x_n`` to distorted ``x_d = D(x_n)``
+(``k1, k2, p1, p2, k3``); we invert it per pixel with Newton's method on the analytic 2x2
+Jacobian (started from ``cv2.undistortPoints`` with tight criteria; OpenCV 5 has no ``undistortPointsIter``) and check the result by re-distorting with
+``cv2.projectPoints``: the maps are rejected (``SimError``) if any pixel is off by >= 1e-3 px.
+
+The canvas is the pinhole camera with the same ``fx, fy`` and a shifted principal point
+``(cx - u0, cy - v0)``, sized to hold every source location plus a 2 px border (barrel distortion
+needs pixels outside the distorted frame's pinhole footprint). ``cv2.remap`` uses fixed-point
+interpolation weights (1/32 px), so the resampled position is exact to <= 1/64 px.
+"""
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from rigs.model import Camera
+from sim.errors import SimError
+
+MAX_REPROJ_PX = 1e-3
+_BORDER_PX = 2
+
+
+def _distort(xy: np.ndarray, dist) -> tuple:
+    """Distort normalised (N,2) ``xy``; returns (xd (N,2), J (N,2,2) = d xd / d xy)."""
+    k1, k2, p1, p2, k3 = dist
+    x, y = xy[:, 0], xy[:, 1]
+    r2 = x * x + y * y
+    rad = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    drad = k1 + r2 * (2 * k2 + 3 * k3 * r2)          # d rad / d r2
+    xd = x * rad + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+    yd = y * rad + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    J = np.empty((len(x), 2, 2))
+    J[:, 0, 0] = rad + 2 * x * x * drad + 2 * p1 * y + 6 * p2 * x
+    J[:, 0, 1] = 2 * x * y * drad + 2 * p1 * x + 2 * p2 * y
+    J[:, 1, 0] = 2 * x * y * drad + 2 * p1 * x + 2 * p2 * y
+    J[:, 1, 1] = rad + 2 * y * y * drad + 6 * p1 * y + 2 * p2 * x
+    return np.stack([xd, yd], axis=1), J
+
+
+def undistort_exact(uv_d: np.ndarray, camera: Camera, iters: int = 30) -> np.ndarray:
+    """(N,2) distorted pixels -> (N,2) normalised undistorted coordinates (exact inverse)."""
+    uv_d = np.asarray(uv_d, dtype=np.float64).reshape(-1, 2)
+    K, dist = camera.K, np.asarray(camera.dist, dtype=np.float64)
+    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
+    xy = cv2.undistortPoints(uv_d[:, None, :], K, dist, None, None, criteria=crit).reshape(-1, 2)
+    target = np.stack([(uv_d[:, 0] - camera.cx) / camera.fx, (uv_d[:, 1] - camera.cy) / camera.fy], 1)
+    for _ in range(iters):
+        xd, J = _distort(xy, camera.dist)
+        step = np.linalg.solve(J, (xd - target)[:, :, None])[:, :, 0]
+        xy = xy - step
+        if np.max(np.abs(step)) < 1e-14:
+            break
+    return xy
+
+
+def reprojection_error_px(xy: np.ndarray, uv_d: np.ndarray, camera: Camera) -> np.ndarray:
+    """(N,) pixel distance between ``cv2.projectPoints`` of normalised ``xy`` and ``uv_d``."""
+    pts = np.concatenate([xy, np.ones((len(xy), 1))], axis=1)
+    uv, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), camera.K, np.asarray(camera.dist))
+    return np.linalg.norm(uv.reshape(-1, 2) - uv_d, axis=1)
+
+
+class DistortionMap:
+    """Precomputed remap from the pinhole canvas (``canvas_camera``) to ``camera``'s distorted image."""
+
+    def __init__(self, camera: Camera):
+        self.camera = camera
+        W, H = camera.width, camera.height
+        v, u = np.mgrid[0:H, 0:W].astype(np.float64)
+        uv_d = np.stack([u.ravel(), v.ravel()], axis=1)
+        if camera.has_distortion:
+            xy = undistort_exact(uv_d, camera)
+            err = reprojection_error_px(xy, uv_d, camera)
+            if not np.all(np.isfinite(err)) or err.max() >= MAX_REPROJ_PX:
+                raise SimError(f"distortion: camera {camera.name!r} dist={camera.dist}: inverse not exact "
+                               f"(max re-distortion error {np.nanmax(err):.2e} px >= {MAX_REPROJ_PX} px)")
+        else:
+            xy = np.stack([(uv_d[:, 0] - camera.cx) / camera.fx, (uv_d[:, 1] - camera.cy) / camera.fy], 1)
+        u_s = camera.fx * xy[:, 0] + camera.cx            # source pixel in the full pinhole plane
+        v_s = camera.fy * xy[:, 1] + camera.cy
+        self.u0 = math.floor(u_s.min()) - _BORDER_PX
+        self.v0 = math.floor(v_s.min()) - _BORDER_PX
+        cw = math.ceil(u_s.max()) + _BORDER_PX + 1 - self.u0
+        ch = math.ceil(v_s.max()) + _BORDER_PX + 1 - self.v0
+        self.canvas_camera = Camera(f"{camera.name}", cw, ch, camera.fx, camera.fy,
+                                    camera.cx - self.u0, camera.cy - self.v0,
+                                    dist=(0, 0, 0, 0, 0), T_b_c=camera.T_b_c)
+        self.map_x = (u_s - self.u0).reshape(H, W).astype(np.float32)
+        self.map_y = (v_s - self.v0).reshape(H, W).astype(np.float32)
+
+    def _check(self, img: np.ndarray) -> None:
+        c = self.canvas_camera
+        if img.shape[:2] != (c.height, c.width):
+            raise SimError(f"distortion: camera {self.camera.name!r}: expected a canvas of "
+                           f"{c.height}x{c.width}, got {img.shape[:2]}")
+
+    def apply(self, img: np.ndarray) -> np.ndarray:
+        """Canvas image (h,w[,3]) -> distorted image (H,W[,3]), bilinear."""
+        self._check(img)
+        return cv2.remap(img, self.map_x, self.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+    def apply_depth(self, depth: np.ndarray) -> np.ndarray:
+        """Canvas depth (h,w) -> distorted (H,W), nearest neighbour (z is shared: same rotation)."""
+        self._check(depth)
+        return cv2.remap(depth, self.map_x, self.map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
+
+    def apply_seg(self, seg: np.ndarray) -> np.ndarray:
+        """Canvas segmentation (h,w,2) int32 -> distorted (H,W,2), nearest neighbour."""
+        self._check(seg)
+        chans = [cv2.remap(np.ascontiguousarray(seg[..., i]).astype(np.float32), self.map_x, self.map_y,
+                           cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE) for i in range(seg.shape[2])]
+        return np.stack(chans, axis=2).astype(np.int32)
+
+
+def canvas_rig(rig, maps) -> "object":
+    """The rig to *render* with: each camera replaced by its map's pinhole canvas camera."""
+    from dataclasses import replace
+    return replace(rig, cameras=tuple(m.canvas_camera for m in maps))

@@ -1,0 +1,124 @@
+"""Build the MuJoCo world (scene + vehicle + rig cameras) and pose the vehicle.
+
+Rendering quality is set for speed on CPU (llvmpipe): no MSAA, shadows only if the scene asks
+(``scene.config.shadows``; otherwise every light's ``castshadow`` is cleared so no shadow pass
+runs), no reflections. MuJoCo's clip planes are ``znear * stat.extent`` and ``zfar * stat.extent``;
+we fix ``stat.extent`` to :data:`EXTENT_M` and set the map values so the absolute planes are
+:data:`ZNEAR_M` and :data:`ZFAR_M`.
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before the first mujoco import (headless)
+
+from typing import Callable, Optional
+
+import mujoco  # noqa: E402
+import numpy as np
+
+from rigs.model import Rig
+from scenes.base import Scene
+from sim import mjcam
+from sim.errors import SimError
+from sim.vehicle import VehicleHandles, add_vehicle
+
+ZNEAR_M = 0.05
+ZFAR_M = 200.0
+EXTENT_M = 20.0             # model "extent"; also scales shadow clip and fog
+SHADOW_CLIP_M = 40.0        # half-size of the directional-light shadow frustum
+SHADOW_SIZE = 2048
+
+
+def _set_visual(spec, rig: Rig, shadows: bool) -> None:
+    """Speed-oriented rendering settings and absolute clip planes."""
+    q = spec.visual.quality
+    q.offsamples = 0
+    q.shadowsize = SHADOW_SIZE if shadows else 0
+    g = spec.visual.global_
+    g.offwidth = max(int(g.offwidth), max(c.width for c in rig.cameras))
+    g.offheight = max(int(g.offheight), max(c.height for c in rig.cameras))
+    spec.stat.extent = EXTENT_M
+    spec.visual.map.znear = ZNEAR_M / EXTENT_M
+    spec.visual.map.zfar = ZFAR_M / EXTENT_M
+    spec.visual.map.shadowclip = SHADOW_CLIP_M / EXTENT_M
+    if not shadows:
+        for light in spec.lights:
+            light.castshadow = False
+
+
+def _no_reflections(spec) -> None:
+    for mat in spec.materials:
+        mat.reflectance = 0.0
+
+
+class World:
+    """A compiled MuJoCo world: ``model``, ``data`` and the vehicle's ids.
+
+    ``camera_ids[k]`` / ``camera_names[k]`` belong to ``rig.cameras[k]``.
+    """
+
+    def __init__(self, model, rig: Rig, handles: VehicleHandles, scene: Scene):
+        self.model = model
+        self.data = mujoco.MjData(model)
+        self.rig = rig
+        self.scene = scene
+        self.handles = handles
+        self.camera_names = handles.camera_names
+        self.camera_ids = tuple(self._id(mujoco.mjtObj.mjOBJ_CAMERA, n) for n in handles.camera_names)
+        self.body_id = self._id(mujoco.mjtObj.mjOBJ_BODY, handles.body)
+        self.mocap_id = int(model.body_mocapid[self.body_id])
+        self.imu_site_id = self._id(mujoco.mjtObj.mjOBJ_SITE, handles.imu_site)
+        mujoco.mj_kinematics(model, self.data)
+        mujoco.mj_camlight(model, self.data)
+
+    def _id(self, objtype, name: str) -> int:
+        i = mujoco.mj_name2id(self.model, objtype, name)
+        if i < 0:
+            raise SimError(f"world: no {objtype.name} named {name!r} in the compiled model")
+        return int(i)
+
+    def set_mocap_pose(self, body_name: str, T_w_x: np.ndarray) -> None:
+        """Set the pose of mocap body ``body_name`` (no kinematics update)."""
+        bid = self._id(mujoco.mjtObj.mjOBJ_BODY, body_name)
+        mid = int(self.model.body_mocapid[bid])
+        if mid < 0:
+            raise SimError(f"world: body {body_name!r} is not a mocap body")
+        self.data.mocap_pos[mid], self.data.mocap_quat[mid] = mjcam.pos_quat_from_T(T_w_x)
+
+    def set_vehicle_pose(self, T_w_b: np.ndarray, others: Optional[dict] = None) -> None:
+        """Pose the vehicle (4,4 ``T_w_b``) and optional other mocap bodies ``{name: T_w_x}``,
+        then update positions (``mj_kinematics``) and cameras/lights (``mj_camlight``); no step."""
+        T_w_b = np.asarray(T_w_b, dtype=float)
+        if T_w_b.shape != (4, 4) or not np.all(np.isfinite(T_w_b)):
+            raise SimError(f"world.set_vehicle_pose: expected a finite (4,4) T_w_b, got shape {T_w_b.shape}")
+        self.data.mocap_pos[self.mocap_id], self.data.mocap_quat[self.mocap_id] = \
+            mjcam.pos_quat_from_T(T_w_b)
+        for name, T in (others or {}).items():
+            self.set_mocap_pose(name, T)
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+
+    def T_w_c(self, k: int) -> np.ndarray:
+        """(4,4) OpenCV pose of camera ``k`` as MuJoCo currently places it."""
+        i = self.camera_ids[k]
+        return mjcam.T_w_c_from_mj(self.data.cam_xpos[i], self.data.cam_xmat[i])
+
+
+def build_world(scene: Scene, rig: Rig, vehicle: str = "cart",
+                extra: Optional[Callable] = None) -> World:
+    """Compile ``scene`` + vehicle ``vehicle`` carrying ``rig``; ``extra(spec)`` may add more."""
+    spec = mujoco.MjSpec()
+    spec.modelname = f"{getattr(scene, 'name', '') or 'scene'}_{rig.name}"
+    scene.add_to_spec(spec)
+    handles = add_vehicle(spec, rig, kind=vehicle)
+    if extra is not None:
+        extra(spec)
+    _set_visual(spec, rig, bool(scene.config.shadows))
+    _no_reflections(spec)
+    try:
+        model = spec.compile()
+    except Exception as e:  # mujoco raises ValueError with a multi-line message
+        msg = " ".join(str(e).split())
+        raise SimError(f"build_world: MuJoCo could not compile scene {scene.name!r}: {msg}") from None
+    return World(model, rig, handles, scene)

@@ -1,0 +1,177 @@
+"""Render the rig's cameras: RGB (or gray), depth along the optical axis, segmentation.
+
+One off-screen GL context, ``MjrContext`` and ``MjvScene`` serve every camera of the rig (the
+off-screen buffer is ``offwidth x offheight``, at least the largest camera; each camera renders
+into a viewport of its own size), so no context is duplicated per camera or per size. Per camera
+and frame: one ``mjv_updateScene``, one ``mjr_render`` (colour and depth are read from the same
+pass), and one more ``mjr_render`` only if segmentation is requested. No ``mj_forward``: the world
+pose is set by :meth:`sim.model.World.set_vehicle_pose` (kinematics + camlight only).
+
+Depth: MuJoCo renders with reversed Z into a float depth buffer; we invert its projection
+exactly (in float64) to eye-space z, which *is* the distance along the optical axis (OpenCV
+camera z), not along the ray (verified in tests/test_render_depth.py). Pixels that see no
+surface within ``zfar`` get ``inf``.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Optional
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import cv2  # noqa: E402
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+
+from rigs.model import Rig  # noqa: E402
+from sim.errors import SimError  # noqa: E402
+from sim.model import World  # noqa: E402
+from sim.vehicle import VEHICLE_GROUP  # noqa: E402
+
+
+@dataclass
+class RenderedFrame:
+    """Images of all rig cameras for one pose, in rig camera order.
+
+    ``images``: (H,W,3) uint8 RGB or (H,W) uint8 gray; ``depth``: (H,W) float32 metres along the
+    optical axis (inf = nothing within zfar) or None; ``seg``: (H,W,2) int32 ``(geom id or -1,
+    dynamic flag)`` with flag 1 for geoms named ``dyn/...``, or None.
+    """
+
+    images: list
+    depth: Optional[list] = None
+    seg: Optional[list] = None
+
+
+def _depth_coefficients(model) -> tuple:
+    """(c, d, zfar) with eye depth = d / (buffer + c) for MuJoCo's reversed-Z projection.
+
+    Mirrors ``mujoco.Renderer``: the float32 near/far that ``glFrustum`` saw, then
+    ``c = n / (f - n)``, ``d = f n / (f - n)`` in float64.
+    """
+    ext = model.stat.extent
+    n = np.float64(np.float32(model.vis.map.znear * ext))
+    f = np.float64(np.float32(model.vis.map.zfar * ext))
+    return n / (f - n), f * n / (f - n), f
+
+
+class StereoRenderer:
+    """Render all cameras of ``world``'s rig. Use as a context manager (or call ``close()``)."""
+
+    def __init__(self, world: World, rig: Optional[Rig] = None, depth: bool = False,
+                 segmentation: bool = False, gray: bool = False, show_vehicle: bool = True,
+                 max_geom: int = 20000):
+        self.world, self.rig = world, rig or world.rig
+        if len(self.rig.cameras) != len(world.camera_ids):
+            raise SimError(f"StereoRenderer: rig {self.rig.name!r} has {len(self.rig.cameras)} cameras, "
+                           f"world has {len(world.camera_ids)}")
+        self.depth, self.segmentation, self.gray = depth, segmentation, gray
+        m = world.model
+        self._gl = None
+        self._ctx = None
+        from mujoco.gl_context import GLContext
+        self._gl = GLContext(m.vis.global_.offwidth, m.vis.global_.offheight)
+        self._gl.make_current()
+        self._ctx = mujoco.MjrContext(m, mujoco.mjtFontScale.mjFONTSCALE_100.value)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._ctx)
+        self._ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self._scn = mujoco.MjvScene(m, maxgeom=max_geom)
+        self._scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        self._opt = self._make_option(show_vehicle)
+        self._cams = [self._make_camera(i) for i in world.camera_ids]
+        self._dyn = np.array([(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "").startswith("dyn/")
+                              for g in range(m.ngeom)], dtype=np.int32)
+        self._depth_coef = _depth_coefficients(m)
+
+    @staticmethod
+    def _make_option(show_vehicle: bool):
+        opt = mujoco.MjvOption()
+        opt.geomgroup[:] = 1
+        opt.geomgroup[VEHICLE_GROUP] = 1 if show_vehicle else 0
+        opt.sitegroup[:] = 0
+        return opt
+
+    @staticmethod
+    def _make_camera(cam_id: int):
+        cam = mujoco.MjvCamera()
+        cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        cam.fixedcamid = cam_id
+        return cam
+
+    # -- public -------------------------------------------------------------------------------
+    def render(self, T_w_b: np.ndarray, dynamic_state: Optional[dict] = None) -> RenderedFrame:
+        """Pose the vehicle at (4,4) ``T_w_b`` (and mocap bodies ``{name: T_w_x}``), render all cameras."""
+        if self._ctx is None:
+            raise SimError("StereoRenderer.render: called after close()")
+        self.world.set_vehicle_pose(T_w_b, dynamic_state)
+        self._gl.make_current()
+        images, depths, segs = [], [], []
+        for cam, cam_obj in zip(self.rig.cameras, self._cams):
+            rgb, dep, seg = self._render_camera(cam.width, cam.height, cam_obj)
+            images.append(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY) if self.gray else rgb)
+            depths.append(dep)
+            segs.append(seg)
+        return RenderedFrame(images, depths if self.depth else None, segs if self.segmentation else None)
+
+    def close(self) -> None:
+        if self._ctx is not None and self._gl is not None:
+            with self._gl.as_current():
+                self._ctx.free()
+        self._ctx = None
+        if self._gl is not None:
+            self._gl.free()
+        self._gl = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    # -- internals ------------------------------------------------------------------------------
+    def _render_camera(self, W: int, H: int, cam_obj) -> tuple:
+        m, d, scn = self.world.model, self.world.data, self._scn
+        rect = mujoco.MjrRect(0, 0, W, H)
+        mujoco.mjv_updateScene(m, d, self._opt, None, cam_obj, mujoco.mjtCatBit.mjCAT_ALL.value, scn)
+        rgb = np.empty((H, W, 3), np.uint8)
+        zbuf = np.empty((H, W), np.float32) if self.depth else None
+        mujoco.mjr_render(rect, scn, self._ctx)
+        mujoco.mjr_readPixels(rgb, zbuf, rect, self._ctx)
+        rgb = np.ascontiguousarray(rgb[::-1])
+        depth = self._to_metres(zbuf[::-1]) if self.depth else None
+        seg = self._segment(rect, W, H) if self.segmentation else None
+        return rgb, depth, seg
+
+    def _to_metres(self, zbuf: np.ndarray) -> np.ndarray:
+        """(H,W) reversed-Z buffer -> (H,W) float32 eye depth (m); inf where nothing was drawn."""
+        c, dcoef, zfar = self._depth_coef
+        z = dcoef / (zbuf.astype(np.float64) + c)
+        z[(zbuf <= 0) | (z >= zfar * (1 - 1e-6))] = np.inf
+        return z.astype(np.float32)
+
+    def _segment(self, rect, W: int, H: int) -> np.ndarray:
+        """Second pass with segmentation colours -> (H,W,2) int32 (geom id | -1, dynamic flag)."""
+        scn = self._scn
+        flags = scn.flags.copy()
+        scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
+        scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+        try:
+            buf = np.empty((H, W, 3), np.uint8)
+            mujoco.mjr_render(rect, scn, self._ctx)
+            mujoco.mjr_readPixels(buf, None, rect, self._ctx)
+        finally:
+            np.copyto(scn.flags, flags)
+        segid = (buf[::-1].astype(np.int64) * np.array([1, 256, 65536])).sum(axis=2)
+        lut = np.full((scn.ngeom + 1, 2), -1, np.int32)
+        lut[:, 1] = 0
+        for g in scn.geoms[:scn.ngeom]:
+            if g.segid >= 0 and g.objtype == mujoco.mjtObj.mjOBJ_GEOM:
+                lut[g.segid + 1] = (g.objid, self._dyn[g.objid])
+        return lut[np.clip(segid, 0, scn.ngeom)]

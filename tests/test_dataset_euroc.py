@@ -1,0 +1,104 @@
+"""EuRoC writer -> reader round trips, determinism, sensor.yaml extrinsics, depth/segmentation."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sim.dataset import EurocWriter
+from test_dataset_synth import Synth, folder_hashes
+from vo.dataset import open_dataset
+from vo.dataset.interp import interpolate_poses
+from vo.geometry import inv_T
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory):
+    s = Synth()
+    out = tmp_path_factory.mktemp("euroc") / "seq"
+    s.write(EurocWriter(out, s.rig, s.metadata, depth=True, segmentation=True), with_depth=True, with_seg=True)
+    return s, out
+
+
+def test_layout_headers_and_no_marker(written):
+    s, out = written
+    assert not (out / "INCOMPLETE").exists()
+    for rel in ("mav0/cam0/data.csv", "mav0/cam1/sensor.yaml", "mav0/imu0/sensor.yaml", "rig.yaml",
+                "mav0/state_groundtruth_estimate0/sensor.yaml", "groundtruth_tum.txt", "gcps.csv", "metadata.yaml"):
+        assert (out / rel).is_file(), rel
+    assert (out / "mav0/cam0/data.csv").read_text().splitlines()[0] == "#timestamp [ns],filename"
+    assert (out / "mav0/imu0/data.csv").read_text().startswith("#timestamp [ns],w_RS_S_x [rad s^-1],")
+    assert (out / f"mav0/cam1/data/{s.t_frames[2]}.png").is_file()
+
+
+def test_images_imu_gt_rig_gcps_round_trip(written):
+    s, out = written
+    ds = open_dataset(out)
+    assert ds.kind == "euroc" and len(ds) == 5 and ds.warnings == []
+    assert ds.frame_times_ns.dtype == np.int64 and np.array_equal(ds.frame_times_ns, s.t_frames)
+    for f, imgs in zip(ds.frames(), s.images):
+        assert np.array_equal(f.left, imgs[0]) and np.array_equal(f.right, imgs[1])   # PNG is lossless
+    # repr() floats round-trip float64 exactly, so the IMU comes back bit-identical.
+    assert np.array_equal(ds.imu.t_ns, s.t_imu)
+    assert np.array_equal(ds.imu.gyro, s.gyro) and np.array_equal(ds.imu.accel, s.accel)
+    gt = ds.groundtruth
+    assert gt.frame == "i" and np.array_equal(gt.t_ns, s.t_imu)
+    # quaternion <-> matrix round trip costs a few ulps: 1e-12 is ~1e4 ulp of 1.0.
+    assert np.allclose(gt.T, s.T_w_i, atol=1e-12)
+    assert ds.rig == s.rig                    # exact: rig.yaml floats are repr-exact
+    assert [g.name for g in ds.gcps] == ["G1", "G2"]
+    for a, b in zip(ds.gcps, s.gcps):
+        assert a.t_ns == b.t_ns and np.array_equal(a.ground_w, b.ground_w) and np.array_equal(a.p_w_c0, b.p_w_c0)
+    assert ds.metadata["status"] == "complete" and ds.metadata["n_frames"] == 5 and ds.metadata["n_imu"] == 50
+    assert ds.metadata["scene"] == s.metadata["scene"]
+
+
+def test_groundtruth_cam0_tum_and_interpolated_agree(written):
+    s, out = written
+    ds = open_dataset(out)
+    tum = ds.groundtruth_cam0()
+    # groundtruth_tum.txt writes %.9f: 1e-8 covers rounding of positions and quaternions.
+    assert tum.frame == "c0" and np.array_equal(tum.t_ns, s.t_frames)
+    assert np.allclose(tum.T, s.T_w_c0, atol=1e-8)
+    # The real-EuRoC path (gt of i interpolated at frame times, composed with T_i_c0) gives the same poses:
+    # frame times coincide with gt samples, so interpolation is exact up to float rounding.
+    T_i_c0 = inv_T(ds.rig.imu.T_b_i_array) @ ds.rig.cameras[0].T_b_c_array
+    interp, keep = interpolate_poses(ds.groundtruth, ds.frame_times_ns)
+    assert keep.all() and np.allclose(interp.T @ T_i_c0, s.T_w_c0, atol=1e-9)
+
+
+def test_sensor_yaml_T_BS_is_T_i_c(written):
+    from rigs.calib_io import read_euroc_camera_yaml, read_euroc_imu_yaml
+    s, out = written
+    for k in (0, 1):
+        cam, rate = read_euroc_camera_yaml(out / f"mav0/cam{k}/sensor.yaml", f"cam{k}")
+        expected = inv_T(s.rig.imu.T_b_i_array) @ s.rig.cameras[k].T_b_c_array
+        assert np.allclose(cam.T_b_c_array, expected, atol=1e-12) and rate == 20.0
+    assert np.allclose(read_euroc_imu_yaml(out / "mav0/imu0/sensor.yaml").T_b_i_array, np.eye(4))
+
+
+def test_depth_and_segmentation_round_trip(written):
+    s, out = written
+    ds = open_dataset(out)
+    assert ds.depth(3).dtype == np.float32 and np.array_equal(ds.depth(3), s.depth[3])
+    with pytest.raises(Exception, match="depth was not recorded"):
+        ds.depth(3, cam=1)
+    ids, dyn = ds.segmentation(2)
+    assert np.array_equal(ids, s.seg[2][..., 0]) and np.array_equal(dyn, s.seg[2][..., 1] != 0)
+
+
+def test_rgb_images_read_back_as_gray(tmp_path):
+    import cv2
+    s = Synth(rgb=True, n_frames=2)
+    s.write(EurocWriter(tmp_path / "rgb", s.rig, s.metadata))
+    f = open_dataset(tmp_path / "rgb").frame(1)
+    expected = cv2.cvtColor(s.images[1][0], cv2.COLOR_RGB2GRAY)    # same weights both ways: exact
+    assert f.left.dtype == np.uint8 and np.array_equal(f.left, expected)
+
+
+def test_same_inputs_give_byte_identical_folders(tmp_path):
+    hashes = []
+    for name in ("a", "b"):
+        s = Synth(seed=3)
+        s.write(EurocWriter(tmp_path / name, s.rig, s.metadata, depth=True), with_depth=True)
+        hashes.append(folder_hashes(tmp_path / name))
+    assert hashes[0] == hashes[1] and "metadata.yaml" in hashes[0] and len(hashes[0]) > 20

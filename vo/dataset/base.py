@@ -1,0 +1,133 @@
+"""The ``Dataset`` every estimator reads: stereo frames (lazy), IMU, ground truth, GCPs, rig.
+
+Subclasses (:mod:`vo.dataset.euroc`, :mod:`vo.dataset.kitti`) fill in the frame list and the
+loaders; images are read from disk only when a frame is asked for.
+"""
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import Iterator, Optional
+
+import cv2
+import numpy as np
+
+from vo.dataset.types import Gcp, ImuData, StereoFrame
+from vo.errors import DatasetError
+from vo.trajectory import Trajectory
+
+
+def load_gray(path: Path) -> np.ndarray:
+    """PNG/any image -> (H,W) uint8 grayscale (colour: cv2 BGR2GRAY, the same weights the KITTI
+    writer uses; 16-bit: top 8 bits)."""
+    if not Path(path).is_file():
+        raise DatasetError(f"{path}: image file not found")
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)   # not IMREAD_GRAYSCALE: libpng's own
+    if img is None:                                       # conversion differs from cvtColor by 1 LSB
+        raise DatasetError(f"{path}: cannot decode image")
+    if img.ndim == 3:
+        img = cv2.cvtColor(img, cv2.COLOR_BGRA2GRAY if img.shape[2] == 4 else cv2.COLOR_BGR2GRAY)
+    if img.dtype == np.uint16:
+        img = (img >> 8).astype(np.uint8)
+    return img
+
+
+def rig_or_error(fn, *args, **kwargs):
+    """Call a ``rigs`` reader; a RigError becomes a DatasetError with the same one-line message."""
+    from rigs.errors import RigError
+    try:
+        return fn(*args, **kwargs)
+    except RigError as exc:
+        raise DatasetError(str(exc)) from None
+
+
+class Dataset:
+    """A stereo dataset on disk. Attributes: ``kind`` ("euroc"|"kitti"), ``path``, ``name``,
+    ``rig`` (rigs.Rig), ``frame_times_ns`` (N,) int64, ``images_are_rectified``, ``warnings``."""
+
+    kind: str = ""
+    images_are_rectified: bool = False
+
+    def __init__(self, path: Path, name: str, rig, frame_times_ns: np.ndarray, image_paths: list,
+                 warnings: Optional[list] = None):
+        self.path = Path(path)
+        self.name = name
+        self.rig = rig
+        self.frame_times_ns = np.asarray(frame_times_ns, dtype=np.int64)
+        self._image_paths = image_paths          # list of (left Path, right Path)
+        self.warnings = list(warnings or [])
+
+    def __len__(self) -> int:
+        return int(self.frame_times_ns.shape[0])
+
+    def __repr__(self) -> str:
+        return f"<Dataset {self.kind} {self.name!r}: {len(self)} frames at {self.path}>"
+
+    def frame(self, k: int) -> StereoFrame:
+        """Stereo frame ``k`` (0 <= k < len): grayscale uint8 images read from disk now."""
+        if not -len(self) <= k < len(self):
+            raise DatasetError(f"{self.path}: frame index {k} out of range [0, {len(self)})")
+        k = k % len(self)
+        left, right = self._image_paths[k]
+        return StereoFrame(index=k, t_ns=int(self.frame_times_ns[k]), left=load_gray(left), right=load_gray(right))
+
+    def frames(self, start: int = 0, stop: Optional[int] = None, step: int = 1) -> Iterator[StereoFrame]:
+        for k in range(*slice(start, stop, step).indices(len(self))):
+            yield self.frame(k)
+
+    # -- loaders overridden by subclasses -------------------------------------------------
+    @functools.cached_property
+    def imu(self) -> Optional[ImuData]:
+        return None
+
+    @functools.cached_property
+    def groundtruth(self) -> Optional[Trajectory]:
+        return None
+
+    @functools.cached_property
+    def gcps(self) -> list:
+        return []
+
+    @functools.cached_property
+    def metadata(self) -> dict:
+        return {}
+
+    def groundtruth_cam0(self) -> Trajectory:
+        raise DatasetError(f"{self.path}: no ground truth in this dataset")
+
+    def depth(self, k: int, cam: int = 0) -> np.ndarray:
+        raise DatasetError(f"{self.path}: depth was not recorded in this dataset")
+
+
+def read_gcps_csv(path: Path) -> list:
+    """``#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z`` -> list of Gcp (empty if no file)."""
+    from vo.dataset.csvio import data_lines
+    import math
+    path = Path(path)
+    if not path.is_file():
+        return []
+    out = []
+    for n, line in data_lines(path, "gcps"):
+        parts = line.split(",")
+        if len(parts) != 8:
+            raise DatasetError(f"{path}: line {n}: expected 8 comma-separated values, got {len(parts)}")
+        try:
+            t_ns, vals = int(parts[1]), [float(x) for x in parts[2:]]
+        except ValueError:
+            raise DatasetError(f"{path}: line {n}: expected name,t_ns and 6 numbers, got {line[:60]!r}") from None
+        if not all(math.isfinite(v) for v in vals):
+            raise DatasetError(f"{path}: line {n}: NaN or inf in coordinates")
+        out.append(Gcp(parts[0], t_ns, np.array(vals[:3]), np.array(vals[3:])))
+    return out
+
+
+def read_metadata(path: Path) -> dict:
+    """``metadata.yaml`` -> dict ({} when absent); malformed YAML -> DatasetError naming it."""
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    from rigs.io_yaml import read_yaml_file
+    d = rig_or_error(read_yaml_file, path)
+    if not isinstance(d, dict):
+        raise DatasetError(f"{path}: expected a mapping at the top level, got {type(d).__name__}")
+    return d

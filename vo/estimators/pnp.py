@@ -1,0 +1,226 @@
+"""Conventional stereo VO of seed 003: stereo triangulation on keyframes, 3-D-to-2-D PnP + RANSAC each frame.
+
+``KltPnpEstimator`` ("klt-pnp"): KLT tracks (grid detection, LK forward-backward, epipolar check), new
+landmarks from empty cells on keyframes, seed 003's empty-cell / inlier keyframe criterion (the *next* frame
+becomes a keyframe, as in the paper). ``OrbPnpEstimator`` ("orb-pnp"; ``frontend="sift"`` too): descriptor
+matching of each left image against the current keyframe's landmarks; the current frame becomes the new
+keyframe when the same criterion fires on its PnP inliers.
+
+Failure handling: too few tracked landmarks -> status ``few_features`` ("N tracked < M"), PnP failure ->
+``lost``; the pose is coasted (constant velocity for ``max_coast_frames``, then held) and the next frame with
+a good stereo pair re-initialises a keyframe anchored at the current estimate -> ``reinit``. Never NaN.
+Timings per frame (ms): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
+"""
+from __future__ import annotations
+
+import time
+from contextlib import contextmanager
+
+import numpy as np
+
+from vo.errors import EstimatorError
+from vo.estimators.base import Estimator, FrameResult
+from vo.estimators.pnp_core import PnpConfig, solve_pnp, to_gray
+from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
+from vo.frontend.grid import Grid
+from vo.frontend.klt import KltConfig, KltTracker, detect_in_empty_cells, is_keyframe, stereo_klt
+from vo.frontend.stereo import epipolar_mask, triangulate, undistort_px
+from vo.geometry import inv_T, transform_points
+
+MAX_COAST_FRAMES = 10
+
+
+@contextmanager
+def _timer(timings: dict, key: str):
+    t0 = time.perf_counter()
+    try:
+        yield
+    finally:
+        timings[key] = timings.get(key, 0.0) + (time.perf_counter() - t0) * 1e3
+
+
+class _StereoPnpEstimator(Estimator):
+    """Common frame loop: (re)initialisation, coasting on failure, timings. Subclasses implement
+    ``_initialize(left, right, timings) -> (n_landmarks, message)`` and ``_step(left, right, timings)``."""
+
+    def __init__(self, rig, pnp_config: PnpConfig | None = None, **options):
+        super().__init__(rig, **options)
+        if not rig.is_stereo:
+            raise EstimatorError(f"{self.name}: rig {rig.name!r} has one camera; a stereo rig is required")
+        self.pnp_config = pnp_config or PnpConfig()
+        self.T_o_c0 = np.eye(4)
+        self._T_prev_curr = np.eye(4)      # last inter-frame motion T_{c(k-1)}_{c(k)}
+        self._initialized = False
+        self._need_init = True
+        self._coast = 0
+
+    def process(self, frame) -> FrameResult:
+        t0 = time.perf_counter()
+        timings = {"detect": 0.0, "track": 0.0, "stereo": 0.0, "pnp": 0.0}
+        left, right = to_gray(frame.left), to_gray(frame.right)
+        if self._need_init:
+            res = self._try_init(frame.t_ns, left, right, timings)
+        else:
+            res = self._step(frame.t_ns, left, right, timings)
+        timings["total"] = (time.perf_counter() - t0) * 1e3
+        res.timings_ms = timings
+        return res
+
+    def _try_init(self, t_ns, left, right, timings) -> FrameResult:
+        if self._initialized:
+            self._coast_pose()
+        n_lm = self._initialize(left, right, timings)
+        if n_lm < self.pnp_config.min_init_landmarks:
+            return self._result(t_ns, "few_features", n_lm, 0,
+                                f"{n_lm} stereo landmarks < {self.pnp_config.min_init_landmarks}: blank or textureless view?")
+        status = "reinit" if self._initialized else "init"
+        self._initialized, self._need_init, self._coast = True, False, 0
+        return self._result(t_ns, status, n_lm, n_lm, f"keyframe with {n_lm} landmarks")
+
+    def _fail(self, t_ns, status, n_feat, n_inl, message) -> FrameResult:
+        """Tracking failed this frame: coast the pose and re-initialise on the next frame."""
+        self._coast_pose()
+        self._need_init = True
+        return self._result(t_ns, status, n_feat, n_inl, message)
+
+    def _coast_pose(self) -> None:
+        if self._coast < MAX_COAST_FRAMES:
+            self.T_o_c0 = self.T_o_c0 @ self._T_prev_curr
+        self._coast += 1
+
+    def _accept_pose(self, T_o_c0_new) -> bool:
+        """Update pose and velocity unless the step is implausibly large."""
+        T_prev_curr = inv_T(self.T_o_c0) @ T_o_c0_new
+        if np.linalg.norm(T_prev_curr[:3, 3]) > self.pnp_config.max_step_m:
+            return False
+        self._T_prev_curr, self.T_o_c0, self._coast = T_prev_curr, T_o_c0_new, 0
+        return True
+
+    def _pnp(self, p_o, px_raw, timings):
+        with _timer(timings, "pnp"):
+            cam = self.rig.cameras[0]
+            return solve_pnp(p_o, undistort_px(px_raw, cam), cam.K, self.pnp_config)
+
+    def _triangulate_o(self, p_left, p_right) -> tuple:
+        """Raw stereo pixel pairs -> ``(p_o (N,3), ok (N,))`` in the odometry frame at the current pose."""
+        c = self.pnp_config
+        p_c0, ok = triangulate(self.rig, p_left, p_right, c.max_depth, c.max_triangulation_px)
+        return transform_points(self.T_o_c0, p_c0), ok
+
+    def _result(self, t_ns, status, n_feat, n_inl, message="") -> FrameResult:
+        return FrameResult(int(t_ns), self.T_o_c0.copy(), status, int(n_feat), int(n_inl), None, message)
+
+
+class KltPnpEstimator(_StereoPnpEstimator):
+    """Seed 003's optical-flow stereo VO. Options: ``klt_config`` (:class:`KltConfig`), ``pnp_config``."""
+
+    name = "klt-pnp"
+
+    def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", **options):
+        if frontend != "klt":
+            raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
+        super().__init__(rig, **options)
+        self.klt_config = klt_config or KltConfig()
+        cam = rig.cameras[0]
+        self.tracker = KltTracker(cam.width, cam.height, self.klt_config)
+        self.landmarks: dict = {}        # track id -> p_o (3,)
+        self._next_keyframe = False
+
+    def _initialize(self, left, right, timings) -> int:
+        self.tracker.reset()
+        self.landmarks.clear()
+        with _timer(timings, "detect"):
+            new_ids = self.tracker.detect(left)
+        n = self._add_landmarks(left, right, new_ids, timings)
+        self._next_keyframe = False
+        return n
+
+    def _add_landmarks(self, left, right, new_ids, timings) -> int:
+        """Stereo-match the tracks ``new_ids``, triangulate, keep those with a landmark; returns the count added."""
+        with _timer(timings, "stereo"):
+            sel = np.isin(self.tracker.ids, new_ids)
+            p_l = self.tracker.pts[sel]
+            p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config)
+            p_o, ok_t = self._triangulate_o(p_l, p_r)
+            ok &= ok_t
+            for i, p in zip(self.tracker.ids[sel][ok], p_o[ok]):
+                self.landmarks[int(i)] = p
+            self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
+        return int(ok.sum())
+
+    def _step(self, t_ns, left, right, timings) -> FrameResult:
+        with _timer(timings, "track"):
+            self.tracker.track(left)
+            ids = self.tracker.ids
+            self.landmarks = {int(i): self.landmarks[int(i)] for i in ids}
+        n_feat = len(ids)
+        if n_feat < self.pnp_config.min_features:
+            return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
+        p_o = np.array([self.landmarks[int(i)] for i in ids])
+        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
+        n_inl = int(inl.sum())
+        if T_o_c0 is None or not self._accept_pose(T_o_c0):
+            return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked")
+        self.tracker.keep(inl)
+        status, msg = "ok", ""
+        if self._next_keyframe:
+            with _timer(timings, "detect"):
+                new_ids = self.tracker.detect(left)
+            n_new = self._add_landmarks(left, right, new_ids, timings)
+            status, msg = "keyframe", f"{n_new} new landmarks"
+        self.landmarks = {int(i): self.landmarks[int(i)] for i in self.tracker.ids}
+        self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
+        return self._result(t_ns, status, n_feat, n_inl, msg)
+
+
+class OrbPnpEstimator(_StereoPnpEstimator):
+    """Descriptor stereo VO (seed 003's baseline). Options: ``frontend`` "orb" | "sift",
+    ``descriptor_config`` (:class:`DescriptorConfig`), ``klt_config`` (grid / keyframe thresholds), ``pnp_config``."""
+
+    name = "orb-pnp"
+
+    def __init__(self, rig, frontend: str = "orb", descriptor_config: DescriptorConfig | None = None,
+                 klt_config: KltConfig | None = None, **options):
+        if frontend not in ("orb", "sift"):
+            raise EstimatorError(f"orb-pnp: frontend {frontend!r} not supported; valid: orb, sift")
+        super().__init__(rig, **options)
+        self.frontend = frontend
+        self.desc_config = descriptor_config or DescriptorConfig()
+        self.klt_config = klt_config or KltConfig()
+        cam = rig.cameras[0]
+        self.grid = Grid(cam.width, cam.height, self.klt_config.cell)
+        self.kf_p_o = np.zeros((0, 3))
+        self.kf_desc = None
+
+    def _initialize(self, left, right, timings, left_features=None) -> int:
+        with _timer(timings, "detect"):
+            p_l, d_l = left_features or detect_and_describe(left, self.frontend, self.desc_config)
+            p_r, d_r = detect_and_describe(right, self.frontend, self.desc_config)
+        with _timer(timings, "stereo"):
+            ij = match_descriptors(d_l, d_r, self.frontend, self.desc_config)
+            pl, pr = p_l[ij[:, 0]], p_r[ij[:, 1]]
+            ok = epipolar_mask(self.rig, pl, pr, self.desc_config.epipolar_threshold_px) if len(ij) else np.zeros(0, bool)
+            p_o, ok_t = self._triangulate_o(pl, pr)
+            ok &= ok_t
+            self.kf_p_o, self.kf_desc = p_o[ok], d_l[ij[ok, 0]]
+        return int(ok.sum())
+
+    def _step(self, t_ns, left, right, timings) -> FrameResult:
+        with _timer(timings, "detect"):
+            p_l, d_l = detect_and_describe(left, self.frontend, self.desc_config)
+        with _timer(timings, "track"):
+            ij = match_descriptors(self.kf_desc, d_l, self.frontend, self.desc_config)
+        n_feat = len(ij)
+        if n_feat < self.pnp_config.min_features:
+            return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
+        T_o_c0, inl = self._pnp(self.kf_p_o[ij[:, 0]], p_l[ij[:, 1]], timings)
+        n_inl = int(inl.sum())
+        if T_o_c0 is None or not self._accept_pose(T_o_c0):
+            return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} matched")
+        empty = self.grid.empty_fraction(p_l[ij[inl, 1]])
+        if not is_keyframe(empty, n_inl, self.klt_config):
+            return self._result(t_ns, "ok", n_feat, n_inl)
+        n_new = self._initialize(left, right, timings, left_features=(p_l, d_l))
+        if n_new < self.pnp_config.min_init_landmarks:
+            self._need_init = True
+        return self._result(t_ns, "keyframe", n_feat, n_inl, f"{n_new} landmarks")

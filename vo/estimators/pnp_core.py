@@ -1,0 +1,96 @@
+"""Shared pieces of the stereo PnP estimators: configuration, PnP with RANSAC + LM refinement, helpers.
+
+Poses: ``T_o_c0`` left camera in the frame ``o`` of the first left camera; PnP returns ``T_c0_o``
+(OpenCV's rvec/tvec map object points into the camera), inverted at the boundary in :func:`solve_pnp`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from vo.errors import EstimatorError
+from vo.geometry import inv_T, make_T
+
+PNP_METHODS = {"iterative": cv2.SOLVEPNP_ITERATIVE, "epnp": cv2.SOLVEPNP_EPNP}
+
+
+@dataclass(frozen=True)
+class PnpConfig:
+    """``method`` RANSAC minimal solver (iterative | epnp); ``ransac_reproj_px`` inlier threshold on
+    undistorted pixels; ``ransac_iters``, ``confidence``; ``min_features`` fewer tracked landmarks ->
+    status few_features; ``min_pnp_inliers`` fewer inliers -> lost; ``min_init_landmarks`` stereo
+    landmarks needed to (re)initialise; ``max_depth`` m and ``max_triangulation_px`` triangulation checks;
+    ``max_step_m`` largest believable camera motion between frames (m) before the frame is declared lost."""
+
+    method: str = "epnp"
+    ransac_reproj_px: float = 2.0
+    ransac_iters: int = 200
+    confidence: float = 0.999
+    min_features: int = 15
+    min_pnp_inliers: int = 10
+    min_init_landmarks: int = 20
+    max_depth: float = 80.0
+    max_triangulation_px: float = 1.0
+    max_step_m: float = 5.0
+
+    def __post_init__(self):
+        if self.method not in PNP_METHODS:
+            raise EstimatorError(f"PnpConfig.method: {self.method!r} unknown; valid: {', '.join(PNP_METHODS)}")
+        checks = {"ransac_reproj_px": self.ransac_reproj_px > 0, "ransac_iters": self.ransac_iters >= 1,
+                  "confidence": 0 < self.confidence < 1, "min_features": self.min_features >= 6,
+                  "min_pnp_inliers": self.min_pnp_inliers >= 4, "min_init_landmarks": self.min_init_landmarks >= 6,
+                  "max_depth": self.max_depth > 0, "max_triangulation_px": self.max_triangulation_px > 0,
+                  "max_step_m": self.max_step_m > 0}
+        for name, good in checks.items():
+            if not good:
+                raise EstimatorError(f"PnpConfig.{name}: invalid value {getattr(self, name)!r} "
+                                     "(min_features>=6, min_pnp_inliers>=4, thresholds > 0, 0<confidence<1)")
+
+
+def solve_pnp(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: PnpConfig) -> tuple:
+    """3-D landmarks ``p_o`` (N,3) seen at undistorted pixels ``x_undist`` (N,2) -> ``(T_o_c0 | None, inliers (N,) bool)``.
+
+    ``cv2.solvePnPRansac`` (minimal solver ``config.method``) then ``cv2.solvePnPRefineLM`` on the inliers.
+    """
+    n = len(p_o)
+    inl = np.zeros(n, bool)
+    if n < max(6, config.min_pnp_inliers):
+        return None, inl
+    obj = np.ascontiguousarray(p_o, dtype=np.float64).reshape(-1, 1, 3)
+    img = np.ascontiguousarray(x_undist, dtype=np.float64).reshape(-1, 1, 2)
+    try:
+        ok, rvec, tvec, idx = cv2.solvePnPRansac(obj, img, K, None, iterationsCount=config.ransac_iters,
+                                                 reprojectionError=config.ransac_reproj_px,
+                                                 confidence=config.confidence, flags=PNP_METHODS[config.method])
+    except cv2.error:
+        return None, inl
+    if not ok or idx is None or len(idx) < config.min_pnp_inliers:
+        return None, inl
+    inl[idx.reshape(-1)] = True
+    try:
+        rvec, tvec = cv2.solvePnPRefineLM(obj[inl], img[inl], K, None, rvec, tvec)
+    except cv2.error:
+        pass
+    T_c0_o = make_T(cv2.Rodrigues(rvec)[0], tvec.reshape(3))
+    if not np.all(np.isfinite(T_c0_o)):
+        return None, np.zeros(n, bool)
+    # inliers of the refined pose
+    proj, _ = cv2.projectPoints(obj, rvec, tvec, K, None)
+    inl = np.linalg.norm(proj.reshape(-1, 2) - img.reshape(-1, 2), axis=1) < config.ransac_reproj_px
+    p_c = p_o @ T_c0_o[:3, :3].T + T_c0_o[:3, 3]
+    inl &= p_c[:, 2] > 0
+    if inl.sum() < config.min_pnp_inliers:
+        return None, inl
+    return inv_T(T_c0_o), inl
+
+
+def to_gray(img: np.ndarray) -> np.ndarray:
+    """(H,W) or (H,W,3) image -> (H,W) uint8 contiguous."""
+    a = np.asarray(img)
+    if a.ndim == 3:
+        a = cv2.cvtColor(a, cv2.COLOR_RGB2GRAY)
+    if a.dtype != np.uint8:
+        a = np.clip(a, 0, 255).astype(np.uint8)
+    return np.ascontiguousarray(a)

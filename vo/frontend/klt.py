@@ -1,0 +1,188 @@
+"""KLT front-end of seed 003 (Huang & Tan): grid cells, one Shi-Tomasi corner per empty cell, pyramidal
+Lucas-Kanade with a forward-backward check, calibrated epipolar check, empty-cell keyframe criterion.
+
+Pyramid levels: seed 003 says "pyramid level 4"; OpenCV's ``maxLevel`` is the index of the coarsest level
+(0 = no pyramid), so 4 levels (full resolution + 3 halvings) is ``maxLevel = levels - 1 = 3``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from vo.errors import VoError
+from vo.frontend.grid import Grid
+from vo.frontend.lk_invariant import lk_illumination_invariant
+from vo.frontend.stereo import epipolar_mask
+
+
+@dataclass(frozen=True)
+class KltConfig:
+    """Parameters (defaults: seed 003 Table 1 / sections 4-5).
+
+    ``cell`` grid cell size (px); ``max_empty_fraction`` keyframe when empty cells / cells exceeds it
+    (seed 003 Table 2 best: 0.42); ``min_inliers`` keyframe when PnP inliers fall below it (100);
+    ``win`` LK window (21x21); ``levels`` pyramid levels incl. full resolution (4 -> OpenCV maxLevel 3);
+    ``fb_threshold_px`` forward-backward tolerance (1 px); ``epipolar_threshold_px`` stereo epipolar
+    tolerance; ``quality_level``, ``min_distance``, ``block_size`` Shi-Tomasi parameters;
+    ``min_eigenvalue`` absolute floor on the Shi-Tomasi score (rejects corners of blank cells);
+    ``illumination_invariant`` use :func:`lk_illumination_invariant` instead of OpenCV's LK.
+    """
+
+    cell: int = 32
+    max_empty_fraction: float = 0.42
+    min_inliers: int = 100
+    win: int = 21
+    levels: int = 4
+    fb_threshold_px: float = 1.0
+    epipolar_threshold_px: float = 1.0
+    quality_level: float = 0.01
+    min_distance: float = 5.0
+    block_size: int = 3
+    min_eigenvalue: float = 1e-4
+    lk_iters: int = 30
+    lk_eps: float = 0.01
+    illumination_invariant: bool = False
+
+    def __post_init__(self):
+        checks = {
+            "cell": self.cell >= 8, "win": self.win >= 3 and self.win % 2 == 1, "levels": self.levels >= 1,
+            "max_empty_fraction": 0.0 <= self.max_empty_fraction <= 1.0, "min_inliers": self.min_inliers >= 0,
+            "fb_threshold_px": self.fb_threshold_px > 0, "epipolar_threshold_px": self.epipolar_threshold_px > 0,
+            "quality_level": 0 < self.quality_level < 1, "min_distance": self.min_distance >= 0,
+            "block_size": self.block_size >= 3 and self.block_size % 2 == 1, "min_eigenvalue": self.min_eigenvalue >= 0,
+            "lk_iters": self.lk_iters >= 1, "lk_eps": self.lk_eps > 0,
+        }
+        for name, good in checks.items():
+            if not good:
+                raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
+                              "(cell>=8, odd win>=3, levels>=1, 0<=max_empty_fraction<=1, thresholds > 0)")
+
+    @property
+    def max_level(self) -> int:
+        """OpenCV ``maxLevel`` (0-based index of the coarsest level)."""
+        return self.levels - 1
+
+
+def is_keyframe(empty_fraction: float, n_inliers: int, config: KltConfig = KltConfig()) -> bool:
+    """Seed 003's criterion: the next frame is a keyframe when the empty-cell fraction exceeds
+    ``max_empty_fraction`` or the PnP inliers are fewer than ``min_inliers``."""
+    return empty_fraction > config.max_empty_fraction or n_inliers < config.min_inliers
+
+
+def detect_in_empty_cells(img: np.ndarray, grid: Grid, existing_pts: np.ndarray,
+                          config: KltConfig = KltConfig()) -> np.ndarray:
+    """One best Shi-Tomasi corner per empty non-border cell -> (M,2) float64 pixels.
+
+    Each cell's sub-image is cut with a margin of ``block_size`` pixels so the corner score near the
+    cell edge uses true neighbours; a mask restricts the corner to the cell; offsets are added back.
+    """
+    out = []
+    m = config.block_size
+    h, w = img.shape[:2]
+    for k in grid.detection_cells(existing_pts):
+        x0, y0, x1, y1 = grid.cell_rect(k)
+        sx0, sy0, sx1, sy1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
+        sub = np.ascontiguousarray(img[sy0:sy1, sx0:sx1])
+        mask = np.zeros(sub.shape, np.uint8)
+        mask[y0 - sy0:y1 - sy0, x0 - sx0:x1 - sx0] = 255
+        c = cv2.goodFeaturesToTrack(sub, maxCorners=1, qualityLevel=config.quality_level,
+                                    minDistance=config.min_distance, mask=mask, blockSize=config.block_size)
+        if c is None:
+            continue
+        u, v = c.reshape(2)
+        eig = cv2.cornerMinEigenVal(sub, config.block_size)[int(round(v)), int(round(u))]
+        if eig >= config.min_eigenvalue:
+            out.append((u + sx0, v + sy0))
+    return np.array(out, dtype=np.float64).reshape(-1, 2)
+
+
+def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig()) -> tuple:
+    """One-directional pyramidal LK -> ``(p1 (N,2), ok (N,))`` (OpenCV, or the illumination-invariant one)."""
+    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
+    if p0.shape[0] == 0:
+        return np.zeros((0, 2)), np.zeros(0, bool)
+    if config.illumination_invariant:
+        return lk_illumination_invariant(img0, img1, p0, config.win, config.levels, config.lk_iters, config.lk_eps)
+    crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
+    p1, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, p0.astype(np.float32).reshape(-1, 1, 2), None,
+                                         winSize=(config.win, config.win), maxLevel=config.max_level,
+                                         criteria=crit)
+    p1 = p1.reshape(-1, 2).astype(np.float64)
+    h, w = img1.shape[:2]
+    ok = st.reshape(-1).astype(bool) & np.all(np.isfinite(p1), axis=1)
+    ok &= (p1[:, 0] >= 0) & (p1[:, 1] >= 0) & (p1[:, 0] <= w - 1) & (p1[:, 1] <= h - 1)
+    return p1, ok
+
+
+def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig()) -> tuple:
+    """LK ``img0 -> img1`` then back; keep points whose round trip ends < ``fb_threshold_px`` from the start.
+
+    Returns ``(p1 (N,2) float64, ok (N,) bool)``.
+    """
+    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
+    p1, ok_f = lk(img0, img1, p0, config)
+    if p0.shape[0] == 0:
+        return p1, ok_f
+    p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config)
+    ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
+    return p1, ok
+
+
+def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,
+               config: KltConfig = KltConfig()) -> tuple:
+    """Left -> right LK with forward-backward and calibrated epipolar checks -> ``(p_right, ok)``."""
+    p_right, ok = track_fb(left, right, p_left, config)
+    if ok.any():
+        ok[ok] &= epipolar_mask(rig, np.asarray(p_left)[ok], p_right[ok], config.epipolar_threshold_px)
+    return p_right, ok
+
+
+class KltTracker:
+    """Frame-to-frame KLT tracks with persistent integer ids on the left image.
+
+    ``pts`` (N,2) current pixel positions, ``ids`` (N,) int64 track ids (never reused).
+    """
+
+    def __init__(self, width: int, height: int, config: KltConfig = KltConfig()):
+        self.config = config
+        self.grid = Grid(width, height, config.cell)
+        self.pts = np.zeros((0, 2))
+        self.ids = np.zeros(0, np.int64)
+        self.image = None
+        self._next_id = 0
+
+    def track(self, img: np.ndarray) -> np.ndarray:
+        """Track all points into ``img`` (forward-backward checked); drop failures. Returns the
+        (N_prev,) bool survival mask over the previous points."""
+        if self.image is None or len(self.pts) == 0:
+            self.image = img
+            ok = np.zeros(len(self.pts), bool)
+            self.pts, self.ids = self.pts[ok], self.ids[ok]
+            return ok
+        p1, ok = track_fb(self.image, img, self.pts, self.config)
+        self.pts, self.ids, self.image = p1[ok], self.ids[ok], img
+        return ok
+
+    def detect(self, img: np.ndarray) -> np.ndarray:
+        """Add one corner per empty non-border cell of ``img``; returns the new ids."""
+        new = detect_in_empty_cells(img, self.grid, self.pts, self.config)
+        ids = np.arange(self._next_id, self._next_id + len(new), dtype=np.int64)
+        self._next_id += len(new)
+        self.pts = np.vstack([self.pts, new])
+        self.ids = np.concatenate([self.ids, ids])
+        self.image = img
+        return ids
+
+    def keep(self, mask: np.ndarray) -> None:
+        """Keep only the tracks where ``mask`` (N,) is True."""
+        self.pts, self.ids = self.pts[mask], self.ids[mask]
+
+    def reset(self) -> None:
+        """Drop every track (ids keep increasing)."""
+        self.keep(np.zeros(len(self.pts), bool))
+
+    @property
+    def empty_fraction(self) -> float:
+        return self.grid.empty_fraction(self.pts)

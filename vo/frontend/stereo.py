@@ -1,0 +1,93 @@
+"""Calibrated stereo geometry for the front-ends: undistortion, fundamental matrix, epipolar check,
+triangulation with cheirality / range / reprojection checks.
+
+Frames: ``c0`` left, ``c1`` right camera (OpenCV); ``T_c0_c1`` from the rig (``p_c0 = T_c0_c1 @ p_c1``).
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from vo.geometry import inv_T, skew
+
+
+def undistort_px(pts: np.ndarray, camera) -> np.ndarray:
+    """(N,2) raw pixels -> (N,2) pixels of the ideal (undistorted) pinhole with the same K."""
+    p = np.asarray(pts, dtype=np.float64).reshape(-1, 2)
+    if p.shape[0] == 0 or not camera.has_distortion:
+        return p.copy()
+    out = cv2.undistortPoints(p.reshape(-1, 1, 2), camera.K, camera.dist_coeffs, P=camera.K)
+    return out.reshape(-1, 2)
+
+
+def normalized(pts_undist_px: np.ndarray, camera) -> np.ndarray:
+    """(N,2) undistorted pixels -> (N,2) normalised image coordinates ``(x/z, y/z)``."""
+    p = np.asarray(pts_undist_px, dtype=np.float64).reshape(-1, 2)
+    return np.column_stack([(p[:, 0] - camera.cx) / camera.fx, (p[:, 1] - camera.cy) / camera.fy])
+
+
+def fundamental_from_rig(rig) -> np.ndarray:
+    """(3,3) F with ``x1^T F x0 = 0`` for undistorted pixels ``x0`` (left) and ``x1`` (right).
+
+    ``E = [t_c1_c0]_x R_c1_c0`` (from ``p_c1 = R_c1_c0 p_c0 + t_c1_c0``), ``F = K1^-T E K0^-1``.
+    """
+    T_c1_c0 = inv_T(rig.T_c0_c1)
+    E = skew(T_c1_c0[:3, 3]) @ T_c1_c0[:3, :3]
+    K0, K1 = rig.cameras[0].K, rig.cameras[1].K
+    return np.linalg.inv(K1).T @ E @ np.linalg.inv(K0)
+
+
+def epipolar_distances(F: np.ndarray, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+    """(N,) symmetric epipolar distance in px: max of (x1 to line F x0) and (x0 to line F^T x1)."""
+    if len(x0) == 0:
+        return np.zeros(0)
+    h0 = np.column_stack([x0, np.ones(len(x0))])
+    h1 = np.column_stack([x1, np.ones(len(x1))])
+    l1 = h0 @ F.T          # lines in the right image
+    l0 = h1 @ F            # lines in the left image
+    num = np.abs(np.sum(h1 * l1, axis=1))
+    d1 = num / np.maximum(np.hypot(l1[:, 0], l1[:, 1]), 1e-12)
+    d0 = num / np.maximum(np.hypot(l0[:, 0], l0[:, 1]), 1e-12)
+    return np.maximum(d0, d1)
+
+
+def epipolar_mask(rig, p_left_px: np.ndarray, p_right_px: np.ndarray, threshold_px: float = 1.0) -> np.ndarray:
+    """(N,) bool: raw left/right pixel pairs whose undistorted points lie within ``threshold_px``
+    of each other's epipolar line (calibrated geometry of ``rig``)."""
+    x0 = undistort_px(p_left_px, rig.cameras[0])
+    x1 = undistort_px(p_right_px, rig.cameras[1])
+    return epipolar_distances(fundamental_from_rig(rig), x0, x1) < threshold_px
+
+
+def triangulate(rig, p_left_px: np.ndarray, p_right_px: np.ndarray, max_depth: float = 80.0,
+                max_reproj_px: float = 1.0) -> tuple:
+    """Triangulate raw left/right pixel pairs -> ``(p_c0 (N,3), ok (N,) bool)``.
+
+    ``cv2.triangulatePoints`` on normalised coordinates with ``P0 = [I|0]``, ``P1 = [R_c1_c0|t_c1_c0]``.
+    ``ok`` requires positive depth in both cameras, left depth <= ``max_depth`` (m) and reprojection error
+    <= ``max_reproj_px`` in both (undistorted) images.
+    """
+    n = len(p_left_px)
+    if n == 0:
+        return np.zeros((0, 3)), np.zeros(0, bool)
+    c0, c1 = rig.cameras[0], rig.cameras[1]
+    x0, x1 = undistort_px(p_left_px, c0), undistort_px(p_right_px, c1)
+    T_c1_c0 = inv_T(rig.T_c0_c1)
+    P0, P1 = np.hstack([np.eye(3), np.zeros((3, 1))]), T_c1_c0[:3, :]
+    X = cv2.triangulatePoints(P0, P1, normalized(x0, c0).T, normalized(x1, c1).T)
+    w = X[3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p_c0 = (X[:3] / np.where(np.abs(w) > 1e-12, w, np.nan)).T
+    p_c1 = p_c0 @ T_c1_c0[:3, :3].T + T_c1_c0[:3, 3]
+    ok = np.all(np.isfinite(p_c0), axis=1) & (p_c0[:, 2] > 1e-6) & (p_c1[:, 2] > 1e-6) & (p_c0[:, 2] <= max_depth)
+    safe0, safe1 = np.where(ok[:, None], p_c0, 1.0), np.where(ok[:, None], p_c1, 1.0)
+    e0 = np.linalg.norm(project(safe0, c0) - x0, axis=1)
+    e1 = np.linalg.norm(project(safe1, c1) - x1, axis=1)
+    ok &= (e0 <= max_reproj_px) & (e1 <= max_reproj_px)
+    return np.where(ok[:, None], p_c0, 0.0), ok
+
+
+def project(p_c: np.ndarray, camera) -> np.ndarray:
+    """(N,3) points in the camera frame -> (N,2) undistorted pixels (pinhole K only)."""
+    z = p_c[:, 2]
+    return np.column_stack([camera.fx * p_c[:, 0] / z + camera.cx, camera.fy * p_c[:, 1] / z + camera.cy])

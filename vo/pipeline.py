@@ -1,0 +1,67 @@
+"""Run an estimator on a dataset and evaluate it against the dataset's ground truth.
+
+Library functions behind ``vo-testbed run``, ``check`` and the README's main job.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+from vo.errors import VoError
+
+
+@dataclass
+class Evaluated:
+    """One estimator's run on one dataset with its evaluation."""
+
+    name: str
+    run: object          # vo.estimators.runner.RunResult
+    evaluation: object   # vo.eval.EvalResult
+    est_world: object    # Trajectory T_w_c0 (anchored at the true first pose)
+
+    def to_dict(self) -> dict:
+        return {"estimator": self.name, "metrics": self.evaluation.to_dict(),
+                "n_frames": len(self.run.frames), "n_lost": self.run.n_lost,
+                "timings_ms": getattr(self.run, "timings", {})}
+
+
+def run_and_evaluate(dataset, estimator: str, out_dir=None, options: Optional[dict] = None,
+                     progress: bool = True, align: str = "first", max_frames=None) -> Evaluated:
+    """Run ``estimator`` on an opened dataset, evaluate against ``dataset.groundtruth_cam0()``."""
+    from vo.eval import evaluate
+    from vo.estimators.runner import run_estimator
+
+    run = run_estimator(estimator, dataset, options=options or {}, progress=progress, max_frames=max_frames)
+    gt = dataset.groundtruth_cam0()
+    if gt is None or len(gt) == 0:
+        raise VoError(f"{dataset.path}: no ground truth to evaluate against")
+    ev = evaluate(gt, run.trajectory, gcps=dataset.gcps, align=align)
+    label = estimator if "/" not in estimator else Path(estimator).name
+    result = Evaluated(label, run, ev, getattr(ev, "est_aligned", run.trajectory))
+    if out_dir is not None:
+        out = Path(out_dir)
+        run.save(out)
+        _write_json(out / "metrics.json", result.to_dict())
+    return result
+
+
+def _write_json(path: Path, obj) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(json.dumps(obj, indent=2, sort_keys=True, default=_default))
+    os.replace(tmp, path)
+
+
+def _default(o):
+    import numpy as np
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    if dataclasses.is_dataclass(o):
+        return dataclasses.asdict(o)
+    return str(o)
