@@ -77,7 +77,6 @@ def test_rotated_rig_poses_are_of_rectified_camera(tmp_path):
     from vo.geometry import make_T
     s = Synth()
     s.rig = make_rig(parallel=False)
-    s.T_w_c0 = s.T_w_c0  # same left camera truth; rectification rotates r0 away from c0
     s.write(KittiWriter(tmp_path / "k", s.rig, s.metadata))
     R0 = stereo_rectify(s.rig).R0_rect
     assert np.linalg.norm(R0 - np.eye(3)) > 1e-3                         # really rotated

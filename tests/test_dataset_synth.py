@@ -60,7 +60,7 @@ class Synth:
         self.depth = [np.abs(rng.normal(5, 1, (H, W))).astype(np.float32) for _ in range(n_frames)]
         self.seg = [np.stack([rng.integers(-1, 300, (H, W)), rng.integers(0, 2, (H, W))], axis=-1)
                     for _ in range(n_frames)]
-        self.metadata = {"scene": {"name": "synthetic", "seed": seed}, "seed": seed, "rig": "synth",
+        self.metadata = {"scene": {"name": "synthetic", "seed": seed}, "seed": seed,
                          "imu": {"noise": "none"}, "versions": {"testbed": "0.1.0"}}
 
     def write(self, writer, frames=None, with_depth=False, with_seg=False, finalize=True):

@@ -123,3 +123,12 @@ def test_kitti_lengths_scaled_to_short_route():
     assert scaled and np.allclose(lengths, [5, 10, 15, 20, 25, 30, 35, 40], atol=1e-9)
     r = kitti_errors(gt, _line(501, step=0.1, scale=0.98))
     assert r.scaled and r.t_err_pct == pytest.approx(2.0, rel=0.02)   # overshoot < 0.1 m in >= 5 m: 2%
+
+
+def test_kitti_rotational_error_of_constant_heading_drift():
+    gt = _line(2001, step=0.1)                                 # 200 m straight
+    eps = np.radians(0.01)                                     # heading error grows 0.01 deg per metre
+    R = np.array([rot_z(eps * s) for s in gt.positions[:, 0]])
+    r = kitti_errors(gt, _from_positions(gt.positions, R, dt_ns=S), lengths=[50.0, 100.0])
+    # angle(delta) = eps * chord, chord in (len, len + 0.1 m]: r_err = 0.01 deg/m to 0.1 %
+    assert r.r_err_deg_per_m == pytest.approx(0.01, rel=2e-3)

@@ -41,7 +41,7 @@ def run_and_evaluate(dataset, estimator: str, out_dir=None, options: Optional[di
         raise VoError(f"{dataset.path}: no ground truth to evaluate against")
     ev = evaluate(gt, run.trajectory, gcps=dataset.gcps, align=align)
     label = estimator if "/" not in estimator else Path(estimator).name
-    result = Evaluated(label, run, ev, getattr(ev, "est_aligned", run.trajectory))
+    result = Evaluated(label, run, ev, ev.aligned_est)
     if out_dir is not None:
         out = Path(out_dir)
         run.save(out)

@@ -5,6 +5,7 @@ Only parses arguments and calls :mod:`vo.eval`; never imports mujoco.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import click
@@ -22,6 +23,17 @@ def _read_gcps(path):
     if not gcps:
         raise DatasetError(f"{path}: no GCP rows (expected #name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z)")
     return gcps
+
+
+def _finite_or_none(obj):
+    """Replace NaN/inf floats (e.g. no KITTI segment fits) by None so the output is strict JSON."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite_or_none(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite_or_none(v) for v in obj]
+    return obj
 
 
 def _write_plots(result, gcps, out_dir: Path) -> list:
@@ -56,9 +68,9 @@ def eval_cmd(gt_path, est_path, fmt, align, gcps_path, max_diff_ms, rpe_delta_m,
                       rpe_delta_m=rpe_delta_m)
     plots = _write_plots(result, gcps, Path(plot_dir)) if plot_dir else []
     if as_json:
-        d = result.to_dict()
+        d = _finite_or_none(result.to_dict())
         d["plots"] = [str(p) for p in plots]
-        click.echo(json.dumps(d, indent=2, sort_keys=True, allow_nan=True))
+        click.echo(json.dumps(d, indent=2, sort_keys=True, allow_nan=False))
         return
     click.echo(result.table())
     for p in plots:

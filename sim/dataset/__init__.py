@@ -14,3 +14,7 @@ def resume_state(out_dir) -> int:
     if (out_dir / "kitti_frames.csv").exists():
         return kitti_resume_state(out_dir)
     return 0
+
+
+__all__ = ["EurocWriter", "KittiWriter", "DatasetWriters", "write_tum_groundtruth", "resume_state",
+           "euroc_resume_state", "kitti_resume_state"]

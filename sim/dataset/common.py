@@ -82,10 +82,13 @@ def prepare_folder(out_dir, metadata: dict, overwrite: bool) -> tuple[Path, bool
     return out_dir, resuming
 
 
-def finalize_folder(out_dir: Path, metadata: dict, counts: dict) -> None:
-    """Write ``metadata.yaml`` (caller config + counts + ``status: complete``), then drop the marker."""
-    from rigs.io_yaml import dump_yaml, write_text_atomic
+def finalize_folder(out_dir: Path, metadata: dict, counts: dict, rig) -> None:
+    """Write ``metadata.yaml`` (caller config + ``rig`` as rig_to_dict unless the caller gave one +
+    counts + ``status: complete``), then drop the marker."""
+    from rigs.io_yaml import dump_yaml, rig_to_dict, write_text_atomic
     meta = dict(_plain(metadata))
+    if "rig" not in meta:
+        meta["rig"] = rig_to_dict(rig)
     meta.update({k: int(v) for k, v in counts.items()})
     meta["status"] = "complete"
     write_text_atomic(out_dir / METADATA, dump_yaml(meta))

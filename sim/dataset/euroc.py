@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.dataset.common import (CsvStream, MARKER, config_hash, finalize_folder, fmt_float, prepare_folder,
+from sim.dataset.common import (CsvStream, config_hash, finalize_folder, fmt_float, prepare_folder,
                                 write_marker, write_npy, write_png)
 from sim.errors import SimError
 
@@ -225,7 +225,7 @@ class EurocWriter:
         counts = {"n_frames": self._cams[0].rows, "n_imu": self._imu.rows, "n_groundtruth": self._gt.rows,
                   "n_gcps": len(self._gcps)}
         meta = dict(self.metadata, format="euroc")
-        finalize_folder(self.out_dir, meta, counts)
+        finalize_folder(self.out_dir, meta, counts, self.rig)
         self.finalized = True
         return self.out_dir
 

@@ -125,7 +125,7 @@ class KittiWriter:
         self._truth.path.unlink()
         meta = dict(self.metadata, format="kitti", kitti={"sequence": self.sequence, "t0_ns": t0})
         finalize_folder(self.out_dir, meta, {"n_frames": len(t_frames), "n_poses": n_poses,
-                                             "n_gcps": len(self._gcps)})
+                                             "n_gcps": len(self._gcps)}, self.rig)
         self.finalized = True
         return self.out_dir
 

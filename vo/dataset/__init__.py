@@ -2,3 +2,5 @@
 from vo.dataset.types import Gcp, ImuData, StereoFrame  # noqa: F401
 from vo.dataset.base import Dataset  # noqa: F401
 from vo.dataset.open import open_dataset  # noqa: F401
+
+__all__ = ["Dataset", "Gcp", "ImuData", "StereoFrame", "open_dataset"]

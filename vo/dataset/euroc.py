@@ -36,7 +36,6 @@ def pair_cameras(mav0: Path) -> tuple[np.ndarray, list, list]:
 
 def real_euroc_rig(mav0: Path, name: str):
     """Rig from cam0/cam1/imu0 sensor.yaml (body = EuRoC body B, the IMU frame)."""
-    import dataclasses
     from rigs.calib_io import read_euroc_camera_yaml, read_euroc_imu_yaml
     from rigs.model import Rig
     cams, rate = [], None

@@ -175,14 +175,20 @@ class KltPnpEstimator(_StereoPnpEstimator):
 
 class OrbPnpEstimator(_StereoPnpEstimator):
     """Descriptor stereo VO (seed 003's baseline). Options: ``frontend`` "orb" | "sift",
-    ``descriptor_config`` (:class:`DescriptorConfig`), ``klt_config`` (grid / keyframe thresholds), ``pnp_config``."""
+    ``descriptor_config`` (:class:`DescriptorConfig`), ``klt_config`` (grid / keyframe thresholds), ``pnp_config``,
+    ``keyframe_criterion``: "inliers" (default; seed 003 section 6: the descriptor pipeline selects keyframes by
+    key point number, i.e. PnP inliers < ``min_inliers``) or "grid" (also the empty-cell fraction; descriptor
+    key points cluster on strong corners, so this makes nearly every frame a keyframe)."""
 
     name = "orb-pnp"
 
     def __init__(self, rig, frontend: str = "orb", descriptor_config: DescriptorConfig | None = None,
-                 klt_config: KltConfig | None = None, **options):
+                 klt_config: KltConfig | None = None, keyframe_criterion: str = "inliers", **options):
         if frontend not in ("orb", "sift"):
             raise EstimatorError(f"orb-pnp: frontend {frontend!r} not supported; valid: orb, sift")
+        if keyframe_criterion not in ("inliers", "grid"):
+            raise EstimatorError(f"orb-pnp: keyframe_criterion {keyframe_criterion!r} unknown; valid: inliers, grid")
+        self.keyframe_criterion = keyframe_criterion
         super().__init__(rig, **options)
         self.frontend = frontend
         self.desc_config = descriptor_config or DescriptorConfig()
@@ -217,7 +223,7 @@ class OrbPnpEstimator(_StereoPnpEstimator):
         n_inl = int(inl.sum())
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} matched")
-        empty = self.grid.empty_fraction(p_l[ij[inl, 1]])
+        empty = self.grid.empty_fraction(p_l[ij[inl, 1]]) if self.keyframe_criterion == "grid" else 0.0
         if not is_keyframe(empty, n_inl, self.klt_config):
             return self._result(t_ns, "ok", n_feat, n_inl)
         n_new = self._initialize(left, right, timings, left_features=(p_l, d_l))

@@ -45,7 +45,7 @@ class EvalResult:
         lines += [f"drift               end diff {d.end_diff_m:.3f} m over {d.gt_length_m:.3f} m gt path "
                   f"({d.drift_ratio_pct:.2f} %); est path {d.est_length_m:.3f} m",
                   f"KITTI               t_err {k.t_err_pct:.3f} %  r_err {k.r_err_deg_per_m:.5f} deg/m  "
-                  f"({k.n_segments} segments, lengths {', '.join(f'{v:g}' for v in k.lengths_m)} m"
+                  f"({k.n_segments} segments, lengths {', '.join(f'{v:.2f}' for v in k.lengths_m)} m"
                   f"{', scaled to route' if k.scaled else ''})"]
         if self.gcps is not None:
             lines += ["", self.gcps.text()]

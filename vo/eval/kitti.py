@@ -39,7 +39,8 @@ class KittiResult:
 
 
 def route_lengths(path_length_m: float) -> tuple[tuple, bool]:
-    """Devkit lengths 100..800 m if the route is at least 800 m long, else 10%..80% of the route."""
+    """Devkit lengths 100..800 m if the route is at least 800 m long, else 10%..80% of the route
+    (a zero-length route gives no lengths: :func:`kitti_errors` then reports NaN)."""
     if path_length_m >= KITTI_LENGTHS_M[-1]:
         return KITTI_LENGTHS_M, False
     return tuple(float(path_length_m * f / 10.0) for f in range(1, 9)), True
@@ -64,8 +65,10 @@ def kitti_errors(gt: Trajectory, est: Trajectory, lengths=None, step_size: int =
     scaled = False
     if lengths is None:
         lengths, scaled = route_lengths(float(dist[-1]))
+        if dist[-1] <= 0:                                  # standing still: no segment, NaN errors
+            lengths = ()
     lengths = tuple(float(v) for v in lengths)
-    if not lengths or min(lengths) <= 0:
+    if (not lengths and not scaled) or (lengths and min(lengths) <= 0):
         raise VoError(f"kitti_errors: segment lengths must be positive, got {lengths}")
     seg = []
     for first in range(0, len(gt), step_size):

@@ -324,6 +324,8 @@ def adjust_rops(rops: RopSet, initial: Optional[InitialEops] = None,
     init = initial if initial is not None else initial_eops(rops)
     if len(rops.ok_pairs) < 2:
         return _degenerate(init, f"{len(rops.ok_pairs)} usable ROP(s) < 2")
+    if init.degenerate:
+        return _degenerate(init, init.message)
     rot = adjust_rotations(rops, init.R_1_3, config)
     R3, R4 = rot.x
     tra = adjust_translations(rops, R3, init.t_1_3, init.t_1_4, config)

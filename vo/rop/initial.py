@@ -21,8 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vo.errors import EstimatorError
 from vo.geometry import make_T
 from vo.rop.ropset import RopSet
+
+MODES = ("network", "minimal")
 
 
 @dataclass(frozen=True)
@@ -59,22 +62,21 @@ def chordal_mean(Rs, weights) -> np.ndarray:
     return project_to_so3(np.einsum("k,kij->ij", np.asarray(weights, float), np.asarray(Rs, float)))
 
 
-def rotation_candidates(rops: RopSet) -> tuple[list, list]:
-    """Estimates of ``R_1_3`` (one per ok ROP) and their weights."""
+def rotation_candidates(rops: RopSet, pairs: tuple) -> tuple[list, list]:
+    """Estimates of ``R_1_3`` (one per pair in ``pairs``) and their weights."""
     R12, R34 = rops.R_1_2, rops.R_1_2  # R_3_4 = R_1_2 (same calibrated rig)
     w = rops.weights()
     via = {"13": lambda R: R, "23": lambda R: R12 @ R,
            "14": lambda R: R @ R34.T, "24": lambda R: R12 @ R @ R34.T}
-    Rs = [via[p](rops.rops[p].R_i_j) for p in rops.ok_pairs]
-    return Rs, [w[p] for p in rops.ok_pairs]
+    Rs = [via[p](rops.rops[p].R_i_j) for p in pairs]
+    return Rs, [w[p] for p in pairs]
 
 
-def intersect_rays(rops: RopSet, R_1_3: np.ndarray) -> tuple[np.ndarray, dict, float]:
+def intersect_rays(rops: RopSet, R_1_3: np.ndarray, pairs: tuple) -> tuple[np.ndarray, dict, float]:
     """Least-squares intersection -> ``c3`` (3,), ray lengths per pair, conditioning."""
     c2, o34 = rops.t_1_2, R_1_3 @ rops.t_1_2            # t_3_4 = t_1_2 (calibrated rig)
     origin = {"13": np.zeros(3), "23": c2, "14": -o34, "24": c2 - o34}   # c3 - s d = origin
     w = rops.weights()
-    pairs = rops.ok_pairs
     M = np.zeros((3 * len(pairs), 3 + len(pairs)))
     b = np.zeros(3 * len(pairs))
     for k, p in enumerate(pairs):
@@ -90,17 +92,25 @@ def intersect_rays(rops: RopSet, R_1_3: np.ndarray) -> tuple[np.ndarray, dict, f
     return x[:3], {p: float(x[3 + k]) for k, p in enumerate(pairs)}, float(s[-1] / s[0])
 
 
-def initial_eops(rops: RopSet, min_conditioning: float = 1e-3) -> InitialEops:
-    """Initial EOPs of images 3 and 4 in C_1 (see the module docstring for the formulation)."""
-    if not rops.ok_pairs:
+def initial_eops(rops: RopSet, min_conditioning: float = 1e-3, mode: str = "network") -> InitialEops:
+    """Initial EOPs of images 3 and 4 in C_1 (see the module docstring for the formulation).
+
+    ``mode="network"`` uses every ok ROP; ``"minimal"`` only ROP 1-3 for the rotation and the rays
+    1-3, 2-3 for ``c3`` (the simplest reading of seed 000; the baseline for Fig. 5's claim)."""
+    if mode not in MODES:
+        raise EstimatorError(f"initial_eops.mode: {mode!r}; valid: {', '.join(MODES)}")
+    pairs = rops.ok_pairs if mode == "network" else tuple(p for p in ("13", "23") if p in rops.ok_pairs)
+    if mode == "minimal" and pairs != ("13", "23"):
+        pairs = rops.ok_pairs
+    if not pairs:
         I = np.eye(3)
         return InitialEops(I, rops.R_1_2, np.zeros(3), rops.t_1_2, {}, 0.0, True, "no usable ROP")
-    R_1_3 = chordal_mean(*rotation_candidates(rops))
-    c3, lengths, cond = intersect_rays(rops, R_1_3)
+    R_1_3 = chordal_mean(*rotation_candidates(rops, pairs[:1] if mode == "minimal" else pairs))
+    c3, lengths, cond = intersect_rays(rops, R_1_3, pairs)
     degenerate = cond < min_conditioning
     msg = (f"rays nearly parallel (conditioning {cond:.2e} < {min_conditioning:.0e}): "
            "motion along the baseline or too small" if degenerate else "")
-    if len(lengths) and min(lengths.values()) < -0.25 * rops.baseline:
+    if not degenerate and len(lengths) and min(lengths.values()) < -0.25 * rops.baseline:
         degenerate, msg = True, f"ray intersection behind a camera (lengths {lengths})"
     R_1_4 = R_1_3 @ rops.R_1_2
     return InitialEops(R_1_3, R_1_4, c3, c3 + R_1_3 @ rops.t_1_2, lengths, cond, degenerate, msg)

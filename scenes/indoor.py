@@ -1,0 +1,171 @@
+"""Seed 000's indoor test field: a 16 m x 12 m floor, ~21 m open route, GCPs P01..P03.
+
+World frame: the floor spans x in [0, 16], y in [0, 12] (z up, floor at z = 0, ceiling at 3 m).
+Rooms: south-west room S1 (y < 5, x < 8), south-east S2, a corridor (5 < y < 7.5), north-west
+room N1 (x < 6) and north-east room N2.  The route starts in S1 heading east, turns north through a
+2.6 m doorway into the corridor, east along it, north through a doorway into N2 and west along
+y = 10 towards two plain white walls (the north wall 1.9 m away and the N1/N2 partition ahead):
+as in the paper, P03 lies where the only thing in view is a texture-poor white wall < 2 m away.
+Those walls use an untextured white material at every ``texture_richness``.
+
+Doorways are 2.2 m high, so the free corridor checked around the route is 1 m each side up to
+``corridor_height_m = 2.1`` m (the paper's cart and cameras are below 1.5 m).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from scenes.base import GcpSite, Route
+from scenes.built import BuiltScene
+from scenes.routes import point_at, resample, rounded_polyline
+
+ROOM = (16.0, 12.0)
+CEILING = 3.0
+WALL_T = 0.2
+DOOR_H = 2.2
+ROUTE_CORNERS = ((1.8, 2.5), (6.25, 2.5), (6.25, 6.25), (12.0, 6.25), (12.0, 10.0), (7.2, 10.0))
+
+
+class IndoorScene(BuiltScene):
+    """Rooms, corridor, doorways, furniture, posters, a calibration board and white walls."""
+
+    name = "indoor"
+    corridor_half_width_m = 1.0
+    corridor_height_m = 2.1
+
+    def __init__(self, config):
+        super().__init__(config)
+        self._path = rounded_polyline(ROUTE_CORNERS, 1.0, step=0.05, closed=False)
+
+    @property
+    def path_xy(self) -> np.ndarray:
+        return self._path
+
+    @property
+    def route(self) -> Route:
+        wp = resample(self._path, 0.75, closed=False)
+        return Route(tuple(map(tuple, wp.round(4))), closed=False, cruise_speed_mps=0.8, accel_mps2=0.4)
+
+    @property
+    def gcp_sites(self) -> tuple:
+        L = self.route_length()
+        xy = point_at(self._path, [3.0, 10.5, L - 1.5], closed=False)
+        return tuple(GcpSite(f"P{k + 1:02d}", float(x), float(y)) for k, (x, y) in enumerate(xy.round(3)))
+
+    def extent_xy(self) -> tuple:
+        return (-1.0, ROOM[0] + 1.0, -1.0, ROOM[1] + 1.0)
+
+    # ------------------------------------------------------------------ build
+    def _build(self, b) -> None:
+        rng = self.rng("layout")
+        b.visual_defaults(ambient=0.45, headlight=0.25)
+        b.light("ceiling_a", (8, 6, 2.9), (0.2, 0.3, -1.0), diffuse=0.35)
+        b.light("ceiling_b", (8, 6, 2.9), (-0.3, -0.2, -1.0), diffuse=0.25)
+        b.plane("floor", (8, 6, 0), (8, 6), b.material("carpet", plane_tile_m=1.5))
+        b.box("ceiling", (8, 6, CEILING + 0.05), (8.2, 6.2, 0.05), b.flat_material("ceiling", (0.9, 0.9, 0.88, 1)),
+              category="ceiling")
+        for k, (x, y) in enumerate(((3, 2.5), (12, 2.5), (4, 6.25), (10, 6.25), (9, 9.8), (13.5, 9.8))):
+            b.box(f"ceiling_light{k}", (x, y, CEILING - 0.01), (0.6, 0.3, 0.01),
+                  b.flat_material("lamp", (1, 1, 0.95, 1), emission=0.8), category="ceiling")
+        self._walls(b, rng)
+        self._furniture(b, rng)
+        self._decor(b, rng)
+
+    def _wall(self, b, name, p0, p1, mat, doors=(), tile_m=3.0):
+        """Wall of thickness WALL_T from p0 to p1 (x-y), with door gaps (t0, t1) in metres along it."""
+        p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+        L = np.linalg.norm(p1 - p0)
+        u = (p1 - p0) / L
+        yaw = float(np.arctan2(u[1], u[0]))
+        cuts = [0.0] + [t for d in doors for t in d] + [L]
+        for k in range(0, len(cuts), 2):
+            a, c = cuts[k], cuts[k + 1]
+            if c - a > 1e-6:
+                ctr = p0 + u * (a + c) / 2
+                b.box(f"{name}/seg{k // 2}", (*ctr, CEILING / 2), ((c - a) / 2, WALL_T / 2, CEILING / 2), mat,
+                      yaw=yaw, tile_m=tile_m, category="wall")
+        for k, (a, c) in enumerate(doors):
+            ctr = p0 + u * (a + c) / 2
+            b.box(f"{name}/lintel{k}", (*ctr, (DOOR_H + CEILING) / 2), ((c - a) / 2, WALL_T / 2, (CEILING - DOOR_H) / 2),
+                  mat, yaw=yaw, tile_m=tile_m, category="wall")
+            for j, t in enumerate((a, c)):
+                q = p0 + u * t
+                b.box(f"{name}/frame{k}_{j}", (*q, DOOR_H / 2), (0.04, WALL_T / 2 + 0.02, DOOR_H / 2),
+                      b.material("wood", variant=3), yaw=yaw, tile_m=1.0, category="wall")
+
+    def _walls(self, b, rng):
+        W, H = ROOM
+        h = WALL_T / 2
+        white = b.flat_material("white_wall", (0.93, 0.93, 0.91, 1))
+        plaster = [b.material("plaster", variant=k) for k in range(3)]
+        self._wall(b, "wall/south", (-2 * h, -h), (W + 2 * h, -h), plaster[0])
+        self._wall(b, "wall/west", (-h, 0), (-h, H), plaster[1])
+        self._wall(b, "wall/east", (W + h, 0), (W + h, H), plaster[1])
+        self._wall(b, "wall/north_n1", (-2 * h, H + h), (6.0, H + h), plaster[2])
+        self._wall(b, "wall/north_n2", (6.0, H + h), (W + 2 * h, H + h), white)        # near P03
+        self._wall(b, "wall/corridor_s", (0, 5.0), (W, 5.0), plaster[2], doors=((4.95, 7.55), (12.0, 13.2)))
+        self._wall(b, "wall/corridor_n", (0, 7.5), (W, 7.5), plaster[0], doors=((2.0, 3.2), (10.7, 13.3)))
+        self._wall(b, "wall/s1_s2", (8.0, 0.0), (8.0, 5.0 - h), plaster[1], doors=((1.5, 2.7),))
+        self._wall(b, "wall/n1_n2", (6.0, 7.5 + h), (6.0, H), white)                    # ahead at the end
+
+    def _desk(self, b, part, xy, yaw, rng):
+        top = b.material("wood", variant=int(rng.integers(4, 7)))
+        b.box(part + "/top", (*xy, 0.74), (0.7, 0.38, 0.02), top, yaw=yaw, tile_m=1.2, category="furniture")
+        c, s = np.cos(yaw), np.sin(yaw)
+        for j, (dx, dy) in enumerate(((-0.65, -0.33), (0.65, -0.33), (-0.65, 0.33), (0.65, 0.33))):
+            q = np.asarray(xy) + (c * dx - s * dy, s * dx + c * dy)
+            b.box(part + f"/leg{j}", (*q, 0.36), (0.025, 0.025, 0.36), b.material("concrete", variant=5),
+                  tile_m=1.0, category="furniture")
+        if rng.random() < 0.8:                                   # monitor / box of papers on the desk
+            b.box(part + "/item", (*xy, 0.95), (0.28, 0.04, 0.19),
+                  b.material("poster", variant=int(rng.integers(30, 36))), yaw=yaw, tile_m=0.6,
+                  category="furniture")
+
+    def _shelf(self, b, part, xy, yaw, rng, width=1.8, height=2.0):
+        b.box(part, (*xy, height / 2), (width / 2, 0.2, height / 2),
+              b.material("poster", variant=int(rng.integers(40, 44))), yaw=yaw, tile_m=max(width, height),
+              category="furniture")
+
+    def _furniture(self, b, rng):
+        # S1: desks along the south wall, shelves along the corridor wall, cabinet, calibration board
+        for k, x in enumerate((1.2, 2.8, 4.4)):
+            self._desk(b, f"s1/desk{k}", (x, 0.6), 0.0, rng)
+        for k, x in enumerate((1.2, 3.2)):
+            self._shelf(b, f"s1/shelf{k}", (x, 4.65), np.pi, rng)
+        b.box("s1/cabinet", (7.45, 0.6, 0.65), (0.3, 0.45, 0.65), b.material("wood", variant=7),
+              tile_m=1.3, category="furniture")
+        b.box("s1/calib_board", (7.75, 3.6, 1.45), (0.01, 0.45, 0.45), b.material("checkerboard"),
+              tile_m=0.9, category="furniture")
+        b.box("s1/calib_stand", (7.78, 3.6, 0.5), (0.02, 0.03, 0.5), b.material("concrete", variant=5),
+              tile_m=1.0, category="furniture")
+        # corridor: boxes and a cabinet at the ends (outside the route corridor)
+        for k in range(4):
+            x = rng.uniform(14.0, 15.6)
+            y = rng.uniform(5.5, 7.0)
+            s = rng.uniform(0.2, 0.35)
+            b.box(f"corridor/box{k}", (x, y, s * (1 + k % 2)), (s, s, s * (1 + k % 2)),
+                  b.material("noise", variant=k), yaw=float(rng.uniform(0, np.pi)), tile_m=0.8,
+                  category="furniture")
+        b.box("corridor/cabinet", (0.6, 6.2, 0.9), (0.3, 0.9, 0.9), b.material("wood", variant=8),
+              tile_m=1.8, category="furniture")
+        # N2: desks, shelves on the east wall
+        for k, (x, y) in enumerate(((14.2, 8.5), (14.2, 10.8), (8.0, 8.2), (9.6, 8.2))):
+            self._desk(b, f"n2/desk{k}", (x, y), 0.0 if k >= 2 else np.pi / 2, rng)
+        self._shelf(b, "n2/shelf0", (15.7, 9.8), np.pi / 2, rng, width=2.4)
+        # S2 (seen through the doorways): shelves and boxes
+        self._shelf(b, "s2/shelf0", (12.0, 0.3), 0.0, rng, width=3.0)
+        b.box("s2/boxes", (10.0, 3.6, 0.4), (0.5, 0.4, 0.4), b.material("noise", variant=5), tile_m=1.0,
+              category="furniture")
+
+    def _decor(self, b, rng):
+        """Posters and notice boards on the textured walls (never on the white ones)."""
+        hi, ho = WALL_T / 2 + 0.011, 0.011                 # inner walls are centred on their line
+        spots = ((3.0, ho, 0.0), (5.8, ho, 0.0), (ho, 3.0, np.pi / 2), (8.0 - hi, 3.9, np.pi / 2),
+                 (2.5, 5.0 - hi, 0.0), (9.5, 5.0 + hi, 0.0), (14.5, 5.0 + hi, 0.0),
+                 (5.0, 7.5 - hi, 0.0), (8.5, 7.5 - hi, 0.0), (15.0, 7.5 - hi, 0.0),
+                 (9.0, 7.5 + hi, 0.0), (16.0 - ho, 8.3, np.pi / 2))
+        for k, (x, y, yaw) in enumerate(spots):
+            w, hh = rng.uniform(0.3, 0.6), rng.uniform(0.4, 0.7)
+            b.box(f"decor/poster{k}", (x, y, rng.uniform(1.4, 1.8)), (w, 0.01, hh),
+                  b.material("poster", variant=int(rng.integers(0, 12))), yaw=yaw, tile_m=2 * max(w, hh),
+                  category="decor")

@@ -1,0 +1,59 @@
+"""The README's main job: generate a scenario, run the estimators, print seed 000's Table 4, plot."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+DEFAULT_ESTIMATORS = ("rop", "klt-pnp", "orb-pnp")
+
+
+@dataclass
+class DemoResult:
+    scenario: str
+    dataset: str
+    out_dir: str
+    results: dict = field(default_factory=dict)      # estimator -> vo.pipeline.Evaluated
+    errors: dict = field(default_factory=dict)       # estimator -> message (an estimator that failed)
+    plots: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {"scenario": self.scenario, "dataset": self.dataset, "out_dir": self.out_dir,
+                "results": {k: v.to_dict() for k, v in self.results.items()}, "errors": self.errors,
+                "plots": self.plots}
+
+    def text(self) -> str:
+        parts = [f"scenario {self.scenario}: dataset {self.dataset}"]
+        for name, res in self.results.items():
+            ev = res.evaluation
+            parts += ["", f"=== {name} ===", ev.gcps.text() if ev.gcps is not None else "", ev.table()]
+        for name, msg in self.errors.items():
+            parts += ["", f"=== {name} === FAILED: {msg}"]
+        parts += ["", "plots: " + ", ".join(self.plots)]
+        return "\n".join(parts)
+
+
+def run_demo(scenario: str = "campus", estimators=DEFAULT_ESTIMATORS, out_dir="out/demo", progress: bool = True,
+             max_frames=None) -> DemoResult:
+    """Generate (cached) ``scenario``, run each estimator, evaluate, and plot all against the truth."""
+    from sim.scenarios import cached_dataset, get_scenario
+    from vo.dataset import open_dataset
+    from vo.errors import VoError
+    from vo.eval.plots import plot_error_vs_distance, plot_topdown
+    from vo.pipeline import run_and_evaluate
+
+    out = Path(out_dir)
+    path = cached_dataset(get_scenario(scenario), progress=progress)
+    ds = open_dataset(path)
+    demo = DemoResult(scenario, str(path), str(out))
+    for name in estimators:
+        try:
+            demo.results[name] = run_and_evaluate(ds, name, out_dir=out / name, progress=progress,
+                                                  max_frames=max_frames)
+        except VoError as e:
+            demo.errors[name] = str(e)
+    if demo.results:
+        gt = next(iter(demo.results.values())).evaluation.gt_matched
+        ests = {k: v.evaluation.aligned_est for k, v in demo.results.items()}
+        demo.plots.append(str(plot_topdown(ests, ds.groundtruth_cam0(), ds.gcps, out / "topdown.png")))
+        demo.plots.append(str(plot_error_vs_distance(gt, ests, out / "error_vs_distance.png")))
+    return demo

@@ -1,0 +1,136 @@
+"""Run an estimator over a dataset (reader API) and save its trajectory, per-frame log and summary."""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from vo.errors import EstimatorError, VoError
+from vo.estimators.base import STATUSES, FrameResult
+from vo.estimators.registry import ExternalCommand, is_external, make_estimator
+from vo.trajectory import Trajectory
+from vo.trajfile import read_tum, write_kitti, write_tum
+
+LOST_STATUSES = ("few_features", "lost")
+STAGES = ("detect", "track", "stereo", "pnp", "total")
+
+
+@dataclass
+class RunResult:
+    """``trajectory`` of ``T_o_c0`` (ref "o", frame "c0"); ``frames`` per-frame results (empty for external
+    commands); ``timings_ms`` mean ms per stage over frames; ``n_lost`` frames with status few_features/lost."""
+
+    name: str
+    trajectory: Trajectory
+    frames: list = field(default_factory=list)
+    timings_ms: dict = field(default_factory=dict)
+    n_lost: int = 0
+    wall_time_s: float = 0.0
+
+    def summary(self) -> dict:
+        counts = {s: 0 for s in STATUSES}
+        for f in self.frames:
+            counts[f.status] = counts.get(f.status, 0) + 1
+        return {"estimator": self.name, "n_frames": len(self.trajectory), "n_lost": self.n_lost,
+                "status_counts": counts, "mean_ms": {k: round(v, 3) for k, v in self.timings_ms.items()},
+                "wall_time_s": round(self.wall_time_s, 3), "path_length_m": round(self.trajectory.path_length, 4)}
+
+    def save(self, out_dir) -> Path:
+        """Write ``trajectory_tum.txt``, ``trajectory_kitti.txt`` (+ ``times.txt``), ``frames.csv``,
+        ``summary.json`` into ``out_dir`` (each written to a temporary name, then renamed)."""
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        write_tum(out / "trajectory_tum.txt", self.trajectory)
+        write_kitti(out / "trajectory_kitti.txt", self.trajectory, times_path=out / "times.txt")
+        _atomic_write(out / "frames.csv", self._frames_csv())
+        _atomic_write(out / "summary.json", json.dumps(self.summary(), indent=2) + "\n")
+        return out
+
+    def _frames_csv(self) -> str:
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["t_ns", "status", "n_features", "n_inliers", "message"] + [f"{s}_ms" for s in STAGES])
+        for f in self.frames:
+            w.writerow([f.t_ns, f.status, f.n_features, f.n_inliers, f.message]
+                       + [f"{f.timings_ms.get(s, 0.0):.3f}" for s in STAGES])
+        return buf.getvalue()
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def run_estimator(spec: str, dataset, options: dict | None = None, progress: bool = True,
+                  max_frames: int | None = None) -> RunResult:
+    """Run ``spec`` (name, ``module:Class`` or ``cmd:...``) on ``dataset`` -> :class:`RunResult`."""
+    if max_frames is not None and max_frames < 1:
+        raise EstimatorError(f"max_frames: must be >= 1, got {max_frames!r}")
+    if is_external(spec):
+        return _run_external(spec, dataset)
+    t0 = time.perf_counter()
+    est = make_estimator(spec, dataset.rig, **(options or {}))
+    est.set_imu(getattr(dataset, "imu", None))
+    n = len(dataset) if max_frames is None else min(len(dataset), max_frames)
+    frames = []
+    for frame in _progress(dataset.frames(), n, progress, est.name or spec):
+        if len(frames) >= n:
+            break
+        frames.append(_checked(est, frame, frames[-1] if frames else None))
+    if not frames:
+        raise EstimatorError(f"{spec}: dataset has no frames")
+    traj = Trajectory(np.array([f.t_ns for f in frames], np.int64), np.array([f.T_o_c0 for f in frames]), "o", "c0")
+    stages = sorted({k for f in frames for k in f.timings_ms})
+    timings = {k: float(np.mean([f.timings_ms.get(k, 0.0) for f in frames])) for k in stages}
+    n_lost = sum(f.status in LOST_STATUSES for f in frames)
+    return RunResult(est.name or spec, traj, frames, timings, n_lost, time.perf_counter() - t0)
+
+
+def _checked(est, frame, last: FrameResult | None) -> FrameResult:
+    """Call ``est.process``; wrap foreign exceptions; enforce a finite 4x4 pose and a known status."""
+    try:
+        res = est.process(frame)
+    except VoError:
+        raise
+    except Exception as e:  # a plug-in's bug: report it with the frame, one line
+        raise EstimatorError(f"{est.name or type(est).__name__}: frame {frame.index} (t_ns={frame.t_ns}) "
+                             f"raised {type(e).__name__}: {e}") from e
+    T = np.asarray(res.T_o_c0, dtype=float)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        res.T_o_c0 = last.T_o_c0.copy() if last is not None else np.eye(4)
+        res.status, res.message = "lost", f"non-finite pose replaced by the last one; {res.message}"
+    if res.status not in STATUSES:
+        raise EstimatorError(f"{est.name}: status {res.status!r} unknown; valid: {', '.join(STATUSES)}")
+    return res
+
+
+def _progress(it, total, enabled, desc):
+    if not enabled or not sys.stderr.isatty():
+        return it
+    from tqdm import tqdm
+    return tqdm(it, total=total, desc=desc, unit="frame")
+
+
+def _run_external(spec: str, dataset) -> RunResult:
+    path = dataset if isinstance(dataset, (str, Path)) else getattr(dataset, "path", None)
+    if path is None:
+        raise EstimatorError(f"{spec}: external commands need a dataset folder (dataset.path)")
+    cmd = ExternalCommand(spec)
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="vo_ext_") as tmp:
+        out = cmd.run(Path(path), Path(tmp) / "trajectory_tum.txt")
+        try:
+            traj = read_tum(out, ref="o", frame="c0")
+        except VoError as e:
+            raise EstimatorError(f"{cmd.name}: unreadable TUM output ({e})") from None
+    wall = time.perf_counter() - t0
+    return RunResult(cmd.name, traj, [], {"total": wall * 1e3 / max(len(traj), 1)}, 0, wall)
