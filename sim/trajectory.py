@@ -2,7 +2,10 @@
 
 Construction (all in world ``w``, z up):
 
-* planar path: a quintic interpolating B-spline through the waypoints (periodic for closed
+* planar path: a quintic interpolating B-spline through the waypoints, or, with
+  ``corner_smoothing_m = sigma > 0``, through the waypoint polyline smoothed by a Gaussian of
+  std sigma along its length (straights stay straight, corners are rounded; no overshoot)
+  (periodic for closed
   routes, "natural" quintic ends, i.e. 3rd and 4th derivatives zero, for open ones), in
   chord-length parameter, then re-sampled by arc length ``s`` every ``path_sample_m`` and
   re-fitted, so ``|d(x, y)/ds| = 1`` to interpolation accuracy (~1e-9);
@@ -52,12 +55,13 @@ class MotionConfig:
     wheelbase_m: float = 0.8
     track_m: float = 0.6
     path_sample_m: float = 0.1
+    corner_smoothing_m: float = 0.0
 
     def __post_init__(self):
         if isinstance(self.start_time_ns, bool) or not isinstance(self.start_time_ns, (int, np.integer)) \
                 or self.start_time_ns < 0:
             raise SimError(f"motion.start_time_ns: must be a non-negative integer, got {self.start_time_ns!r}")
-        for f in ("rest_before_s", "rest_after_s", "vibration_pitch_deg", "vibration_roll_deg",
+        for f in ("corner_smoothing_m", "rest_before_s", "rest_after_s", "vibration_pitch_deg", "vibration_roll_deg",
                   "vibration_yaw_deg", "vibration_heave_m"):
             v = getattr(self, f)
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
@@ -145,8 +149,28 @@ class SpeedProfile:
 
 
 # ----------------------------------------------------------------------------- planar path
-def _chord_spline(route):
-    """Quintic spline c(u) (2-D) through the waypoints, u = cumulative chord length."""
+def _smoothed_polyline(xy: np.ndarray, closed: bool, sigma_m: float) -> np.ndarray:
+    """Polyline (M,2) (closed: last == first) -> dense points every ~sigma/5 after a Gaussian of
+    std ``sigma_m`` (arc length). Straight runs stay straight; corners are rounded over ~2 sigma.
+    Open ends use point-reflection padding, so the end points stay fixed."""
+    from scipy.ndimage import gaussian_filter1d
+    seg = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    arc = np.r_[0.0, np.cumsum(seg)]
+    ds = min(sigma_m / 5, 0.1)
+    n = max(8, int(math.ceil(arc[-1] / ds)))
+    a = np.linspace(0, arc[-1], n + 1)
+    pts = np.column_stack([np.interp(a, arc, xy[:, 0]), np.interp(a, arc, xy[:, 1])])
+    sig = sigma_m / (arc[-1] / n)
+    if closed:
+        out = gaussian_filter1d(pts[:-1], sig, axis=0, mode="wrap")
+        return np.vstack([out, out[:1]])
+    pad = min(n, int(4 * sig) + 1)
+    padded = np.vstack([2 * pts[0] - pts[pad:0:-1], pts, 2 * pts[-1] - pts[-2:-pad - 2:-1]])
+    return gaussian_filter1d(padded, sig, axis=0, mode="nearest")[pad:pad + n + 1]
+
+
+def _chord_spline(route, smoothing_m: float = 0.0):
+    """Quintic spline c(u) (2-D) through the waypoints (or the smoothed polyline), u = chord length."""
     xy = route.xy
     if route.closed and not np.allclose(xy[0], xy[-1]):
         xy = np.vstack([xy, xy[:1]])
@@ -154,6 +178,8 @@ def _chord_spline(route):
     xy = xy[keep]
     if xy.shape[0] < (4 if route.closed else 2):
         raise SimError(f"route.waypoints_xy: need at least {3 if route.closed else 2} distinct points, got {xy.shape[0]}")
+    if smoothing_m > 0:
+        xy = _smoothed_polyline(xy, route.closed, smoothing_m)
     u = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))]
     if route.closed:
         if xy.shape[0] < 7:                       # periodic quintic needs >= 6 intervals
@@ -170,8 +196,9 @@ def _chord_spline(route):
     return make_interp_spline(u, xy, k=5, bc_type=(nat, nat)), u
 
 
-def _arc_length_table(c, u_knots: np.ndarray, per_span: int = 16):
+def _arc_length_table(c, u_knots: np.ndarray):
     """Fine grid u_f and cumulative arc length S(u_f) by 16-point Gauss-Legendre per cell."""
+    per_span = 16 if u_knots.size < 200 else 2
     u_f = np.unique(np.concatenate([np.linspace(a, b, per_span + 1) for a, b in zip(u_knots[:-1], u_knots[1:])]))
     return u_f, np.r_[0.0, np.cumsum(_gl_length(c.derivative(), u_f[:-1], u_f[1:]))]
 
@@ -294,7 +321,7 @@ class VehicleTrajectory:
     def from_route(cls, route, ground_height: Callable, config: MotionConfig, rng: np.random.Generator,
                    duration_s: Optional[float] = None) -> "VehicleTrajectory":
         """Build the motion along ``route`` (scenes.base.Route); ``duration_s`` only truncates ``t1_ns``."""
-        c, u_knots = _chord_spline(route)
+        c, u_knots = _chord_spline(route, config.corner_smoothing_m)
         u_f, S_f = _arc_length_table(c, u_knots)
         length = float(S_f[-1])
         m = max(12, int(math.ceil(length / config.path_sample_m)))

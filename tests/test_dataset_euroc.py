@@ -102,3 +102,21 @@ def test_same_inputs_give_byte_identical_folders(tmp_path):
         s.write(EurocWriter(tmp_path / name, s.rig, s.metadata, depth=True), with_depth=True)
         hashes.append(folder_hashes(tmp_path / name))
     assert hashes[0] == hashes[1] and "metadata.yaml" in hashes[0] and len(hashes[0]) > 20
+
+
+def test_imu_object_form_tum_helper_and_mav0_path(tmp_path, written):
+    from types import SimpleNamespace
+    from sim.dataset import DatasetWriters, write_tum_groundtruth
+    from sim.errors import SimError
+    from vo.trajfile import read_tum
+    s, out = written
+    assert open_dataset(out / "mav0").path == out            # opening mav0 itself finds our extras
+    w = EurocWriter(tmp_path / "o", s.rig, s.metadata)
+    w.add_imu(SimpleNamespace(t_ns=s.t_imu, gyro=s.gyro, accel=s.accel))   # ImuSamples-like object
+    w.finalize()
+    assert np.array_equal(open_dataset(tmp_path / "o").imu.accel, s.accel)
+    traj = open_dataset(out).groundtruth
+    write_tum_groundtruth(tmp_path / "gt.txt", traj)
+    assert np.allclose(read_tum(tmp_path / "gt.txt").T, traj.T, atol=1e-8)   # %.9f text
+    with pytest.raises(SimError, match="valid: euroc, kitti, both"):
+        DatasetWriters(tmp_path / "z", s.rig, s.metadata, fmt="tum")

@@ -60,11 +60,14 @@ def test_paper_jacobian_reaches_the_same_solution():
     rng = np.random.default_rng(3)
     T13 = random_motion(rng, forward=0.4)
     rops = noisy_ropset(rng, T13, 1e-3, 2e-3)
-    gn = adjust_rops(rops, config=AdjustmentConfig())
+    gn = adjust_rops(rops, config=AdjustmentConfig(sigma_rot_rad=1e-3, sigma_dir_rad=2e-3))
     paper = adjust_rops(rops, config=AdjustmentConfig(translation_jacobian="paper", max_iter=2000))
     assert paper.converged and paper.iterations[1] > gn.iterations[1]
-    # the fixed points differ at second order in the noise: (2e-3 rad)^2 * 0.4 m ~ 2e-6 m
-    np.testing.assert_allclose(paper.T_c1_c3[:3, 3], gn.T_c1_c3[:3, 3], atol=2e-5)
+    # the fixed points differ at second order in the noise (relative size ~ sigma_dir = 2e-3),
+    # so by far less than the estimate's own std: allow 2 % of the predicted position std
+    diff = np.abs(paper.T_c1_c3[:3, 3] - gn.T_c1_c3[:3, 3])
+    assert np.all(diff < 0.02 * np.sqrt(np.diag(gn.cov_pos)))
+    np.testing.assert_allclose(paper.T_c1_c3[:3, :3], gn.T_c1_c3[:3, :3], atol=1e-12)   # step 1 shared
 
 
 def test_monte_carlo_covariance_and_gain_over_initial():

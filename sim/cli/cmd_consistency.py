@@ -1,0 +1,32 @@
+"""``vo-testbed consistency``: NEES and drift-spread of an estimator over Monte-Carlo runs."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from sim.cli.options import echo_json, json_option
+
+
+@click.command("consistency")
+@click.option("--scenario", default="campus-short", show_default=True)
+@click.option("--estimator", default="rop", show_default=True)
+@click.option("--runs", type=int, default=30, show_default=True)
+@click.option("--image-noise", type=float, default=1.0, show_default=True, help="Image noise sigma, grey levels.")
+@click.option("--max-frames", type=int, default=None)
+@click.option("--frontend", type=click.Choice(["klt", "orb", "sift"]), default=None)
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@click.option("--no-progress", is_flag=True)
+@json_option
+def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, no_progress, as_json):
+    """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
+    from sim.montecarlo import consistency as run_mc, plot_consistency
+    from vo.pipeline import _write_json
+    if runs < 2:
+        raise click.BadParameter("need at least 2 runs", param_hint="--runs")
+    res = run_mc(scenario, estimator, runs, image_noise, options={"frontend": frontend} if frontend else None,
+                 progress=not (no_progress or as_json), max_frames=max_frames)
+    out = Path(out_dir)
+    plot_consistency(res, out / "consistency.png")
+    _write_json(out / "consistency.json", res.to_dict())
+    echo_json(res.to_dict()) if as_json else click.echo(res.text() + f"\nplot: {out / 'consistency.png'}")

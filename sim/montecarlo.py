@@ -1,0 +1,176 @@
+"""Monte-Carlo consistency runs (OpenVINS ov_eval style): render once, re-noise per run.
+
+The scenario is generated once with ``--ideal`` (noise-free images and IMU); run ``k`` sees the
+same images with fresh image noise (stream ``image_noise`` of seed ``base_seed + k``) and fresh
+IMU noise (streams ``imu_white``/``imu_bias``), so runs differ only in the noise.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from sim.rng import stream
+
+
+class NoisyDataset:
+    """A reader-API dataset whose images (and IMU) get seeded noise on the fly. Delegates the rest."""
+
+    def __init__(self, base, image_sigma: float, seed: int, imu_model=None):
+        self._base = base
+        self._sigma = float(image_sigma)
+        self._seed = int(seed)
+        self._imu_model = imu_model
+        self._imu = None
+
+    def __getattr__(self, name):
+        return getattr(self._base, name)
+
+    def __len__(self):
+        return len(self._base)
+
+    def _noisy(self, frame):
+        from vo.dataset.types import StereoFrame
+        if self._sigma <= 0:
+            return frame
+        # one generator per frame index: frames may be read in any order and give the same bytes
+        rng = np.random.default_rng([self._seed, frame.index, 0xC0FFEE])
+        imgs = [np.clip(np.rint(im.astype(np.float64) + self._sigma * rng.standard_normal(im.shape)), 0, 255)
+                .astype(np.uint8) for im in (frame.left, frame.right)]
+        return StereoFrame(frame.index, frame.t_ns, imgs[0], imgs[1])
+
+    def frame(self, k):
+        return self._noisy(self._base.frame(k))
+
+    def frames(self, start=0, stop=None, step=1):
+        for f in self._base.frames(start, stop, step):
+            yield self._noisy(f)
+
+    @property
+    def imu(self):
+        if self._imu_model is None or self._base.imu is None:
+            return self._base.imu
+        if self._imu is None:
+            from sim.imu import ImuSamples
+            from sim.imu_noise import add_imu_noise
+            from vo.dataset.types import ImuData
+            clean = self._base.imu
+            noisy, _ = add_imu_noise(ImuSamples(clean.t_ns, clean.gyro, clean.accel), self._imu_model,
+                                     stream(self._seed, "imu_white"), stream(self._seed, "imu_bias"))
+            self._imu = ImuData(noisy.t_ns, noisy.gyro, noisy.accel)
+        return self._imu
+
+
+def pose_errors(gt_T_o_c0: np.ndarray, est_T_o_c0: np.ndarray) -> tuple:
+    """(N,4,4) truth and estimate -> rotation errors (N,3) ``log(R_true R_est^T)`` (left perturbation,
+    as FrameResult.cov defines it) and position errors (N,3) ``p_true - p_est``."""
+    from vo.geometry import so3_log
+    dR = np.einsum("nij,nkj->nik", gt_T_o_c0[:, :3, :3], est_T_o_c0[:, :3, :3])
+    e_rot = np.array([so3_log(R) for R in dR])
+    return e_rot, gt_T_o_c0[:, :3, 3] - est_T_o_c0[:, :3, 3]
+
+
+@dataclass
+class ConsistencyResult:
+    scenario: str
+    estimator: str
+    runs: int
+    t_s: np.ndarray = field(repr=False)
+    distance_m: np.ndarray = field(repr=False)
+    nees_pos: object = None            # vo.errorprop.NeesSummary
+    nees_rot: object = None
+    predicted_std_m: np.ndarray = field(default=None, repr=False)   # sqrt(trace P_pos), run-averaged
+    measured_std_m: np.ndarray = field(default=None, repr=False)    # sqrt(trace of the sample covariance)
+    n_frames_used: int = 0
+
+    def end_ratio(self) -> float:
+        return float(self.measured_std_m[-1] / self.predicted_std_m[-1])
+
+    def to_dict(self) -> dict:
+        return {"scenario": self.scenario, "estimator": self.estimator, "runs": self.runs,
+                "nees_position": self.nees_pos.to_dict(), "nees_attitude": self.nees_rot.to_dict(),
+                "end_predicted_std_m": float(self.predicted_std_m[-1]),
+                "end_measured_std_m": float(self.measured_std_m[-1]),
+                "end_measured_over_predicted": self.end_ratio(), "n_frames_used": self.n_frames_used,
+                "path_length_m": float(self.distance_m[-1])}
+
+    def text(self) -> str:
+        p, r = self.nees_pos, self.nees_rot
+        return "\n".join([
+            f"consistency of {self.estimator} on {self.scenario}: {self.runs} runs, {self.n_frames_used} timestamps",
+            f"  position NEES: mean {p.overall_mean:.2f} (dof 3), inside 95% interval [{p.bounds[0]:.2f}, "
+            f"{p.bounds[1]:.2f}] at {100 * p.fraction_inside:.1f}% of timestamps",
+            f"  attitude NEES: mean {r.overall_mean:.2f} (dof 3), inside at {100 * r.fraction_inside:.1f}% of timestamps",
+            f"  end-point error std: predicted {self.predicted_std_m[-1]:.4f} m, measured {self.measured_std_m[-1]:.4f} m"
+            f" (ratio {self.end_ratio():.2f}) after {self.distance_m[-1]:.1f} m",
+        ])
+
+
+def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: float = 1.0, base_seed: int = 1000,
+                options=None, progress: bool = True, max_frames=None) -> ConsistencyResult:
+    """Run ``estimator`` on ``runs`` noise realisations of ``scenario``; NEES and drift-spread vs prediction."""
+    from tqdm import tqdm
+    from sim.scenarios import cached_dataset, get_scenario
+    from vo.dataset import open_dataset
+    from vo.errorprop.nees import nees, summarize_nees
+    from vo.estimators.runner import run_estimator
+    from vo.errors import VoError
+
+    cfg = get_scenario(scenario)
+    ideal = replace(cfg, ideal=True)
+    base = open_dataset(cached_dataset(ideal, progress=progress))
+    gt = base.groundtruth_cam0()
+    T_o_w = np.linalg.inv(gt.T[0])
+    e_rot, e_pos, P = [], [], []
+    for k in tqdm(range(runs), desc="monte-carlo", disable=not progress):
+        ds = NoisyDataset(base, image_sigma, base_seed + k, imu_model=None)
+        run = run_estimator(estimator, ds, options=options or {}, progress=False, max_frames=max_frames)
+        n = len(run.frames)
+        covs = [f.cov for f in run.frames]
+        if any(c is None for c in covs[1:]):
+            raise VoError(f"estimator {estimator!r} reports no covariance; consistency needs FrameResult.cov")
+        gt_T = T_o_w @ gt.T[:n]
+        er, ep = pose_errors(gt_T, np.array([f.T_o_c0 for f in run.frames]))
+        e_rot.append(er), e_pos.append(ep), P.append(np.array([c if c is not None else np.eye(6) * 1e-12
+                                                                for c in covs]))
+    n = min(len(e) for e in e_pos)
+    e_rot, e_pos, P = (np.array([e[:n] for e in a]) for a in (e_rot, e_pos, P))
+    sl = slice(1, n)   # the first pose is the anchor (zero error, zero covariance)
+    ne_pos = nees(e_pos[:, sl], P[:, sl, 3:, 3:])
+    ne_rot = nees(e_rot[:, sl], P[:, sl, :3, :3])
+    dist = np.r_[0, np.cumsum(np.linalg.norm(np.diff(gt.positions[:n], axis=0), axis=1))]
+    pred = np.sqrt(np.trace(P[:, :, 3:, 3:], axis1=2, axis2=3).mean(axis=0))
+    meas = np.sqrt(np.array([np.trace(np.cov(e_pos[:, t].T)) for t in range(n)]))
+    return ConsistencyResult(scenario, estimator, runs, gt.t_s[:n], dist, summarize_nees(ne_pos, 3),
+                             summarize_nees(ne_rot, 3), pred, meas, n - 1)
+
+
+def plot_consistency(res: ConsistencyResult, path) -> None:
+    """NEES per timestamp with the 95% band, and predicted vs measured error spread against distance."""
+    import os
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    d = res.distance_m[1:]
+    for s, label, c in ((res.nees_pos, "position", "b"), (res.nees_rot, "attitude", "g")):
+        axes[0].plot(d, s.mean_nees, c, label=f"{label} ({100 * s.fraction_inside:.0f}% inside)")
+    lo, hi = res.nees_pos.bounds
+    axes[0].axhspan(lo, hi, color="k", alpha=0.12, label="95% interval")
+    axes[0].set_yscale("log")
+    axes[0].set_xlabel("distance travelled (m)")
+    axes[0].set_ylabel(f"NEES averaged over {res.runs} runs")
+    axes[0].legend(fontsize=8)
+    axes[1].plot(res.distance_m, res.predicted_std_m, "k-", label="predicted (ROP covariance)")
+    axes[1].plot(res.distance_m, res.measured_std_m, "r.", ms=3, label="Monte-Carlo spread")
+    axes[1].set_xlabel("distance travelled (m)")
+    axes[1].set_ylabel("end-point error std (m)")
+    axes[1].legend(fontsize=8)
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(f"{res.estimator} on {res.scenario}")
+    path = str(path)
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    fig.savefig(path + ".part.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    os.replace(path + ".part.png", path)
