@@ -14,7 +14,7 @@ import numpy as np
 
 from sim.config import GenerateConfig
 from sim.errors import SimError
-from sim.rng import stream
+from sim.rng import indexed_stream, stream
 
 
 @dataclass(frozen=True)
@@ -141,16 +141,14 @@ def render_frames(setup: Setup, writers, progress: bool = True, start: int = 0) 
     c, rig = setup.config, setup.rig
     world = build_world(setup.scene, rig, vehicle=c.vehicle)
     dmaps = [DistortionMap(cam) if cam.has_distortion else None for cam in rig.cameras[:2]]
-    rng = stream(c.seed, "image_noise")
-    # noise draws for skipped (resumed) frames are consumed so a resumed run gives the same bytes
     states = setup.trajectory.states(setup.frame_t_ns)
     with StereoRenderer(world, rig, depth=c.depth, segmentation=c.segmentation) as renderer:
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
                    disable=not progress, dynamic_ncols=True)
         for k, t_ns in enumerate(setup.frame_t_ns):
             if k < start:
-                _draw_noise(rng, rig, setup.image_noise)
                 continue
+            rng = indexed_stream(c.seed, "image_noise", k)
             fr = renderer.render(states.T_w_b[k])
             images, depth = [], fr.depth
             for j, img in enumerate(fr.images[:2]):
@@ -168,12 +166,6 @@ def render_frames(setup: Setup, writers, progress: bool = True, start: int = 0) 
         bar.close()
 
 
-def _draw_noise(rng, rig, sigma):
-    if sigma > 0:
-        for cam in rig.cameras[:2]:
-            rng.standard_normal((cam.height, cam.width))
-
-
 def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: bool = False) -> GenerateResult:
     """Generate the dataset described by ``config`` into ``out_dir``.
 
@@ -181,23 +173,20 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     run is resumed by calling ``generate`` again with the same config (frames already on disk
     are skipped; the result is byte-identical to an uninterrupted run).
     """
-    from sim.dataset import DatasetWriters, resume_state
+    from sim.dataset import DatasetWriters
 
     out_dir = Path(out_dir)
     setup = resolve(config)
-    start = 0
-    if (out_dir / "INCOMPLETE").exists():
-        start = resume_state(out_dir)
     noisy, biases = imu_streams(setup)
     truth = truth_records(setup, biases)
-    meta = metadata(setup)
-    writers = DatasetWriters(out_dir, setup.rig, meta, formats=_formats(config.format), depth=config.depth,
-                             segmentation=config.segmentation, overwrite=overwrite, resume=start > 0)
-    if start == 0:
-        writers.add_imu(noisy.t_ns, noisy.gyro, noisy.accel)
-        writers.add_groundtruth(setup.imu_t_ns, truth["T_w_i"], truth["v_w_i"], biases.b_g, biases.b_a)
-        writers.add_cam0_truth(setup.frame_t_ns, truth["T_w_c0"])
-        writers.add_gcps(truth["gcps"])
+    writers = DatasetWriters(out_dir, setup.rig, metadata(setup), fmt=config.format, depth=config.depth,
+                             segmentation=config.segmentation, overwrite=overwrite)
+    start = writers.resumed_frames      # > 0 when resuming an interrupted run of the same config
+    # IMU and ground truth are replayed in full; the writers skip rows already on disk
+    writers.add_imu(noisy.t_ns, noisy.gyro, noisy.accel)
+    writers.add_groundtruth(setup.imu_t_ns, truth["T_w_i"], truth["v_w_i"], biases.b_g, biases.b_a)
+    writers.add_cam0_truth(setup.frame_t_ns, truth["T_w_c0"])
+    writers.add_gcps(truth["gcps"])
     if config.images:
         render_frames(setup, writers, progress=progress, start=start)
     png = str(out_dir / "topdown.png")

@@ -156,7 +156,7 @@ def _smoothed_polyline(xy: np.ndarray, closed: bool, sigma_m: float) -> np.ndarr
     from scipy.ndimage import gaussian_filter1d
     seg = np.linalg.norm(np.diff(xy, axis=0), axis=1)
     arc = np.r_[0.0, np.cumsum(seg)]
-    ds = min(sigma_m / 5, 0.1)
+    ds = sigma_m / 5
     n = max(8, int(math.ceil(arc[-1] / ds)))
     a = np.linspace(0, arc[-1], n + 1)
     pts = np.column_stack([np.interp(a, arc, xy[:, 0]), np.interp(a, arc, xy[:, 1])])

@@ -3,9 +3,19 @@ import cv2
 import numpy as np
 import pytest
 
+from rigs.model import Camera, Rig
 from vo.errors import VoError
+from vo.geometry import make_T
 from vo.frontend.correspondences import correspondences
 from vo.frontend.descriptors import match_stereo
+
+
+def stereo_rig(width=320, height=240):
+    """Rectified rig: c1 is 0.2 m to the right of c0 (+x of the OpenCV camera), fx = 300 px."""
+    R_b_c = np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])
+    cams = tuple(Camera(n, width, height, 300, 300, (width - 1) / 2, (height - 1) / 2, T_b_c=make_T(R_b_c, [0, y, 1]))
+                 for n, y in (("cam0", 0.1), ("cam1", -0.1)))
+    return Rig("test", cams)
 
 
 def textured(seed=0, h=240, w=320):
@@ -28,7 +38,6 @@ def test_matches_consistent_with_homography(kind):
 
 
 def test_match_stereo_epipolar_and_unknown_kind():
-    from tests.test_frontend_klt import stereo_rig
     rig = stereo_rig()
     left = textured(2)
     right = np.roll(left, -8, axis=1)       # constant disparity 8 px on a rectified rig

@@ -154,3 +154,17 @@ def test_duration_truncates_only():
 def test_config_validation_names_the_field(field, value):
     with pytest.raises(SimError, match=field):
         MotionConfig(**{field: value})
+
+
+def test_corner_smoothing_keeps_straights_and_ends():
+    """Open L-shaped polyline with sigma = 1 m: end points fixed (point-reflection padding), the
+    middle of each long straight exactly on the polyline (Gaussian of a line is the line: < 1e-6 m
+    after spline fitting), no overshoot beyond the polyline's bounding box."""
+    route = Route(((0, 0), (10, 0), (10, 5), (30, 5)))
+    tr = VehicleTrajectory.from_route(route, flat, MotionConfig(corner_smoothing_m=1.0), stream(0, "motion"))
+    st = tr.states(np.linspace(tr.t0_ns, tr.t1_ns, 3000).astype(np.int64))
+    p = st.T_w_b[:, :3, 3]
+    assert np.allclose(p[[0, -1], :2], [[0, 0], [30, 5]], atol=1e-9)
+    assert p[:, 0].min() > -1e-6 and p[:, 0].max() < 30 + 1e-6 and p[:, 1].min() > -1e-6 and p[:, 1].max() < 5 + 1e-6
+    on_first = (p[:, 0] > 2) & (p[:, 0] < 6)
+    assert on_first.sum() > 50 and np.abs(p[on_first, 1]).max() < 1e-6

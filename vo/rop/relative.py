@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
+
+from vo.geometry import skew, so3_exp
 
 MIN_INLIERS = 8
 
@@ -25,6 +28,11 @@ class RopMeasurement:
     inlier_mask: np.ndarray
     ok: bool
     message: str = ""
+
+
+def _spread(x: np.ndarray) -> float:
+    """RMS distance of points (N,2) from their centroid (0 for fewer than 2 points)."""
+    return float(np.sqrt(np.mean(np.sum((x - x.mean(axis=0)) ** 2, axis=1)))) if len(x) > 1 else 0.0
 
 
 def failed_rop(n_points: int, message: str) -> RopMeasurement:
@@ -45,6 +53,35 @@ def normalized_points(p_px: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     p = np.ascontiguousarray(np.asarray(p_px, dtype=np.float64).reshape(-1, 1, 2))
     d = np.zeros(5) if dist is None else np.asarray(dist, dtype=np.float64)
     return cv2.undistortPoints(p, np.asarray(K, dtype=np.float64), d).reshape(-1, 2)
+
+
+def sampson_residuals(E: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:
+    """Signed Sampson distances (N,) of normalized matches to ``x_j^T E x_i = 0`` (normalized units)."""
+    h_i, h_j = np.c_[x_i, np.ones(len(x_i))], np.c_[x_j, np.ones(len(x_j))]
+    Ex_i, Etx_j = h_i @ E.T, h_j @ E
+    den = Ex_i[:, 0] ** 2 + Ex_i[:, 1] ** 2 + Etx_j[:, 0] ** 2 + Etx_j[:, 1] ** 2
+    return np.einsum("ij,ij->i", h_j, Ex_i) / np.sqrt(np.maximum(den, 1e-300))
+
+
+def refine_essential(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray):
+    """Minimise the Sampson distances over ``R`` (rotvec update) and unit ``t`` (2 tangent params).
+
+    OpenCV's RANSAC returns the best minimal-sample model without a final fit to all inliers
+    (0.1-0.3 deg errors at 0.3 px noise); this Levenberg-Marquardt polish recovers ~0.01 deg.
+    ``R, t`` in OpenCV's convention (``x_j = R x_i + t``)."""
+    t = t.ravel() / np.linalg.norm(t)
+    B = np.linalg.svd(t.reshape(1, 3))[2][1:].T                  # (3,2) tangent basis at t
+
+    def unpack(z):
+        tz = t + B @ z[3:]
+        return so3_exp(z[:3]) @ R, tz / np.linalg.norm(tz)
+
+    def fun(z):
+        R_z, t_z = unpack(z)
+        return sampson_residuals(skew(t_z) @ R_z, x_i, x_j)
+
+    sol = least_squares(fun, np.zeros(5), method="lm", xtol=1e-12, ftol=1e-12)
+    return unpack(sol.x)
 
 
 def estimate_rop(p_i: np.ndarray, p_j: np.ndarray, K_i: np.ndarray, dist_i, K_j: np.ndarray, dist_j,
@@ -76,6 +113,15 @@ def estimate_rop(p_i: np.ndarray, p_j: np.ndarray, K_i: np.ndarray, dist_i, K_j:
     mask = mask.ravel().astype(np.uint8)
     n_good, R, t, mask_pose = cv2.recoverPose(E, x_i, x_j, np.eye(3), mask=mask.copy())
     inliers = mask_pose.ravel() > 0
+    if int(n_good) >= min_inliers and _spread(x_i[inliers]) * focal > 2.0:
+        R, t = refine_essential(R, t, x_i[inliers], x_j[inliers])
+        mask = (np.abs(sampson_residuals(skew(t) @ R, x_i, x_j)) * focal < ransac_threshold_px).astype(np.uint8)
+        if int(mask.sum()) >= min_inliers:
+            R, t = refine_essential(R, t, x_i[mask > 0], x_j[mask > 0])
+        n_good, R, t, mask_pose = cv2.recoverPose(skew(t) @ R, x_i, x_j, np.eye(3), mask=mask.copy())
+        inliers = mask_pose.ravel() > 0
+    if _spread(x_i[inliers]) * focal <= 2.0:
+        return failed_rop(n, "inliers collapse to one image point (degenerate)")
     if int(n_good) < min_inliers or not np.all(np.isfinite(R)) or np.linalg.norm(t) < 1e-12:
         return failed_rop(n, f"{int(n_good)} inliers after chirality check < {min_inliers}")
     R_i_j, rhat_i_j = rop_from_opencv(R, t)

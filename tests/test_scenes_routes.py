@@ -1,0 +1,79 @@
+"""Routes, GCPs and the registry of the campus and indoor scenes (no rendering)."""
+import numpy as np
+import pytest
+from scipy.interpolate import CubicSpline
+
+from scenes import SceneConfig, SceneError, make_scene, scene_names
+from scenes.routes import distance_to_polyline
+
+
+def spline_length(wp, closed):
+    """Length of a C2 cubic spline through the waypoints (periodic for closed routes)."""
+    if closed:
+        wp = np.vstack([wp, wp[:1]])
+    s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(wp, axis=0), axis=1))])
+    cs = CubicSpline(s, wp, bc_type="periodic" if closed else "not-a-knot")
+    q = np.linspace(0, s[-1], 20001)
+    return float(np.linalg.norm(np.diff(cs(q), axis=0), axis=1).sum())
+
+
+def test_campus_route_length_and_shape():
+    sc = make_scene(SceneConfig(name="campus"))
+    r = sc.route
+    assert r.closed and r.cruise_speed_mps == 1.2 and r.accel_mps2 == 0.4
+    L = spline_length(r.xy, True)
+    assert 88.0 <= L <= 92.0
+    # prediction: offset curve at 4.5 m of an 18.5 x 12.5 m footprint = 2 (18.5 + 12.5) + 2 pi 4.5;
+    # 2 m waypoint spacing on 4.5 m arcs: spline error well below 5 cm
+    assert L == pytest.approx(62.0 + 9.0 * np.pi, abs=0.05)
+    assert np.linalg.norm(r.xy[0] - r.xy[-1]) < 2.5          # the start is near the end
+
+
+def test_indoor_route_length_and_open():
+    sc = make_scene(SceneConfig(name="indoor"))
+    r = sc.route
+    assert not r.closed and r.cruise_speed_mps == 0.8
+    L = spline_length(r.xy, False)
+    assert 20.0 <= L <= 22.0
+    # prediction: legs 17.7 m + 4.8 m minus four 90-degree corners of radius 1: (2 - pi/2) each
+    assert L == pytest.approx(22.5 - 4 * (2 - np.pi / 2), abs=0.05)
+
+
+@pytest.mark.parametrize("name,expected", [("campus", [f"C0{k}" for k in range(1, 8)]),
+                                           ("indoor", ["P01", "P02", "P03"])])
+def test_gcps_on_route(name, expected):
+    sc = make_scene(SceneConfig(name=name))
+    g = sc.gcp_sites
+    assert [s.name for s in g] == expected
+    d = distance_to_polyline([(s.x, s.y) for s in g], sc.path_xy, closed=sc.route.closed)
+    assert np.all(d < 0.01)                                  # rounded to mm, on the centre line
+    assert np.all(sc.ground_height([s.x for s in g], [s.y for s in g]) == 0.0)
+
+
+def test_indoor_p03_near_white_wall():
+    sc = make_scene(SceneConfig(name="indoor"))
+    p3 = sc.gcp_sites[2]
+    fps = {f.name: f for f in sc.footprints()}
+    white = [f for n, f in fps.items() if n.startswith("static/wall/north_n2") or n.startswith("static/wall/n1_n2")]
+    dmin = min(np.abs(np.asarray(f.corners_xy()) - (p3.x, p3.y)).min() for f in white)
+    # the north wall's inner face is at y = 11.9, P03 at y = 10: 1.9 m (paper: "less than 2 m")
+    assert dmin < 2.0
+
+
+def test_registry_and_unknown_scene():
+    assert scene_names() == ("campus", "indoor")
+    with pytest.raises(SceneError) as e:
+        make_scene(SceneConfig(name="x"))
+    assert str(e.value) == "unknown scene 'x'; valid: campus, indoor"
+
+
+def test_plot_topdown_runs():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from scenes.plot import plot_topdown
+    fig, ax = plt.subplots()
+    sc = make_scene(SceneConfig(name="indoor"))
+    plot_topdown(sc, ax)
+    assert len(ax.patches) > 50 and ax.get_title() == "indoor (seed 0)"
+    plt.close(fig)
