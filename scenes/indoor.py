@@ -4,7 +4,7 @@ World frame: the floor spans x in [0, 16], y in [0, 12] (z up, floor at z = 0, c
 Rooms: south-west room S1 (y < 5, x < 8), south-east S2, a corridor (5 < y < 7.5), north-west
 room N1 (x < 6) and north-east room N2.  The route starts in S1 heading east, turns north through a
 2.6 m doorway into the corridor, east along it, north through a doorway into N2 and west along
-y = 10 towards two plain white walls (the north wall 1.9 m away and the N1/N2 partition ahead):
+y = 10.2 towards two plain white walls (the north wall 1.8 m away and the N1/N2 partition ahead):
 as in the paper, P03 lies where the only thing in view is a texture-poor white wall < 2 m away.
 Those walls use an untextured white material at every ``texture_richness``.
 
@@ -23,7 +23,7 @@ ROOM = (16.0, 12.0)
 CEILING = 3.0
 WALL_T = 0.2
 DOOR_H = 2.2
-ROUTE_CORNERS = ((1.8, 2.5), (6.25, 2.5), (6.25, 6.25), (12.0, 6.25), (12.0, 10.0), (7.2, 10.0))
+ROUTE_CORNERS = ((1.8, 2.5), (6.25, 2.5), (6.25, 6.25), (12.0, 6.25), (12.0, 10.2), (7.2, 10.2))
 
 
 class IndoorScene(BuiltScene):

@@ -103,6 +103,8 @@ def truth_records(setup: Setup, biases):
         t_pass = traj.pass_times_ns(xy)
         T_pass = traj.states(t_pass).T_w_b
         for g, t, T in zip(sites, t_pass, T_pass):
+            if not setup.frame_t_ns[0] <= t <= setup.frame_t_ns[-1]:
+                continue    # not reached within the simulated duration
             ground = np.array([g.x, g.y, float(setup.scene.ground_height(g.x, g.y))])
             p_c0 = (T @ rig.cameras[0].T_b_c_array)[:3, 3]
             gcps.append(Gcp(g.name, int(t), ground, p_c0))
@@ -206,7 +208,7 @@ def write_topdown(setup: Setup, truth: dict, path: str) -> None:
 
     fig, ax = plt.subplots(figsize=(8, 7))
     xy = truth["T_w_c0"][:, :2, 3]
-    plot_topdown(setup.scene, ax, route_xy=xy, gcps=[(g.name, g.ground_w[0], g.ground_w[1]) for g in truth["gcps"]])
+    plot_topdown(setup.scene, ax, route_xy=xy)
     ax.set_title(f"{setup.config.scene} / {setup.config.rig} / seed {setup.config.seed}")
     tmp = path + ".part.png"
     fig.savefig(tmp, dpi=110, bbox_inches="tight")

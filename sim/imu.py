@@ -15,7 +15,7 @@ from functools import lru_cache
 import numpy as np
 
 from sim.errors import SimError
-from vo.geometry.se3 import quat_wxyz_from_R
+from vo.geometry.se3 import R_from_quat_wxyz, quat_wxyz_from_R
 
 G_W = np.array([0.0, 0.0, -9.81])
 
@@ -124,19 +124,33 @@ def _midpoints(f: np.ndarray, order: int = 6) -> np.ndarray:
     return out
 
 
-def _qmul(a, b):
-    """Hamilton product of quaternions (w, x, y, z)."""
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return np.array([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])
+def _rk4_step(q, v, p, u0, um, u1, h, g):
+    """One RK4 step of q' = q (x) (0, w) / 2, v' = R(q) f + g, p' = v; plain floats for speed.
 
+    q (4,) wxyz, v, p (3,), u* = (wx, wy, wz, fx, fy, fz) at t, t + h/2, t + h."""
+    def f(q_, v_, u):
+        w0, x, y, z = q_
+        wx, wy, wz, ax, ay, az = u
+        dq = (0.5 * (-x * wx - y * wy - z * wz), 0.5 * (w0 * wx + y * wz - z * wy),
+              0.5 * (w0 * wy - x * wz + z * wx), 0.5 * (w0 * wz + x * wy - y * wx))
+        acc = ((1 - 2 * (y * y + z * z)) * ax + 2 * (x * y - w0 * z) * ay + 2 * (x * z + w0 * y) * az + g[0],
+               2 * (x * y + w0 * z) * ax + (1 - 2 * (x * x + z * z)) * ay + 2 * (y * z - w0 * x) * az + g[1],
+               2 * (x * z - w0 * y) * ax + 2 * (y * z + w0 * x) * ay + (1 - 2 * (x * x + y * y)) * az + g[2])
+        return dq, acc, v_
 
-def _R_of_q(q):
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    def add(a, b, c):
+        return tuple(ai + c * bi for ai, bi in zip(a, b))
+
+    k1 = f(q, v, u0)
+    k2 = f(add(q, k1[0], h / 2), add(v, k1[1], h / 2), um)
+    k3 = f(add(q, k2[0], h / 2), add(v, k2[1], h / 2), um)
+    k4 = f(add(q, k3[0], h), add(v, k3[1], h), u1)
+    out = []
+    for x, i in ((q, 0), (v, 1), (p, 2)):
+        out.append(tuple(x[j] + h / 6 * (k1[i][j] + 2 * k2[i][j] + 2 * k3[i][j] + k4[i][j]) for j in range(len(x))))
+    qn = out[0]
+    norm = (qn[0] ** 2 + qn[1] ** 2 + qn[2] ** 2 + qn[3] ** 2) ** 0.5
+    return tuple(c / norm for c in qn), out[1], out[2]
 
 
 def integrate_imu(samples: ImuSamples, T_w_i0: np.ndarray, v_w0: np.ndarray, g_w=G_W):
@@ -150,25 +164,15 @@ def integrate_imu(samples: ImuSamples, T_w_i0: np.ndarray, v_w0: np.ndarray, g_w
     h = (t[1] - t[0]) * 1e-9
     f = np.concatenate([samples.gyro, samples.accel], axis=1)
     mid = _midpoints(f)
-    g = np.asarray(g_w, dtype=float)
-    q = quat_wxyz_from_R(np.asarray(T_w_i0)[:3, :3])
-    v, p = np.array(v_w0, dtype=float), np.array(T_w_i0, dtype=float)[:3, 3]
-    T_out, v_out = np.zeros((t.size, 4, 4)), np.zeros((t.size, 3))
-
-    def deriv(q_, v_, u):
-        return 0.5 * _qmul(q_, np.r_[0.0, u[:3]]), _R_of_q(q_) @ u[3:] + g, v_
-
-    for k in range(t.size):
-        T_out[k, :3, :3], T_out[k, :3, 3], T_out[k, 3, 3], v_out[k] = _R_of_q(q), p, 1.0, v
-        if k == t.size - 1:
-            break
-        u0, um, u1 = f[k], mid[k], f[k + 1]
-        k1 = deriv(q, v, u0)
-        k2 = deriv(q + h / 2 * k1[0], v + h / 2 * k1[1], um)
-        k3 = deriv(q + h / 2 * k2[0], v + h / 2 * k2[1], um)
-        k4 = deriv(q + h * k3[0], v + h * k3[1], u1)
-        q = q + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        q /= np.linalg.norm(q)
-        p = p + h / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2])
-        v = v + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
-    return T_out, v_out
+    g = tuple(float(x) for x in g_w)
+    q = tuple(quat_wxyz_from_R(np.asarray(T_w_i0)[:3, :3]).tolist())
+    v, p = tuple(float(x) for x in v_w0), tuple(np.asarray(T_w_i0, dtype=float)[:3, 3].tolist())
+    f_l, mid_l = f.tolist(), mid.tolist()
+    qs, vs, ps = [q], [v], [p]
+    for k in range(t.size - 1):
+        q, v, p = _rk4_step(q, v, p, f_l[k], mid_l[k], f_l[k + 1], h, g)
+        qs.append(q), vs.append(v), ps.append(p)
+    T_out = np.zeros((t.size, 4, 4))
+    T_out[:, :3, :3] = R_from_quat_wxyz(np.array(qs))
+    T_out[:, :3, 3], T_out[:, 3, 3] = np.array(ps), 1.0
+    return T_out, np.array(vs)

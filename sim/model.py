@@ -12,6 +12,7 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before the first mujoco import (headless)
 
+from dataclasses import replace
 from typing import Callable, Optional
 
 import mujoco  # noqa: E402
@@ -20,6 +21,7 @@ import numpy as np
 from rigs.model import Rig
 from scenes.base import Scene
 from sim import mjcam
+from sim.distortion import DistortionMap
 from sim.errors import SimError
 from sim.vehicle import VehicleHandles, add_vehicle
 
@@ -27,7 +29,7 @@ ZNEAR_M = 0.05
 ZFAR_M = 200.0
 EXTENT_M = 20.0             # model "extent"; also scales shadow clip and fog
 SHADOW_CLIP_M = 40.0        # half-size of the directional-light shadow frustum
-SHADOW_SIZE = 2048
+SHADOW_SIZE = 1024         # shadow map texels (2048 costs ~1.5x more on llvmpipe)
 
 
 def _set_visual(spec, rig: Rig, shadows: bool) -> None:
@@ -42,9 +44,19 @@ def _set_visual(spec, rig: Rig, shadows: bool) -> None:
     spec.visual.map.znear = ZNEAR_M / EXTENT_M
     spec.visual.map.zfar = ZFAR_M / EXTENT_M
     spec.visual.map.shadowclip = SHADOW_CLIP_M / EXTENT_M
-    if not shadows:
-        for light in spec.lights:
-            light.castshadow = False
+    _limit_shadow_casters(spec, 1 if shadows else 0)
+
+
+def _limit_shadow_casters(spec, n_max: int) -> None:
+    """Keep ``castshadow`` on at most the ``n_max`` brightest (diffuse) casting lights.
+
+    MuJoCo draws one shadow-map pass plus one extra lit scene pass per casting light per camera;
+    on llvmpipe a second caster costs ~+60 % frame time for a barely visible second shadow.
+    """
+    casters = sorted((lt for lt in spec.lights if lt.castshadow),
+                     key=lambda lt: -float(np.sum(lt.diffuse)))
+    for lt in casters[n_max:]:
+        lt.castshadow = False
 
 
 def _no_reflections(spec) -> None:
@@ -55,13 +67,18 @@ def _no_reflections(spec) -> None:
 class World:
     """A compiled MuJoCo world: ``model``, ``data`` and the vehicle's ids.
 
-    ``camera_ids[k]`` / ``camera_names[k]`` belong to ``rig.cameras[k]``.
+    ``camera_ids[k]`` / ``camera_names[k]`` belong to ``rig.cameras[k]``. ``render_rig`` is the
+    rig MuJoCo renders: ``rig`` itself, except that a camera with lens distortion is replaced by
+    the pinhole canvas of ``distortion_maps[k]`` (None for pinhole cameras).
     """
 
-    def __init__(self, model, rig: Rig, handles: VehicleHandles, scene: Scene):
+    def __init__(self, model, rig: Rig, handles: VehicleHandles, scene: Scene,
+                 render_rig: Optional[Rig] = None, distortion_maps: tuple = ()):
         self.model = model
         self.data = mujoco.MjData(model)
         self.rig = rig
+        self.render_rig = render_rig or rig
+        self.distortion_maps = tuple(distortion_maps) or (None,) * len(rig.cameras)
         self.scene = scene
         self.handles = handles
         self.camera_names = handles.camera_names
@@ -105,20 +122,35 @@ class World:
         return mjcam.T_w_c_from_mj(self.data.cam_xpos[i], self.data.cam_xmat[i])
 
 
+def _render_rig(rig: Rig, distort: bool) -> tuple:
+    """(render_rig, maps): distorted cameras replaced by their pinhole canvases (if ``distort``)."""
+    if not distort:
+        return rig, (None,) * len(rig.cameras)
+    maps = tuple(DistortionMap(c) if c.has_distortion else None for c in rig.cameras)
+    cams = tuple(m.canvas_camera if m is not None else c for c, m in zip(rig.cameras, maps))
+    return replace(rig, cameras=cams), maps
+
+
 def build_world(scene: Scene, rig: Rig, vehicle: str = "cart",
-                extra: Optional[Callable] = None) -> World:
-    """Compile ``scene`` + vehicle ``vehicle`` carrying ``rig``; ``extra(spec)`` may add more."""
+                extra: Optional[Callable] = None, distort: bool = True) -> World:
+    """Compile ``scene`` + vehicle ``vehicle`` carrying ``rig``; ``extra(spec)`` may add more.
+
+    With ``distort`` (default), cameras with lens distortion are rendered as pinhole canvases
+    and :class:`sim.render.StereoRenderer` warps them to the exact distorted image; with
+    ``distort=False`` every camera renders its pinhole ``K`` only (distortion ignored).
+    """
     spec = mujoco.MjSpec()
     spec.modelname = f"{getattr(scene, 'name', '') or 'scene'}_{rig.name}"
     scene.add_to_spec(spec)
-    handles = add_vehicle(spec, rig, kind=vehicle)
+    render_rig, maps = _render_rig(rig, distort)
+    handles = add_vehicle(spec, render_rig, kind=vehicle)
     if extra is not None:
         extra(spec)
-    _set_visual(spec, rig, bool(scene.config.shadows))
+    _set_visual(spec, render_rig, bool(scene.config.shadows))
     _no_reflections(spec)
     try:
         model = spec.compile()
     except Exception as e:  # mujoco raises ValueError with a multi-line message
         msg = " ".join(str(e).split())
         raise SimError(f"build_world: MuJoCo could not compile scene {scene.name!r}: {msg}") from None
-    return World(model, rig, handles, scene)
+    return World(model, rig, handles, scene, render_rig, maps)

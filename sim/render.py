@@ -2,10 +2,12 @@
 
 One off-screen GL context, ``MjrContext`` and ``MjvScene`` serve every camera of the rig (the
 off-screen buffer is ``offwidth x offheight``, at least the largest camera; each camera renders
-into a viewport of its own size), so no context is duplicated per camera or per size. Per camera
-and frame: one ``mjv_updateScene``, one ``mjr_render`` (colour and depth are read from the same
-pass), and one more ``mjr_render`` only if segmentation is requested. No ``mj_forward``: the world
+into a viewport of its own size), so no context is duplicated per camera or per size. No
+``mj_forward``: the world
 pose is set by :meth:`sim.model.World.set_vehicle_pose` (kinematics + camlight only).
+Per camera and frame: one ``mjv_updateScene`` and one colour ``mjr_render``; if depth or
+segmentation is requested, one more ``mjr_render`` in segmentation mode that yields both (it
+draws no skybox, so sky pixels keep the far-plane depth and become ``inf``).
 
 Depth: MuJoCo renders with reversed Z into a float depth buffer; we invert its projection
 exactly (in float64) to eye-space z, which *is* the distance along the optical axis (OpenCV
@@ -63,9 +65,9 @@ class StereoRenderer:
                  segmentation: bool = False, gray: bool = False, show_vehicle: bool = True,
                  max_geom: int = 20000):
         self.world, self.rig = world, rig or world.rig
-        if len(self.rig.cameras) != len(world.camera_ids):
-            raise SimError(f"StereoRenderer: rig {self.rig.name!r} has {len(self.rig.cameras)} cameras, "
-                           f"world has {len(world.camera_ids)}")
+        if self.rig != world.rig:
+            raise SimError(f"StereoRenderer: rig {self.rig.name!r} is not the rig the world was built "
+                           f"with ({world.rig.name!r}); build the world with this rig")
         self.depth, self.segmentation, self.gray = depth, segmentation, gray
         m = world.model
         self._gl = None
@@ -101,14 +103,22 @@ class StereoRenderer:
 
     # -- public -------------------------------------------------------------------------------
     def render(self, T_w_b: np.ndarray, dynamic_state: Optional[dict] = None) -> RenderedFrame:
-        """Pose the vehicle at (4,4) ``T_w_b`` (and mocap bodies ``{name: T_w_x}``), render all cameras."""
+        """Pose the vehicle at (4,4) ``T_w_b`` (and mocap bodies ``{name: T_w_x}``), render all cameras.
+
+        Cameras with lens distortion are rendered on their pinhole canvas and warped with the
+        world's :class:`sim.distortion.DistortionMap` (bilinear for images, nearest for depth/seg).
+        """
         if self._ctx is None:
             raise SimError("StereoRenderer.render: called after close()")
         self.world.set_vehicle_pose(T_w_b, dynamic_state)
         self._gl.make_current()
         images, depths, segs = [], [], []
-        for cam, cam_obj in zip(self.rig.cameras, self._cams):
+        for cam, cam_obj, dmap in zip(self.world.render_rig.cameras, self._cams, self.world.distortion_maps):
             rgb, dep, seg = self._render_camera(cam.width, cam.height, cam_obj)
+            if dmap is not None:
+                rgb = dmap.apply(rgb)
+                dep = dmap.apply_depth(dep) if dep is not None else None
+                seg = dmap.apply_seg(seg) if seg is not None else None
             images.append(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY) if self.gray else rgb)
             depths.append(dep)
             segs.append(seg)
@@ -141,13 +151,31 @@ class StereoRenderer:
         rect = mujoco.MjrRect(0, 0, W, H)
         mujoco.mjv_updateScene(m, d, self._opt, None, cam_obj, mujoco.mjtCatBit.mjCAT_ALL.value, scn)
         rgb = np.empty((H, W, 3), np.uint8)
-        zbuf = np.empty((H, W), np.float32) if self.depth else None
         mujoco.mjr_render(rect, scn, self._ctx)
-        mujoco.mjr_readPixels(rgb, zbuf, rect, self._ctx)
+        mujoco.mjr_readPixels(rgb, None, rect, self._ctx)
         rgb = np.ascontiguousarray(rgb[::-1])
-        depth = self._to_metres(zbuf[::-1]) if self.depth else None
-        seg = self._segment(rect, W, H) if self.segmentation else None
+        depth = seg = None
+        if self.depth or self.segmentation:
+            ids, zbuf = self._id_pass(rect, W, H)
+            depth = self._to_metres(zbuf[::-1]) if self.depth else None
+            seg = self._decode_ids(ids[::-1]) if self.segmentation else None
         return rgb, depth, seg
+
+    def _id_pass(self, rect, W: int, H: int) -> tuple:
+        """Second pass in segmentation mode: id colours and depth, no skybox (whose far-away
+        sphere would otherwise write a finite depth, ~140 m, into sky pixels)."""
+        scn = self._scn
+        flags = scn.flags.copy()
+        scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
+        scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+        try:
+            ids = np.empty((H, W, 3), np.uint8)
+            zbuf = np.empty((H, W), np.float32) if self.depth else None
+            mujoco.mjr_render(rect, scn, self._ctx)
+            mujoco.mjr_readPixels(ids, zbuf, rect, self._ctx)
+        finally:
+            np.copyto(scn.flags, flags)
+        return ids, zbuf
 
     def _to_metres(self, zbuf: np.ndarray) -> np.ndarray:
         """(H,W) reversed-Z buffer -> (H,W) float32 eye depth (m); inf where nothing was drawn."""
@@ -156,19 +184,10 @@ class StereoRenderer:
         z[(zbuf <= 0) | (z >= zfar * (1 - 1e-6))] = np.inf
         return z.astype(np.float32)
 
-    def _segment(self, rect, W: int, H: int) -> np.ndarray:
-        """Second pass with segmentation colours -> (H,W,2) int32 (geom id | -1, dynamic flag)."""
+    def _decode_ids(self, ids: np.ndarray) -> np.ndarray:
+        """(H,W,3) uint8 id colours -> (H,W,2) int32 (geom id | -1, dynamic flag)."""
         scn = self._scn
-        flags = scn.flags.copy()
-        scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
-        scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
-        try:
-            buf = np.empty((H, W, 3), np.uint8)
-            mujoco.mjr_render(rect, scn, self._ctx)
-            mujoco.mjr_readPixels(buf, None, rect, self._ctx)
-        finally:
-            np.copyto(scn.flags, flags)
-        segid = (buf[::-1].astype(np.int64) * np.array([1, 256, 65536])).sum(axis=2)
+        segid = (ids.astype(np.int64) * np.array([1, 256, 65536])).sum(axis=2)
         lut = np.full((scn.ngeom + 1, 2), -1, np.int32)
         lut[:, 1] = 0
         for g in scn.geoms[:scn.ngeom]:

@@ -295,7 +295,7 @@ def _ground_attitude(xy, t_hat, ground_height, wheelbase, track):
     n_hat = np.stack([-t_hat[:, 1], t_hat[:, 0]], axis=1)           # left normal
 
     def h(p):
-        return np.broadcast_to(np.asarray(ground_height(p[:, 0], p[:, 1]), dtype=float), p[:1, 0].shape[:0] + (p.shape[0],))
+        return np.broadcast_to(np.asarray(ground_height(p[:, 0], p[:, 1]), dtype=float), (p.shape[0],))
 
     z = h(xy)
     g_fwd = (h(xy + wheelbase / 2 * t_hat) - h(xy - wheelbase / 2 * t_hat)) / wheelbase

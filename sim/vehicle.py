@@ -4,7 +4,7 @@ Body frame ``b`` (ARCHITECTURE.md): x forward, y left, z up, origin on the groun
 of the footprint. The mocap body's pose is ``T_w_b`` (set every frame, no physics). Geometry is
 placed from the rig: the mast rises just *behind* the cameras to just *below* them, the bed /
 chassis ends behind the front-most camera and far below it, so forward-looking cameras do not see
-the vehicle (checked by tests/test_render_vehicle.py). All vehicle geoms are named ``vehicle/...``,
+the vehicle (checked by tests/test_render_consistency.py). All vehicle geoms are named ``vehicle/...``,
 in geom group :data:`VEHICLE_GROUP`, with ``contype = conaffinity = 0`` (visual only).
 """
 from __future__ import annotations

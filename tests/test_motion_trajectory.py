@@ -168,3 +168,18 @@ def test_corner_smoothing_keeps_straights_and_ends():
     assert p[:, 0].min() > -1e-6 and p[:, 0].max() < 30 + 1e-6 and p[:, 1].min() > -1e-6 and p[:, 1].max() < 5 + 1e-6
     on_first = (p[:, 0] > 2) & (p[:, 0] < 6)
     assert on_first.sum() > 50 and np.abs(p[on_first, 1]).max() < 1e-6
+
+
+def test_rest_periods_shift_the_motion():
+    """rest_before_s = 2: standing still (exactly) for 2 s, then the same motion shifted by 2 s."""
+    base = VehicleTrajectory.from_route(LOOP, hills, MotionConfig(), stream(4, "motion"))
+    rest = VehicleTrajectory.from_route(LOOP, hills, MotionConfig(rest_before_s=2.0, rest_after_s=1.0),
+                                        stream(4, "motion"))
+    assert rest.t1_ns - rest.t0_ns == base.t1_ns - base.t0_ns + 3 * 10**9
+    still = rest.states(np.linspace(rest.t0_ns, rest.t0_ns + 2 * 10**9, 20).astype(np.int64))
+    assert np.abs(still.v_w).max() == 0 and np.abs(still.omega_b).max() == 0
+    t = np.linspace(base.t0_ns, base.t1_ns, 30).astype(np.int64)
+    # vibration phases are in absolute time, so compare the vibration-free part: x, y
+    assert np.allclose(rest.states(t + 2 * 10**9).T_w_b[:, :2, 3], base.states(t).T_w_b[:, :2, 3], atol=1e-9)
+    traj = rest.to_trajectory(t)
+    assert traj.T.shape == (30, 4, 4) and traj.frame == "b"

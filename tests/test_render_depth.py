@@ -62,8 +62,32 @@ def test_depth_at_10m_wall_straight_ahead():
 
 
 def test_sky_is_infinite():
+    """Without a wall the upper image sees only the skybox: depth inf there, finite on the ground."""
     rig = stereo_rig(tilt=False)
-    world = build_world(RenderTestScene(wall_x=None, ground=False), rig)
+    world = build_world(RenderTestScene(wall_x=None, sky=True), rig)
     with StereoRenderer(world, depth=True) as r:
-        d = r.render(vehicle_pose()).depth[0]
-    assert np.isinf(d).all()
+        frame = r.render(vehicle_pose())
+    d, img = frame.depth[0], frame.images[0]
+    cam = rig.cameras[0]
+    horizon_v = int(cam.cy)                        # camera level: the horizon is at v = cy
+    assert np.isinf(d[:horizon_v - 2]).all() and img[:horizon_v - 2].mean() > 50   # sky drawn
+    assert np.isfinite(d[horizon_v + 5:]).all()     # ground (60 m half-size plane) below
+
+
+def test_distorted_depth_is_nearest_canvas_sample():
+    """With lens distortion, depth pixel (u, v) is the canvas depth at the nearest canvas pixel
+    to its exact undistorted source location: check against ray geometry through that pixel."""
+    rig = stereo_rig(dist=(-0.3, 0.09, 4e-4, -3e-4, 0.0))
+    T_w_b = vehicle_pose(yaw=0.1)
+    world, frame, ids = _render(rig, T_w_b)
+    for k, cam in enumerate(rig.cameras):
+        dmap, canvas = world.distortion_maps[k], world.render_rig.cameras[k]
+        assert frame.depth[k].shape == (cam.height, cam.width) == frame.seg[k].shape[:2]
+        mask = cv2.erode((frame.seg[k][..., 0] == ids["wall"]).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        z_canvas = _ray_plane_depth(canvas, T_w_b @ canvas.T_b_c_array, np.array([1.0, 0, 0]), 10.0)
+        # cv2.remap INTER_NEAREST rounds the float32 map to the nearest integer canvas pixel.
+        ui = np.rint(dmap.map_x).astype(int)
+        vi = np.rint(dmap.map_y).astype(int)
+        z_pred = z_canvas[vi, ui]
+        assert mask.sum() > 500
+        assert np.abs(frame.depth[k][mask] - z_pred[mask]).max() < 1e-3

@@ -11,7 +11,6 @@ import pytest
 
 from test_render_support import RenderTestScene, stereo_rig
 from sim import mjcam
-from sim.distortion import DistortionMap, canvas_rig
 from sim.model import build_world
 from sim.render import StereoRenderer
 from vo.geometry import inv_T, make_T, rot_x, rot_y, rot_z, transform_points
@@ -50,14 +49,13 @@ def _marker_world(rig, p_c0):
     return transform_points(T_W_B @ rig.cameras[0].T_b_c_array, np.array([p_c0]))[0]
 
 
-def _render_marker(rig, p_w, distorted=False):
+def _render_marker(rig, p_w, distort=True):
+    """Both cameras' images; a rig with lens distortion is rendered through DistortionMap
+    (pinhole canvas + exact inverse remap) by build_world/StereoRenderer themselves."""
     scene = RenderTestScene(ground=False, wall_x=None, lit=False, markers=[("marker", p_w, RADIUS)])
-    maps = [DistortionMap(c) for c in rig.cameras] if distorted else None
-    render_rig = canvas_rig(rig, maps) if distorted else rig
-    world = build_world(scene, render_rig, extra=_hi_res_spheres)
+    world = build_world(scene, rig, extra=_hi_res_spheres, distort=distort)
     with StereoRenderer(world) as r:
-        imgs = r.render(T_W_B).images
-    return [m.apply(im) for m, im in zip(maps, imgs)] if distorted else imgs
+        return r.render(T_W_B).images
 
 
 def test_mjcam_frame_conversion():
@@ -99,7 +97,7 @@ def test_marker_projects_with_distortion(p_c0):
     dist = (-0.3, 0.09, 4e-4, -3e-4, 0.0)       # EuRoC-like barrel distortion
     rig = stereo_rig(dist=dist)
     p_w = _marker_world(rig, p_c0)
-    imgs = _render_marker(rig, p_w, distorted=True)
+    imgs = _render_marker(rig, p_w)
     for cam, img in zip(rig.cameras, imgs):
         assert img.shape[:2] == (cam.height, cam.width)
         p_c = transform_points(inv_T(T_W_B @ cam.T_b_c_array), p_w[None])[0]
@@ -111,3 +109,14 @@ def test_marker_projects_with_distortion(p_c0):
         # And the distortion is really on: the pinhole projection is > 2x the tolerance away.
         uv0, _ = cv2.projectPoints(p_c[None], np.zeros(3), np.zeros(3), cam.K, np.zeros(5))
         assert np.linalg.norm(uv0.ravel() - uv) > 0.5
+
+
+def test_distort_false_renders_the_pinhole_model():
+    rig = stereo_rig(dist=(-0.3, 0.09, 4e-4, -3e-4, 0.0))
+    p_w = _marker_world(rig, (1.2, -0.9, 4.0))
+    imgs = _render_marker(rig, p_w, distort=False)
+    for cam, img in zip(rig.cameras, imgs):
+        p_c = transform_points(inv_T(T_W_B @ cam.T_b_c_array), p_w[None])[0]
+        uv, _ = cv2.projectPoints(p_c[None], np.zeros(3), np.zeros(3), cam.K, np.zeros(5))
+        assert img.shape[:2] == (cam.height, cam.width)
+        assert np.linalg.norm(_centroid(img) - uv.ravel()) < 0.25

@@ -36,15 +36,17 @@ class RenderTestScene(Scene):
     """Ground plane (z=0), a wall facing -x at ``wall_x``, and spherical markers.
 
     ``markers``: tuple of ``(name, (x, y, z), radius)``; markers are white and emissive (their
-    colour does not depend on light). ``ground``/``wall`` textured with seeded noise.
+    colour does not depend on light). ``ground``/``wall`` textured with seeded noise; ``sky`` adds
+    a gradient skybox.
     """
 
     name = "render_test"
 
     def __init__(self, config=SceneConfig(name="render_test"), ground=True, wall_x=10.0,
-                 markers=(), lit=True):
+                 markers=(), lit=True, sky=False):
         super().__init__(config)
         self.ground, self.wall_x, self.markers, self.lit = ground, wall_x, tuple(markers), lit
+        self.sky = sky
 
     @property
     def route(self):
@@ -64,6 +66,10 @@ class RenderTestScene(Scene):
         mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "noise"
         mat.texuniform = True
         spec.add_material(name="marker", rgba=[1, 1, 1, 1], emission=1.0, specular=0.0, shininess=0.0)
+        if self.sky:
+            spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                             builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, width=64, height=64,
+                             rgb1=[0.5, 0.7, 0.9], rgb2=[0.9, 0.9, 0.9])
         wb = spec.worldbody
         if self.lit:
             wb.add_light(name="sun", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, pos=[0, 0, 50],

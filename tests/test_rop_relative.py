@@ -16,8 +16,16 @@ def project(p_c, K_, dist):
 
 
 def scene(rng, T_i_j, n=300, outlier_frac=0.2, noise_px=0.3):
-    """Points 3-15 m ahead of camera i, seen by both; the first ``outlier_frac`` matches random."""
-    p_i = np.c_[rng.uniform(-6, 6, n), rng.uniform(-3, 2, n), rng.uniform(3, 15, n)]
+    """Points 3-15 m ahead inside both 720x480 images; the first ``outlier_frac`` matches random."""
+    p_i = np.zeros((0, 3))
+    while len(p_i) < n:
+        uv1 = np.c_[rng.uniform(10, 710, n), rng.uniform(10, 470, n), np.ones(n)]
+        cand = (uv1 @ np.linalg.inv(K).T) * rng.uniform(3, 15, (n, 1))
+        q = transform_points(inv_T(T_i_j), cand)
+        uv_j = q[:, :2] / q[:, 2:] * K[0, 0] + K[:2, 2]
+        keep = (q[:, 2] > 1) & np.all((uv_j > 10) & (uv_j < [710, 470]), axis=1)
+        p_i = np.vstack([p_i, cand[keep]])
+    p_i = p_i[:n]
     p_j = transform_points(inv_T(T_i_j), p_i)
     u_i = project(p_i, K, DIST) + rng.normal(0, noise_px, (n, 2))
     u_j = project(p_j, K, DIST) + rng.normal(0, noise_px, (n, 2))

@@ -26,26 +26,40 @@ class Evaluated:
     def to_dict(self) -> dict:
         return {"estimator": self.name, "metrics": self.evaluation.to_dict(),
                 "n_frames": len(self.run.frames), "n_lost": self.run.n_lost,
-                "timings_ms": getattr(self.run, "timings", {})}
+                "timings_ms": self.run.timings_ms}
 
 
 def run_and_evaluate(dataset, estimator: str, out_dir=None, options: Optional[dict] = None,
                      progress: bool = True, align: str = "first", max_frames=None) -> Evaluated:
     """Run ``estimator`` on an opened dataset, evaluate against ``dataset.groundtruth_cam0()``."""
-    from vo.eval import evaluate
+    from vo.estimators.registry import is_external
     from vo.estimators.runner import run_estimator
 
-    run = run_estimator(estimator, dataset, options=options or {}, progress=progress, max_frames=max_frames)
+    target = str(dataset.path) if is_external(estimator) else dataset
+    run = run_estimator(estimator, target, options=options or {}, progress=progress, max_frames=max_frames)
+    return evaluate_run(dataset, run, estimator, out_dir=out_dir, align=align)
+
+
+def evaluate_run(dataset, run, estimator: str, out_dir=None, align: str = "first", plots: bool = True) -> Evaluated:
+    """Evaluate a finished run against the dataset's ground truth; save trajectory, metrics and plots."""
+    from vo.eval import evaluate
+
     gt = dataset.groundtruth_cam0()
     if gt is None or len(gt) == 0:
         raise VoError(f"{dataset.path}: no ground truth to evaluate against")
-    ev = evaluate(gt, run.trajectory, gcps=dataset.gcps, align=align)
-    label = estimator if "/" not in estimator else Path(estimator).name
+    t0, t1 = run.trajectory.t_ns[0], run.trajectory.t_ns[-1]
+    gcps = [g for g in (dataset.gcps or []) if t0 <= g.t_ns <= t1] or None
+    ev = evaluate(gt, run.trajectory, gcps=gcps, align=align)
+    label = estimator if not estimator.startswith("cmd:") else "external"
     result = Evaluated(label, run, ev, ev.aligned_est)
     if out_dir is not None:
         out = Path(out_dir)
         run.save(out)
         _write_json(out / "metrics.json", result.to_dict())
+        if plots:
+            from vo.eval.plots import plot_error_vs_distance, plot_topdown
+            plot_topdown({label: ev.aligned_est}, gt, dataset.gcps, out / "topdown.png")
+            plot_error_vs_distance(ev.gt_matched, {label: ev.aligned_est}, out / "error_vs_distance.png")
     return result
 
 

@@ -32,11 +32,27 @@ def run(dataset_dir, estimator, frontend, max_frames, out_dir, as_json, no_progr
     result.save(out_dir)
     summary = result.summary()
     summary["out"] = str(out_dir)
+    evaluated = _evaluate(dataset_dir, result, estimator, out_dir)
+    if evaluated is not None:
+        summary["metrics"] = evaluated.evaluation.to_dict()
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        click.echo(json.dumps(summary, indent=2, default=str))
         return
     click.echo(f"{summary['estimator']}: {summary['n_frames']} frames, {summary['n_lost']} lost, "
                f"path {summary['path_length_m']:.2f} m, wall {summary['wall_time_s']:.1f} s")
     if result.timings_ms:
         click.echo("mean ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in result.timings_ms.items()))
+    if evaluated is not None:
+        ev = evaluated.evaluation
+        click.echo(ev.table())
     click.echo(f"written to {out_dir}")
+
+
+def _evaluate(dataset_dir, result, estimator, out_dir):
+    """Evaluate against the dataset's ground truth when it has one (None otherwise)."""
+    from vo.dataset import open_dataset
+    from vo.pipeline import evaluate_run
+    ds = open_dataset(dataset_dir)
+    if ds.groundtruth is None:
+        return None
+    return evaluate_run(ds, result, estimator, out_dir=out_dir)

@@ -10,6 +10,10 @@ Failure handling: too few tracked landmarks -> status ``few_features`` ("N track
 ``lost``; the pose is coasted (constant velocity for ``max_coast_frames``, then held) and the next frame with
 a good stereo pair re-initialises a keyframe anchored at the current estimate -> ``reinit``. Never NaN.
 Timings per frame (ms): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
+
+Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on the
+keyframe where they were born; old key points are not re-matched left-right on later keyframes, since those
+extra observations only serve BA); PnP outliers are dropped from the tracks.
 """
 from __future__ import annotations
 

@@ -52,7 +52,8 @@ def normalized_points(p_px: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     """(N,2) distorted pixels -> (N,2) undistorted normalized image coordinates ``(x/z, y/z)``."""
     p = np.ascontiguousarray(np.asarray(p_px, dtype=np.float64).reshape(-1, 1, 2))
     d = np.zeros(5) if dist is None else np.asarray(dist, dtype=np.float64)
-    return cv2.undistortPoints(p, np.asarray(K, dtype=np.float64), d).reshape(-1, 2)
+    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-12)
+    return cv2.undistortPoints(p, np.asarray(K, dtype=np.float64), d, criteria=crit).reshape(-1, 2)
 
 
 def sampson_residuals(E: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:

@@ -1,0 +1,58 @@
+"""``vo-testbed validate``: check error predictions against rendered images.
+
+Register in ``sim/cli/__init__.py``: ``"validate": "sim.cli.cmd_validate:validate"``.
+"""
+from __future__ import annotations
+
+import click
+
+from sim.cli.options import echo_json, json_option
+
+
+def _floats(text: str, option: str) -> tuple:
+    try:
+        values = tuple(float(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise click.BadParameter(f"expected comma-separated numbers like '0.12,0.27', got {text!r}",
+                                 param_hint=option) from None
+    if not values:
+        raise click.BadParameter(f"expected at least one number, got {text!r}", param_hint=option)
+    return values
+
+
+@click.group("validate")
+def validate():
+    """Validate error-propagation predictions on rendered images."""
+
+
+@validate.command("range")
+@click.option("--rig", "rig_name", default="stereo27", show_default=True, help="Rig preset (baseline is overridden).")
+@click.option("--baselines", default="0.063,0.12,0.27,0.5", show_default=True, help="Baselines (m).")
+@click.option("--ranges", default="2,3,5,7,10,15,20,25,30", show_default=True, help="Board ranges (m).")
+@click.option("--matchers", default="klt,sgbm", show_default=True, help="Comma list of klt, sgbm.")
+@click.option("--image-noise", type=float, default=1.0, show_default=True, help="Gaussian noise std (grey levels).")
+@click.option("--phases", type=int, default=8, show_default=True, help="Sub-pixel disparity phases per range.")
+@click.option("--tolerance", type=float, default=0.2, show_default=True, help="Allowed |measured/predicted - 1|.")
+@click.option("--min-samples", type=int, default=30, show_default=True, help="Bins with fewer samples are not judged.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), default=None,
+              help="Write range_validation.json and range_validation.png here.")
+@click.option("--strict", is_flag=True, help="Exit with code 1 if any judged bin is outside the tolerance.")
+@json_option
+def range_cmd(rig_name, baselines, ranges, matchers, image_noise, phases, tolerance, min_samples, seed,
+              out_dir, strict, as_json):
+    """Measured vs predicted (seed 001 eq. 7) stereo range error per baseline, matcher and range."""
+    from sim.validation.range_check import measure_range_errors
+    res = measure_range_errors(baselines=_floats(baselines, "--baselines"), ranges=_floats(ranges, "--ranges"),
+                               matchers=tuple(m.strip() for m in matchers.split(",") if m.strip()),
+                               image_noise=image_noise, seed=seed, rig=rig_name, min_samples=min_samples,
+                               tolerance=tolerance, phases=phases)
+    paths = res.write(out_dir) if out_dir else {}
+    if as_json:
+        echo_json(dict(res.to_dict(), files=paths))
+    else:
+        click.echo(res.table())
+        for kind, path in paths.items():
+            click.echo(f"wrote {kind}: {path}")
+    if strict and not res.passed:
+        raise SystemExit(1)

@@ -1,0 +1,1 @@
+"""Validation of error predictions against rendered images (issue 4: range error)."""

@@ -1,0 +1,121 @@
+"""Stereo PnP estimators on an exactly rendered synthetic corridor with known camera motion."""
+import numpy as np
+import pytest
+
+from rigs.model import Camera, Rig
+from vo.dataset.types import StereoFrame
+from vo.errors import EstimatorError
+from vo.estimators.pnp import KltPnpEstimator, OrbPnpEstimator
+from vo.estimators.pnp_core import PnpConfig
+from vo.estimators.synthetic import box_scene, render
+from vo.geometry import inv_T, make_T, rot_y, rotation_angle
+
+R_B_C = np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])
+N_FRAMES = 8
+
+
+def make_rig():
+    cams = tuple(Camera(n, 640, 480, 500, 500, 319.5, 239.5, T_b_c=make_T(R_B_C, [0, y, 1.0]))
+                 for n, y in (("cam0", 0.15), ("cam1", -0.15)))
+    return Rig("synthetic", cams)
+
+
+def true_pose(k):
+    """T_o_c0 at frame k: 8 cm forward, 1 cm right and 0.3 deg yaw per frame."""
+    return make_T(rot_y(np.radians(0.3 * k)), [0.01 * k, 0.0, 0.08 * k])
+
+
+def stereo_frame(rig, planes, k, blank=None):
+    T = true_pose(k)
+    if blank is not None:
+        img = np.full((480, 640), blank, np.uint8)
+        return StereoFrame(k, k * 50_000_000, img, img.copy())
+    return StereoFrame(k, k * 50_000_000, render(planes, rig.cameras[0], T),
+                       render(planes, rig.cameras[1], T @ rig.T_c0_c1))
+
+
+@pytest.fixture(scope="module")
+def sequence():
+    rig = make_rig()
+    planes = box_scene(np.random.default_rng(7))
+    return rig, [stereo_frame(rig, planes, k) for k in range(N_FRAMES)]
+
+
+def relative_errors(results, ks):
+    """Per-frame relative-motion error (m, deg) between estimated and true T_{c(k-1)}_{c(k)}."""
+    out = []
+    for k in ks:
+        est = inv_T(results[k - 1].T_o_c0) @ results[k].T_o_c0
+        tru = inv_T(true_pose(k - 1)) @ true_pose(k)
+        d = inv_T(est) @ tru
+        out.append((np.linalg.norm(d[:3, 3]), np.degrees(rotation_angle(d[:3, :3]))))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("make, max_m, max_deg", [
+    # noise-free renders, KLT / SIFT sub-pixel (~0.05 px) localisation: a few mm per 8 cm step
+    (lambda rig: KltPnpEstimator(rig), 0.01, 0.1),
+    (lambda rig: OrbPnpEstimator(rig, frontend="sift"), 0.01, 0.1),
+    # ORB key points are found on a 1.2-scale pyramid with integer-pixel positions per level: ~0.5-1 px noise
+    (lambda rig: OrbPnpEstimator(rig), 0.06, 0.5),
+])
+def test_relative_motion_recovered(sequence, make, max_m, max_deg):
+    rig, frames = sequence
+    est = make(rig)
+    results = [est.process(f) for f in frames]
+    assert results[0].status == "init" and np.allclose(results[0].T_o_c0, np.eye(4))
+    assert all(r.status in ("ok", "keyframe") for r in results[1:]), [r.status for r in results]
+    err = relative_errors(results, range(1, N_FRAMES))
+    assert err[:, 0].max() < max_m, err
+    assert err[:, 1].max() < max_deg, err
+    for r in results:
+        assert set(r.timings_ms) >= {"detect", "track", "stereo", "pnp", "total"}
+        assert r.timings_ms["total"] >= r.timings_ms["pnp"]
+
+
+def test_klt_pnp_inlier_count_and_keyframes(sequence):
+    rig, frames = sequence
+    est = KltPnpEstimator(rig)
+    results = [est.process(f) for f in frames]
+    # 18 x 13 interior cells of the 20 x 15 grid give at most 234 first-frame corners
+    assert 100 <= results[0].n_features <= 234
+    assert all(r.n_inliers <= r.n_features for r in results)
+
+
+@pytest.mark.parametrize("cls", [KltPnpEstimator, OrbPnpEstimator])
+def test_blank_frames_few_features_then_reinit(sequence, cls):
+    rig, frames = sequence
+    planes = box_scene(np.random.default_rng(7))
+    seq = list(frames[:4]) + [stereo_frame(rig, planes, 4, blank=255), stereo_frame(rig, planes, 5, blank=0)] \
+        + [stereo_frame(rig, planes, k) for k in (6, 7, 8)]
+    est = cls(rig)
+    results = [est.process(f) for f in seq]
+    statuses = [r.status for r in results]
+    assert statuses[4] == "few_features" and statuses[5] == "few_features", statuses
+    assert "tracked <" in results[4].message or "landmarks <" in results[4].message
+    assert statuses[6] == "reinit", statuses
+    assert all(np.all(np.isfinite(r.T_o_c0)) for r in results)
+    # after re-initialisation the relative motion is right again (same bounds as above, ORB's looser)
+    err = relative_errors(results, [7, 8])
+    assert err[:, 0].max() < (0.01 if cls is KltPnpEstimator else 0.06), err
+
+
+def test_all_black_sequence_never_initialises():
+    rig = make_rig()
+    est = KltPnpEstimator(rig)
+    for k in range(3):
+        r = est.process(stereo_frame(rig, None, k, blank=0))
+        assert r.status == "few_features" and np.array_equal(r.T_o_c0, np.eye(4))
+
+
+def test_options_validated():
+    rig = make_rig()
+    with pytest.raises(EstimatorError, match="valid: orb, sift"):
+        OrbPnpEstimator(rig, frontend="klt")
+    with pytest.raises(EstimatorError, match="valid: klt"):
+        KltPnpEstimator(rig, frontend="orb")
+    with pytest.raises(EstimatorError, match="method"):
+        PnpConfig(method="p3p-magic")
+    mono = Rig("mono", (rig.cameras[0],))
+    with pytest.raises(EstimatorError, match="stereo"):
+        KltPnpEstimator(mono)
