@@ -22,6 +22,7 @@ COMMANDS = {
     "demo": "sim.cli.cmd_demo:demo",
     "predict": "sim.cli.cmd_predict:predict",
     "consistency": "sim.cli.cmd_consistency:consistency",
+    "validate": "sim.cli.cmd_validate:validate",
 }
 
 

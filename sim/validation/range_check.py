@@ -105,8 +105,8 @@ class RangeValidation:
     def to_dict(self) -> dict:
         return {"rig": self.rig, "f_px": self.f_px, "image_noise": self.image_noise, "seed": self.seed,
                 "min_samples": self.min_samples, "tolerance": self.tolerance, "passed": self.passed,
-                "fits": [asdict(f) for f in self.fits],
-                "bins": [dict(asdict(b), ratio=b.ratio, ok=self.bin_ok(b)) for b in self.bins]}
+                "fits": [_json_safe(asdict(f)) for f in self.fits],
+                "bins": [_json_safe(dict(asdict(b), ratio=b.ratio, ok=self.bin_ok(b))) for b in self.bins]}
 
     def table(self) -> str:
         lines = [f"rig {self.rig}, f {self.f_px:.1f} px, image noise {self.image_noise:g} grey levels, "
@@ -135,6 +135,11 @@ class RangeValidation:
             json.dump(self.to_dict(), fh, indent=2, sort_keys=True)
         plot_range_validation(self, paths["plot"])
         return paths
+
+
+def _json_safe(d: dict) -> dict:
+    """NaN (empty bins) -> None so the dict is strict JSON."""
+    return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
 
 
 # ----------------------------------------------------------------------------- statistics

@@ -16,10 +16,13 @@ Board geoms are named ``static/board/<k>``.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
-import cv2
-import mujoco
+os.environ.setdefault("MUJOCO_GL", "egl")  # before the first mujoco import (headless)
+
+import cv2  # noqa: E402
+import mujoco  # noqa: E402
 import numpy as np
 
 from scenes.base import GcpSite, Route, Scene, SceneConfig
