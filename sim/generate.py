@@ -135,14 +135,12 @@ def render_frames(setup: Setup, writers, progress: bool = True, start: int = 0) 
     """Render every stereo frame, post-process (distortion, noise, grey) and stream it to the writers."""
     import cv2
     from tqdm import tqdm
-    from sim.distortion import DistortionMap
     from sim.image_noise import add_image_noise
     from sim.model import build_world
     from sim.render import StereoRenderer
 
     c, rig = setup.config, setup.rig
     world = build_world(setup.scene, rig, vehicle=c.vehicle)
-    dmaps = [DistortionMap(cam) if cam.has_distortion else None for cam in rig.cameras[:2]]
     states = setup.trajectory.states(setup.frame_t_ns)
     with StereoRenderer(world, rig, depth=c.depth, segmentation=c.segmentation) as renderer:
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
@@ -152,18 +150,14 @@ def render_frames(setup: Setup, writers, progress: bool = True, start: int = 0) 
                 continue
             rng = indexed_stream(c.seed, "image_noise", k)
             fr = renderer.render(states.T_w_b[k])
-            images, depth = [], fr.depth
-            for j, img in enumerate(fr.images[:2]):
-                if dmaps[j] is not None:
-                    img = dmaps[j].apply(img)
+            images = []      # the renderer already applied lens distortion (exact inverse map)
+            for img in fr.images[:2]:
                 if img.ndim == 3:
                     img = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
                 if setup.image_noise > 0:
                     img = add_image_noise(img, setup.image_noise, rng)
                 images.append(img)
-            if depth is not None:
-                depth = [dmaps[j].apply_depth(d) if dmaps[j] is not None else d for j, d in enumerate(depth[:2])]
-            writers.add_frame(int(t_ns), images, depth=depth, seg=fr.seg)
+            writers.add_frame(int(t_ns), images, depth=fr.depth, seg=fr.seg)
             bar.update(1)
         bar.close()
 

@@ -30,3 +30,19 @@ def render(scenes, pairs, shadows, as_json):
     click.echo(f"{'scene':<10} {'size':>9} {'shadows':>7} {'pairs/s':>8} {'ms/pair':>8}")
     for r in results:
         click.echo(f"{r.scene:<10} {r.width}x{r.height:<5} {str(r.shadows):>7} {r.pairs_per_s:8.1f} {r.ms_per_pair:8.1f}")
+
+
+@bench.command("vo")
+@click.option("--scenario", "scenarios", multiple=True, help="Scenario(s); default: campus and indoor.")
+@click.option("--estimator", "estimators", multiple=True, help="Estimator(s); default: rop, klt-pnp, orb-pnp.")
+@click.option("--all-cores", is_flag=True, help="Let OpenCV use every core (default: one thread).")
+@click.option("--max-frames", type=int, default=None)
+@click.option("--no-progress", is_flag=True)
+@json_option
+def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, as_json):
+    """Drift ratio, GCP RMSD, ATE and ms per frame per stage of each estimator on each scenario."""
+    from sim.bench_vo import bench_estimators, format_rows
+    rows = bench_estimators(tuple(scenarios) or ("campus", "indoor"),
+                            tuple(estimators) or ("rop", "klt-pnp", "orb-pnp"), one_core=not all_cores,
+                            progress=not (no_progress or as_json), max_frames=max_frames)
+    echo_json([r.to_dict() for r in rows]) if as_json else click.echo(format_rows(rows))

@@ -1,0 +1,58 @@
+"""Estimator benchmark on named scenarios: accuracy (drift, GCP RMSD, ATE) and ms per frame per stage."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class VoBenchRow:
+    scenario: str
+    estimator: str
+    path_length_m: float
+    drift_pct: float
+    end_diff_m: float
+    gcp_rmsd_m: tuple            # (x, y, z) RMSD at the GCPs, seed 000 Table 4 style
+    ate_rmse_m: float
+    n_frames: int
+    n_lost: int
+    ms_per_frame: dict = field(default_factory=dict)   # stage -> mean ms
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp", "orb-pnp"),
+                     one_core: bool = True, progress: bool = True, max_frames=None) -> list:
+    """Run every estimator on every scenario (datasets cached) -> list of :class:`VoBenchRow`."""
+    import cv2
+    from sim.scenarios import cached_dataset, get_scenario
+    from vo.dataset import open_dataset
+    from vo.pipeline import run_and_evaluate
+
+    if one_core:
+        cv2.setNumThreads(1)
+    rows = []
+    for scenario in scenarios:
+        ds = open_dataset(cached_dataset(get_scenario(scenario), progress=progress))
+        for name in estimators:
+            res = run_and_evaluate(ds, name, progress=progress, max_frames=max_frames)
+            ev = res.evaluation
+            rmsd = tuple(float(v) for v in ev.gcps.rmsd) if ev.gcps is not None else (np.nan,) * 3
+            rows.append(VoBenchRow(scenario, name, float(ev.drift.gt_length_m), float(ev.drift.drift_ratio_pct),
+                                   float(ev.drift.end_diff_m), rmsd, float(ev.ape.trans.rmse),
+                                   len(res.run.frames), int(res.run.n_lost), dict(res.run.timings_ms)))
+    return rows
+
+
+def format_rows(rows) -> str:
+    lines = [f"{'scenario':<14}{'estimator':<10}{'path m':>8}{'drift %':>9}{'RMSD x':>8}{'RMSD y':>8}{'RMSD z':>8}"
+             f"{'ATE m':>8}{'lost':>6}{'ms/frame':>10}  stages (ms)"]
+    for r in rows:
+        total = r.ms_per_frame.get("total", sum(r.ms_per_frame.values()))
+        stages = " ".join(f"{k} {v:.1f}" for k, v in sorted(r.ms_per_frame.items()) if k != "total")
+        lines.append(f"{r.scenario:<14}{r.estimator:<10}{r.path_length_m:8.1f}{r.drift_pct:9.2f}"
+                     f"{r.gcp_rmsd_m[0]:8.3f}{r.gcp_rmsd_m[1]:8.3f}{r.gcp_rmsd_m[2]:8.3f}{r.ate_rmse_m:8.3f}"
+                     f"{r.n_lost:6d}{total:10.1f}  {stages}")
+    return "\n".join(lines)
