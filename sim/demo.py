@@ -25,7 +25,8 @@ class DemoResult:
         parts = [f"scenario {self.scenario}: dataset {self.dataset}"]
         for name, res in self.results.items():
             ev = res.evaluation
-            parts += ["", f"=== {name} ===", ev.gcps.text() if ev.gcps is not None else "", ev.table()]
+            parts += ["", f"=== {name} ({len(res.run.frames)} frames, {res.run.n_lost} lost, "
+                      f"{res.run.timings_ms.get('total', 0.0):.1f} ms/frame) ===", ev.table()]
         for name, msg in self.errors.items():
             parts += ["", f"=== {name} === FAILED: {msg}"]
         parts += ["", "plots: " + ", ".join(self.plots)]

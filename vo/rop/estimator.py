@@ -1,17 +1,41 @@
 """``RopEstimator`` ("rop"): seed 000's stereo VO - four ROPs per epoch pair, ROP adjustment, chaining.
 
-For each new stereo frame (images 3, 4) and the previous one (images 1, 2): match 1-3, 1-4, 2-3,
-2-4, estimate each ROP (essential matrix, RANSAC), initial EOPs, two-step adjustment, then
-``T_o_c0(k+1) = T_o_c0(k) @ T_c1_c3``. Covariance of ``[rotvec, position]`` of ``T_o_c0`` (left
-perturbation) is propagated to first order: with ``R = R_o_c1``, ``p = t_c1_c3``,
-``cov_new = A cov_old A^T + B cov_step B^T``, ``A = [[I, 0], [-skew(R p), I]]``,
-``B = blockdiag(R, R)`` (steps are treated as independent; consecutive steps share an image, so
-this is approximate). On failure (too few matches, degenerate geometry) the last pose is kept
-(or extrapolated with the last good motion if ``constant_velocity``), never NaN, and the next
-frame re-initialises from the current one.
+Epochs (our extension, seed 000 uses strictly consecutive epochs): images 1, 2 are the last
+*keyframe* epoch, images 3, 4 the current frame; every frame is solved against the keyframe
+(``T_o_c0 = T_o_kf @ T_kf_c3``) and the current frame becomes the keyframe once the adjusted
+translation reaches ``keyframe_baseline_ratio`` x the stereo baseline (or the four-view tracks
+thin out, seed 003's empty-cell criterion included). Only keyframe-to-keyframe steps chain, and
+the essential-matrix directions of ROPs 1-3 / 2-4 are solved with a parallax comparable to the
+baseline instead of one frame's (a few pixels), where they are ill-conditioned.
+
+Per frame: four-view KLT tracks (:mod:`vo.rop.tracks`; ``frontend="orb"|"sift"`` matches the four
+pairs with :mod:`vo.frontend` instead), a rotation-only fit and parallax
+(:mod:`vo.rop.rotation_only`); if the median parallax is below ``min_parallax_px`` the epoch is
+"no translation": ``T_kf_c3 = (R_1_3, 0)``, status ``ok`` with a message (our extension: the
+essential matrices are undefined without translation). Otherwise the four ROPs (RANSAC essential
+matrix + Sampson LM, :mod:`vo.rop.relative`); a ROP with fewer than ``max(min_rop_inliers,
+min_inlier_ratio * matches)`` inliers is rejected (extension); with >= 3 ROPs: initial EOPs and the
+two-step adjustment (eqs. 1-3, :mod:`vo.rop.adjustment`, unchanged).
+
+Covariance of ``[rotvec, position]`` of ``T_o_c0`` (left perturbation), first order:
+``cov = A cov_kf A^T + B cov_step B^T`` (see :func:`propagate_cov`); keyframe steps are treated as
+independent (consecutive steps share an epoch; approximate). ``cov="apost"`` (default) uses the
+adjustment's a-posteriori unit-weight variances; ``cov="apriori"`` its a-priori sigmas, which by
+default are *derived per epoch* from the ROPs' own Sampson fits: each ROP's per-axis rotation and
+direction sigmas ``s_p`` (``s^2 (J^T J)^-1`` of its LM, so they scale with the Sampson residual RMS
+and ``1/sqrt(n_inliers)``) give the unit-weight sigma ``s_0^2 = mean_p(w_p s_p^2)`` for the
+adjustment's inlier weights ``w_p = n_p / mean(n)``; ``sigma_rot_deg`` / ``sigma_dir_deg`` fix them.
+Rotation-only epochs: rotation sigma ``3 max(parallax, 0.1 px) / (f sqrt(n))`` per axis; position
+sigma ``baseline x max(parallax, min_parallax/2) / median disparity`` per axis (the translation
+that would produce that parallax at the median stereo depth).
+
+On failure the pose is held (or extrapolated, ``constant_velocity``), never NaN, and the current
+frame becomes a fresh keyframe (re-initialisation). Timings (ms): detect, track, stereo,
+essential, initial, adjust, total.
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -19,18 +43,28 @@ import numpy as np
 from vo.dataset.types import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import Estimator, FrameResult
-from vo.geometry import skew
+from vo.frontend.klt import KltConfig
+from vo.geometry import inv_T, make_T, skew
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.initial import initial_eops
-from vo.rop.relative import estimate_rop
+from vo.rop.relative import METHODS, estimate_rop_normalized
 from vo.rop.ropset import PAIRS, RopSet
+from vo.rop.rotation_only import rotation_only
+from vo.rop.tracks import KltFourView
 
 COVS = ("apost", "apriori")
+DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac", ransac_max_iters=200,
+                ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
+                cov="apost", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=False,
+                min_parallax_px=0.75, keyframe_baseline_ratio=1.0, keyframe_min_track_ratio=0.5,
+                klt_config=None)
+STAGES = ("detect", "track", "stereo", "essential", "initial", "adjust")
 
 
 def propagate_cov(cov_old: np.ndarray, T_o_c1: np.ndarray, T_c1_c3: np.ndarray, cov_step: np.ndarray) -> np.ndarray:
-    """(6,6) covariance of ``T_o_c3 = T_o_c1 @ T_c1_c3`` (first order, see the module docstring)."""
+    """(6,6) covariance of ``T_o_c3 = T_o_c1 @ T_c1_c3`` (first order): ``A cov_old A^T + B cov_step B^T``,
+    ``A = [[I, 0], [-skew(R p), I]]``, ``B = blockdiag(R, R)``, ``R = R_o_c1``, ``p = t_c1_c3``."""
     R = T_o_c1[:3, :3]
     A = np.eye(6)
     A[3:, :3] = -skew(R @ T_c1_c3[:3, 3])
@@ -40,101 +74,188 @@ def propagate_cov(cov_old: np.ndarray, T_o_c1: np.ndarray, T_c1_c3: np.ndarray, 
     return 0.5 * (C + C.T)
 
 
+def apriori_sigmas(ropset: RopSet) -> tuple:
+    """Unit-weight ``(sigma_rot_rad, sigma_dir_rad)`` from the ROPs' Sampson sigmas (module docstring)."""
+    w = ropset.weights()
+    ok = [p for p in ropset.ok_pairs if ropset.rops[p].sigma_rot_rad is not None]
+    if not ok:
+        return None, None
+    s_rot = np.sqrt(np.mean([w[p] * ropset.rops[p].sigma_rot_rad ** 2 for p in ok]))
+    s_dir = np.sqrt(np.mean([w[p] * ropset.rops[p].sigma_dir_rad ** 2 for p in ok]))
+    return max(float(s_rot), 1e-9), max(float(s_dir), 1e-9)
+
+
 class RopEstimator(Estimator):
-    """Options: ``frontend`` "klt"|"orb"|"sift" (default "orb"), ``max_features`` (1000),
-    ``ransac_threshold_px`` (1.0), ``min_matches`` (30), ``seed`` (0, cv2 RANSAC),
-    ``cov`` "apost"|"apriori", ``sigma_rot_deg`` / ``sigma_dir_deg`` (a-priori unit-weight ROP
-    sigmas, default 0.05 / 0.1), ``constant_velocity`` (False)."""
+    """Options (defaults in :data:`DEFAULTS`): ``frontend`` "klt"|"orb"|"sift"; RANSAC
+    ``ransac_threshold_px``, ``ransac_method`` "ransac"|"magsac", ``ransac_max_iters``, ``ransac_prob``,
+    ``seed``; ``min_matches`` (four-view tracks / pair matches), ``min_rop_inliers``,
+    ``min_inlier_ratio``; ``cov`` "apost"|"apriori", ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
+    ``constant_velocity``; ``min_parallax_px``; ``keyframe_baseline_ratio``; ``keyframe_min_track_ratio``;
+    ``klt_config`` (:class:`KltConfig`)."""
 
     name = "rop"
 
     def __init__(self, rig, **options):
         super().__init__(rig, **options)
-        known = {"frontend", "max_features", "ransac_threshold_px", "min_matches", "seed", "cov",
-                 "sigma_rot_deg", "sigma_dir_deg", "constant_velocity"}
-        bad = sorted(set(options) - known)
+        bad = sorted(set(options) - set(DEFAULTS))
         if bad:
-            raise EstimatorError(f"rop: unknown option(s) {bad}; valid: {', '.join(sorted(known))}")
+            raise EstimatorError(f"rop: unknown option(s) {bad}; valid: {', '.join(sorted(DEFAULTS))}")
         if not rig.is_stereo:
             raise EstimatorError(f"rop: rig {rig.name!r} has one camera; seed 000 needs a stereo rig")
-        self.frontend = options.get("frontend", "orb")
-        if self.frontend not in matching.KINDS:
-            raise EstimatorError(f"rop.frontend: {self.frontend!r}; valid: {', '.join(matching.KINDS)}")
-        self.cov_kind = options.get("cov", "apost")
-        if self.cov_kind not in COVS:
-            raise EstimatorError(f"rop.cov: {self.cov_kind!r}; valid: {', '.join(COVS)}")
-        self.max_features = int(options.get("max_features", 1000))
-        self.threshold_px = float(options.get("ransac_threshold_px", 1.0))
-        self.min_matches = int(options.get("min_matches", 30))
-        self.seed = int(options.get("seed", 0))
-        self.constant_velocity = bool(options.get("constant_velocity", False))
-        self.config = AdjustmentConfig(sigma_rot_rad=np.radians(float(options.get("sigma_rot_deg", 0.05))),
-                                       sigma_dir_rad=np.radians(float(options.get("sigma_dir_deg", 0.1))))
+        o = {**DEFAULTS, **options}
+        for key, valid in (("frontend", matching.KINDS), ("cov", COVS), ("ransac_method", tuple(METHODS))):
+            if o[key] not in valid:
+                raise EstimatorError(f"rop.{key}: {o[key]!r}; valid: {', '.join(valid)}")
+        self.o = o
         self.cams = rig.cameras[:2]
+        self.focal = float(np.mean([c.fx for c in self.cams] + [c.fy for c in self.cams]))
         self.T_c1_c2 = rig.T_c0_c1
-        self._prev = None            # (frame, features_left, features_right)
-        self.T_o_c0 = np.eye(4)
-        self.cov = np.zeros((6, 6))
+        self.baseline = float(np.linalg.norm(self.T_c1_c2[:3, 3]))
+        self.config = AdjustmentConfig(
+            sigma_rot_rad=None if o["sigma_rot_deg"] is None else np.radians(float(o["sigma_rot_deg"])),
+            sigma_dir_rad=None if o["sigma_dir_deg"] is None else np.radians(float(o["sigma_dir_deg"])))
+        self.klt = KltFourView(rig, o["klt_config"] or KltConfig()) if o["frontend"] == "klt" else None
+        self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
+        self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
+        self._kf_imgs = None          # (left, right) of the keyframe; None before the first frame
+        self._n_kf = 0
+        self._T_kf_cur = np.eye(4)
         self._last_motion = np.eye(4)
         self._lost = False
 
-    def _rops(self, prev, cur, timings):
-        """The four ROPs (pair -> RopMeasurement) and the smallest match count."""
+    # ------------------------------------------------------------------------------ front-end
+    def _new_keyframe(self, left, right, timings, keep_tracks: bool) -> int:
+        self.T_o_kf, self.cov_kf, self._T_kf_cur = self.T_o_c0.copy(), self.cov.copy(), np.eye(4)
+        self._kf_imgs = (left, right)
+        if self.klt is not None:
+            self._n_kf = self.klt.keyframe(left, right, timings, keep_tracks)
+        else:
+            self._n_kf = 1
+        return self._n_kf
+
+    def _pairs(self, left, right, timings) -> tuple[dict, int, float]:
+        """{pair: (x_i, x_j)}, number of usable features, median stereo disparity (px) at the keyframe."""
+        if self.klt is not None:
+            v = self.klt.track(left, right, timings)
+            disp = np.median(np.linalg.norm(v.x1 - v.x2, axis=1)) * self.focal if len(v) else 0.0
+            return {p: v.pair(p) for p in PAIRS}, int(v.ok4.sum()), float(disp)
         t0 = time.perf_counter()
-        imgs = {1: prev[0].left, 2: prev[0].right, 3: cur[0].left, 4: cur[0].right}
-        feats = {1: prev[1], 2: prev[2], 3: cur[1], 4: cur[2]}
-        matches = {p: matching.match(feats[int(p[0])], feats[int(p[1])], imgs[int(p[0])], imgs[int(p[1])],
-                                     self.frontend) for p in PAIRS}
-        t1 = time.perf_counter()
-        rops = {}
-        for p, (a, b) in matches.items():
-            ci, cj = self.cams[(int(p[0]) - 1) % 2], self.cams[(int(p[1]) - 1) % 2]
-            if len(a) >= self.min_matches:
-                rops[p] = estimate_rop(a, b, ci.K, ci.dist_coeffs, cj.K, cj.dist_coeffs, seed=self.seed,
-                                       ransac_threshold_px=self.threshold_px)
-        timings["matching"] += (t1 - t0) * 1e3
-        timings["essential"] = (time.perf_counter() - t1) * 1e3
-        return rops, min(len(a) for a, _ in matches.values())
+        kl, kr = self._kf_imgs
+        pairs = matching.descriptor_pairs({1: kl, 2: kr, 3: left, 4: right}, self.cams, self.o["frontend"])
+        timings["track"] += (time.perf_counter() - t0) * 1e3
+        return pairs, min(len(a) for a, _ in pairs.values()), 0.3 * self.focal
 
-    def _features(self, frame):
-        return (frame, matching.detect(frame.left, self.frontend, self.max_features),
-                matching.detect(frame.right, self.frontend, self.max_features))
+    # ------------------------------------------------------------------------------- solving
+    def _rops(self, pairs: dict) -> RopSet:
+        o, rops = self.o, {}
+        for p, (x_i, x_j) in pairs.items():
+            if len(x_i) < o["min_matches"]:
+                continue
+            m = estimate_rop_normalized(x_i, x_j, self.focal, o["seed"], o["ransac_threshold_px"], o["ransac_prob"],
+                                        max_iters=o["ransac_max_iters"], method=o["ransac_method"])
+            need = max(o["min_rop_inliers"], o["min_inlier_ratio"] * len(x_i))
+            if m.ok and m.n_inliers < need:
+                m = dataclasses.replace(m, ok=False, message=f"{m.n_inliers} inliers < {need:.0f}")
+            rops[p] = m
+        return RopSet(rops, self.T_c1_c2)
 
-    def _fail(self, frame, cur, status, n_matches, n_inl, msg, timings) -> FrameResult:
-        if self.constant_velocity:
-            self.T_o_c0 = self.T_o_c0 @ self._last_motion
-        self._prev, self._lost = cur, True
-        msg += "; pose held" + (" (constant velocity)" if self.constant_velocity else "") + \
-               ", re-initialising from this frame"
-        return FrameResult(frame.t_ns, self.T_o_c0.copy(), status, n_matches, n_inl, self.cov.copy(), msg, timings)
-
-    def process(self, frame: StereoFrame) -> FrameResult:
-        timings = {"matching": 0.0, "essential": 0.0, "initial": 0.0, "adjust": 0.0}
-        t0 = time.perf_counter()
-        cur = self._features(frame)
-        timings["matching"] = (time.perf_counter() - t0) * 1e3
-        if self._prev is None:
-            self._prev = cur
-            return FrameResult(frame.t_ns, self.T_o_c0.copy(), "init", len(cur[1][0]), 0, self.cov.copy(),
-                               "first frame defines O", timings)
-        rops, n_matches = self._rops(self._prev, cur, timings)
-        ropset = RopSet(rops, self.T_c1_c2)
-        n_inl = min((r.n_inliers for r in rops.values() if r.ok), default=0)
+    def _adjust(self, ropset: RopSet, timings):
+        """-> (T_c1_c3, cov_step, message); T None on failure."""
         if len(ropset.ok_pairs) < 3:
-            return self._fail(frame, cur, "few_features", n_matches, n_inl,
-                              f"{len(ropset.ok_pairs)} of 4 ROPs usable (min matches {n_matches} "
-                              f"< {self.min_matches}?: texture-poor view?)", timings)
+            msgs = "; ".join(f"{p}: {m.message}" for p, m in ropset.rops.items() if not m.ok)
+            return None, None, f"{len(ropset.ok_pairs)} of 4 ROPs usable ({msgs or 'too few matches'})"
         t1 = time.perf_counter()
         init = initial_eops(ropset)
         t2 = time.perf_counter()
-        res = adjust_rops(ropset, init, self.config)
-        timings["initial"], timings["adjust"] = (t2 - t1) * 1e3, (time.perf_counter() - t2) * 1e3
-        cov_step = res.cov_apriori if self.cov_kind == "apriori" else res.cov_apost
-        if res.degenerate or cov_step is None or not np.all(np.isfinite(res.T_c1_c3)):
-            return self._fail(frame, cur, "lost", n_matches, n_inl, f"degenerate ROP geometry: {res.message}", timings)
-        self.cov = propagate_cov(self.cov, self.T_o_c0, res.T_c1_c3, cov_step)
-        self.T_o_c0 = self.T_o_c0 @ res.T_c1_c3
-        self._last_motion, self._prev = res.T_c1_c3, cur
-        status, msg = ("reinit", "re-initialised after a failed frame") if self._lost else ("ok", "")
-        self._lost = False
-        return FrameResult(frame.t_ns, self.T_o_c0.copy(), status, n_matches, n_inl, self.cov.copy(), msg, timings)
+        cfg = self.config
+        if self.o["cov"] == "apriori" and cfg.sigma_rot_rad is None:
+            s_rot, s_dir = apriori_sigmas(ropset)
+            cfg = dataclasses.replace(cfg, sigma_rot_rad=s_rot, sigma_dir_rad=s_dir)
+        res = adjust_rops(ropset, init, cfg)
+        timings["initial"] += (t2 - t1) * 1e3
+        timings["adjust"] += (time.perf_counter() - t2) * 1e3
+        cov = res.cov_apriori if self.o["cov"] == "apriori" else res.cov_apost
+        if res.degenerate or cov is None or not np.all(np.isfinite(res.T_c1_c3)) or not np.all(np.isfinite(cov)):
+            return None, None, f"degenerate ROP geometry: {res.message or 'no redundancy'}"
+        return res.T_c1_c3, cov, ""
+
+    def _rotation_only_step(self, R_1_3, parallax, n, disparity):
+        cov = np.zeros((6, 6))
+        s_rot = 3.0 * max(parallax, 0.1) / (self.focal * np.sqrt(max(n, 1)))
+        s_pos = self.baseline * max(parallax, 0.5 * self.o["min_parallax_px"]) / max(disparity, 1.0)
+        cov[:3, :3], cov[3:, 3:] = s_rot ** 2 * np.eye(3), s_pos ** 2 * np.eye(3)
+        return make_T(R_1_3, np.zeros(3)), cov
+
+    def _step(self, pairs, n_feat, disparity, timings):
+        """-> (T_kf_c3, cov_step, status, message); T None on failure."""
+        t0 = time.perf_counter()
+        x1, x3 = pairs["13"]
+        R_1_3, parallax, _ = rotation_only(x1, x3, self.focal)
+        min_par = self.o["min_parallax_px"]
+        if parallax < min_par:
+            timings["essential"] += (time.perf_counter() - t0) * 1e3
+            T, cov = self._rotation_only_step(R_1_3, parallax, len(x1), disparity)
+            return T, cov, "ok", f"parallax {parallax:.2f} px < {min_par} px: no translation (rotation only)"
+        ropset = self._rops(pairs)
+        timings["essential"] += (time.perf_counter() - t0) * 1e3
+        T, cov, msg = self._adjust(ropset, timings)
+        if T is None and parallax < 2.0 * min_par:
+            T, cov = self._rotation_only_step(R_1_3, parallax, len(x1), disparity)
+            return T, cov, "ok", f"parallax {parallax:.2f} px, {msg}: rotation only"
+        return T, cov, ("lost" if T is None else "ok"), msg
+
+    def _is_keyframe(self, T_kf_c3, n_feat) -> bool:
+        o = self.o
+        if np.linalg.norm(T_kf_c3[:3, 3]) >= o["keyframe_baseline_ratio"] * self.baseline:
+            return True
+        if n_feat < max(2 * o["min_matches"], o["keyframe_min_track_ratio"] * self._n_kf):
+            return True
+        return self.klt is not None and self.klt.empty_fraction > self.klt.config.max_empty_fraction
+
+    # ------------------------------------------------------------------------------- frames
+    def _result(self, frame, status, n_feat, n_inl, msg, timings, t0) -> FrameResult:
+        timings["total"] = (time.perf_counter() - t0) * 1e3
+        return FrameResult(frame.t_ns, self.T_o_c0.copy(), status, int(n_feat), int(n_inl), self.cov.copy(), msg, timings)
+
+    def _fail(self, frame, left, right, status, n_feat, msg, timings, t0) -> FrameResult:
+        T_prev = self.T_o_c0
+        self.T_o_c0 = self.T_o_c0 @ self._last_motion if self.o["constant_velocity"] else self.T_o_c0
+        self._last_motion = inv_T(T_prev) @ self.T_o_c0
+        self._new_keyframe(left, right, timings, keep_tracks=False)
+        self._lost = True
+        msg += "; pose held" + (" (constant velocity)" if self.o["constant_velocity"] else "") + \
+               ", re-initialising from this frame"
+        return self._result(frame, status, n_feat, 0, msg, timings, t0)
+
+    def process(self, frame: StereoFrame) -> FrameResult:
+        t0 = time.perf_counter()
+        timings = dict.fromkeys(STAGES, 0.0)
+        left, right = _gray(frame.left), _gray(frame.right)
+        if self._kf_imgs is None:
+            n = self._new_keyframe(left, right, timings, keep_tracks=False)
+            return self._result(frame, "init", n, 0, "first frame defines O", timings, t0)
+        pairs, n_feat, disparity = self._pairs(left, right, timings)
+        if n_feat < self.o["min_matches"]:
+            return self._fail(frame, left, right, "few_features", n_feat,
+                              f"{n_feat} four-view features < {self.o['min_matches']}: texture-poor view?", timings, t0)
+        T_kf_c3, cov_step, status, msg = self._step(pairs, n_feat, disparity, timings)
+        if T_kf_c3 is None:
+            return self._fail(frame, left, right, status, n_feat, msg, timings, t0)
+        T_prev = self.T_o_c0
+        self.T_o_c0 = self.T_o_kf @ T_kf_c3
+        self.cov = propagate_cov(self.cov_kf, self.T_o_kf, T_kf_c3, cov_step)
+        self._last_motion, self._T_kf_cur = inv_T(T_prev) @ self.T_o_c0, T_kf_c3
+        if self._lost:
+            status, msg, self._lost = "reinit", ("re-initialised after a failed frame; " + msg).rstrip("; "), False
+        if self._is_keyframe(T_kf_c3, n_feat):
+            self._new_keyframe(left, right, timings, keep_tracks=True)
+            status = "keyframe" if status == "ok" else status
+        return self._result(frame, status, n_feat, n_feat, msg, timings, t0)
+
+
+def _gray(img: np.ndarray) -> np.ndarray:
+    """(H,W) or (H,W,3) RGB uint8 -> (H,W) uint8 grayscale."""
+    if img.ndim == 2:
+        return img
+    import cv2
+    return cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)

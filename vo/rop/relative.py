@@ -4,23 +4,36 @@ OpenCV's ``recoverPose`` returns ``R, t`` with ``x_j = R x_i + t`` (points of ca
 camera j), i.e. ``R = R_cj_ci`` and ``t = t_cj_ci``. :func:`rop_from_opencv` converts that, in one
 place, to the seed-000 / project convention ``R_i_j = R^T`` and ``rhat_i_j = -R^T t / |t|``
 (direction from the origin of C_i to the origin of C_j, expressed in C_i).
+
+Per-ROP precision (our extension; seed 000 only weights by inlier count): the final Sampson
+Gauss-Newton gives the 5x5 covariance ``s^2 (J^T J)^-1`` of ``[rotvec (3), direction tangent (2)]``
+with ``s^2 = sum(r^2) / (n - 5)`` the Sampson residual variance of the inliers (normalised units).
+``sigma_rot_rad`` = RMS per-axis rotation sigma, ``sigma_dir_rad`` = RMS per-tangent-axis direction
+sigma (both rad); the estimator turns them into the a-priori unit-weight sigmas of the adjustment.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 import cv2
 import numpy as np
-from scipy.optimize import least_squares
 
 from vo.geometry import skew, so3_exp
 
 MIN_INLIERS = 8
+# recoverPose's chirality test drops points farther than ``distanceThresh`` x |t| (default 50): with
+# |t| = 1 and one frame of forward motion (6 cm) most scene points are beyond 50 |t|, so the default
+# rejects nearly all of them. We use chirality only to choose among the four (R, t) decompositions
+# (majority vote of the Sampson inliers, with a far threshold) and keep the Sampson inliers as inliers.
+CHIRALITY_DIST = 1e6
+METHODS = {"ransac": cv2.RANSAC, "magsac": cv2.USAC_MAGSAC}
 
 
 @dataclass(frozen=True)
 class RopMeasurement:
-    """``R_i_j`` (3,3), ``rhat_i_j`` (3,) unit, ``n_inliers``, ``inlier_mask`` (N,) bool, ``ok``."""
+    """``R_i_j`` (3,3), ``rhat_i_j`` (3,) unit, ``n_inliers``, ``inlier_mask`` (N,) bool, ``ok``;
+    ``sigma_rot_rad`` / ``sigma_dir_rad`` per-axis sigmas from the Sampson fit (None if unknown)."""
 
     R_i_j: np.ndarray
     rhat_i_j: np.ndarray
@@ -28,6 +41,9 @@ class RopMeasurement:
     inlier_mask: np.ndarray
     ok: bool
     message: str = ""
+    sigma_rot_rad: Optional[float] = None
+    sigma_dir_rad: Optional[float] = None
+    rms_px: Optional[float] = None
 
 
 def _spread(x: np.ndarray) -> float:
@@ -51,79 +67,137 @@ def rop_from_opencv(R_cj_ci: np.ndarray, t_cj_ci: np.ndarray) -> tuple[np.ndarra
 def normalized_points(p_px: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     """(N,2) distorted pixels -> (N,2) undistorted normalized image coordinates ``(x/z, y/z)``."""
     p = np.ascontiguousarray(np.asarray(p_px, dtype=np.float64).reshape(-1, 1, 2))
+    if len(p) == 0:
+        return np.zeros((0, 2))
     d = np.zeros(5) if dist is None else np.asarray(dist, dtype=np.float64)
     crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-12)
     return cv2.undistortPoints(p, np.asarray(K, dtype=np.float64), d, criteria=crit).reshape(-1, 2)
 
 
 def sampson_residuals(E: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:
-    """Signed Sampson distances (N,) of normalized matches to ``x_j^T E x_i = 0`` (normalized units)."""
+    """Signed Sampson distances (N,) of normalized matches to ``x_j^T E x_i = 0``; ``E`` may be
+    (K,3,3), then the result is (K,N)."""
     h_i, h_j = np.c_[x_i, np.ones(len(x_i))], np.c_[x_j, np.ones(len(x_j))]
-    Ex_i, Etx_j = h_i @ E.T, h_j @ E
-    den = Ex_i[:, 0] ** 2 + Ex_i[:, 1] ** 2 + Etx_j[:, 0] ** 2 + Etx_j[:, 1] ** 2
-    return np.einsum("ij,ij->i", h_j, Ex_i) / np.sqrt(np.maximum(den, 1e-300))
+    Ex_i = np.einsum("...ab,nb->...na", E, h_i)
+    Etx_j = np.einsum("...ba,nb->...na", E, h_j)
+    den = Ex_i[..., 0] ** 2 + Ex_i[..., 1] ** 2 + Etx_j[..., 0] ** 2 + Etx_j[..., 1] ** 2
+    return np.einsum("nj,...nj->...n", h_j, Ex_i) / np.sqrt(np.maximum(den, 1e-300))
 
 
-def refine_essential(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray):
-    """Minimise the Sampson distances over ``R`` (rotvec update) and unit ``t`` (2 tangent params).
+def _unpack(R, t, B, z):
+    tz = t + B @ z[3:]
+    return so3_exp(z[:3]) @ R, tz / np.linalg.norm(tz)
+
+
+def _jacobian(R, t, B, x_i, x_j, r0, eps=1e-7):
+    """(N,5) forward-difference Jacobian of the Sampson residuals, all 5 columns in one batch."""
+    Es = []
+    for k in range(5):
+        z = np.zeros(5)
+        z[k] = eps
+        R_z, t_z = _unpack(R, t, B, z)
+        Es.append(skew(t_z) @ R_z)
+    return ((sampson_residuals(np.stack(Es), x_i, x_j) - r0) / eps).T
+
+
+def refine_essential(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray, iters: int = 10):
+    """Levenberg-Marquardt on the Sampson distances over ``R`` (rotvec) and unit ``t`` (2 tangent
+    params) -> ``(R, t, cov5)``; ``cov5`` (5,5) of ``[rotvec, tangent]`` (``s^2 (J^T J)^-1``).
 
     OpenCV's RANSAC returns the best minimal-sample model without a final fit to all inliers
-    (0.1-0.3 deg errors at 0.3 px noise); this Levenberg-Marquardt polish recovers ~0.01 deg.
-    ``R, t`` in OpenCV's convention (``x_j = R x_i + t``)."""
+    (0.1-0.3 deg errors at 0.3 px noise); this polish recovers ~0.01 deg. Vectorised numpy
+    (batched Jacobian), ~0.2 ms for 300 points. ``R, t`` in OpenCV's convention."""
     t = t.ravel() / np.linalg.norm(t)
-    B = np.linalg.svd(t.reshape(1, 3))[2][1:].T                  # (3,2) tangent basis at t
+    lam = 1e-3
+    r = sampson_residuals(skew(t) @ R, x_i, x_j)
+    cost = float(r @ r)
+    J = np.zeros((len(r), 5))
+    for _ in range(iters):
+        B = np.linalg.svd(t.reshape(1, 3))[2][1:].T                 # (3,2) tangent basis at t
+        J = _jacobian(R, t, B, x_i, x_j, r)
+        H, g = J.T @ J, J.T @ r
+        dz = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-30), g)
+        R_n, t_n = _unpack(R, t, B, dz)
+        r_n = sampson_residuals(skew(t_n) @ R_n, x_i, x_j)
+        c_n = float(r_n @ r_n)
+        if c_n < cost:
+            R, t, r, lam = R_n, t_n, r_n, lam * 0.1
+            done = cost - c_n < 1e-10 * cost
+            cost = c_n
+            if done:
+                break
+        else:
+            lam *= 10.0
+            if lam > 1e6:
+                break
+    dof = max(len(r) - 5, 1)
+    cov5 = cost / dof * np.linalg.pinv(J.T @ J)
+    return R, t, cov5
 
-    def unpack(z):
-        tz = t + B @ z[3:]
-        return so3_exp(z[:3]) @ R, tz / np.linalg.norm(tz)
 
-    def fun(z):
-        R_z, t_z = unpack(z)
-        return sampson_residuals(skew(t_z) @ R_z, x_i, x_j)
-
-    sol = least_squares(fun, np.zeros(5), method="lm", xtol=1e-12, ftol=1e-12)
-    return unpack(sol.x)
+def _fail_reason(n: int, n_good: int, spread_px: float, min_inliers: int, R, t) -> str:
+    if spread_px <= 2.0:
+        return "inliers collapse to one image point (degenerate)"
+    if n_good < min_inliers or not np.all(np.isfinite(R)) or np.linalg.norm(t) < 1e-12:
+        return f"{n_good} inliers in front of both cameras < {min_inliers}"
+    return ""
 
 
-def estimate_rop(p_i: np.ndarray, p_j: np.ndarray, K_i: np.ndarray, dist_i, K_j: np.ndarray, dist_j,
-                 seed: int = 0, ransac_threshold_px: float = 1.0, prob: float = 0.999,
-                 min_inliers: int = MIN_INLIERS) -> RopMeasurement:
-    """ROP of image j in image i from matched pixels ``p_i``, ``p_j`` (N,2) (distorted, as observed).
+def estimate_rop_normalized(x_i: np.ndarray, x_j: np.ndarray, focal: float, seed: int = 0,
+                            ransac_threshold_px: float = 1.0, prob: float = 0.999,
+                            min_inliers: int = MIN_INLIERS, max_iters: int = 1000,
+                            method: str = "ransac") -> RopMeasurement:
+    """ROP of image j in image i from undistorted normalized matches ``x_i``, ``x_j`` (N,2).
 
-    Points are undistorted to normalized coordinates, the essential matrix is found by RANSAC
-    (``cv2.findEssentialMat``, identity camera, threshold = ``ransac_threshold_px`` / mean focal),
-    and ``cv2.recoverPose`` picks ``R, t`` by chirality. ``cv2.setRNGSeed(seed)`` makes RANSAC
-    reproducible. Fewer than ``min_inliers`` inliers, or a degenerate solve -> ``ok=False``.
-    """
-    p_i = np.asarray(p_i, dtype=float).reshape(-1, 2)
-    p_j = np.asarray(p_j, dtype=float).reshape(-1, 2)
-    n = len(p_i)
-    if len(p_j) != n:
-        return failed_rop(n, f"point counts differ: {n} vs {len(p_j)}")
+    RANSAC essential matrix (threshold ``ransac_threshold_px / focal``, ``max_iters`` upper bound
+    on the adaptive iteration count, ``cv2.setRNGSeed(seed)`` first), ``recoverPose`` (chirality),
+    then Sampson LM on the inliers, re-selection of inliers at the threshold, a second LM and a
+    final chirality check. Fewer than ``min_inliers`` inliers or a degenerate solve -> ``ok=False``."""
+    n = len(x_i)
+    if len(x_j) != n:
+        return failed_rop(n, f"point counts differ: {n} vs {len(x_j)}")
     if n < max(min_inliers, 5):
         return failed_rop(n, f"{n} correspondences < {max(min_inliers, 5)}")
-    x_i, x_j = normalized_points(p_i, K_i, dist_i), normalized_points(p_j, K_j, dist_j)
-    focal = 0.25 * (K_i[0][0] + K_i[1][1] + K_j[0][0] + K_j[1][1])
+    thr = ransac_threshold_px / focal
     cv2.setRNGSeed(int(seed))
     try:
-        E, mask = cv2.findEssentialMat(x_i, x_j, np.eye(3), cv2.RANSAC, prob, ransac_threshold_px / focal)
+        E, mask = cv2.findEssentialMat(x_i, x_j, np.eye(3), METHODS[method], prob, thr, int(max_iters))
     except cv2.error as exc:
         return failed_rop(n, f"findEssentialMat failed: {str(exc).splitlines()[0]}")
     if E is None or mask is None or E.shape != (3, 3):
         return failed_rop(n, "findEssentialMat found no unique solution (degenerate points?)")
     mask = mask.ravel().astype(np.uint8)
-    n_good, R, t, mask_pose = cv2.recoverPose(E, x_i, x_j, np.eye(3), mask=mask.copy())
-    inliers = mask_pose.ravel() > 0
+    n_good, R, t, _, _ = cv2.recoverPose(E, x_i, x_j, np.eye(3), distanceThresh=CHIRALITY_DIST,
+                                             mask=mask.copy())
+    inliers, t = mask > 0, t.ravel()
+    cov5 = None
     if int(n_good) >= min_inliers and _spread(x_i[inliers]) * focal > 2.0:
-        R, t = refine_essential(R, t, x_i[inliers], x_j[inliers])
-        mask = (np.abs(sampson_residuals(skew(t) @ R, x_i, x_j)) * focal < ransac_threshold_px).astype(np.uint8)
+        R, t, cov5 = refine_essential(R, t, x_i[inliers], x_j[inliers])
+        mask = (np.abs(sampson_residuals(skew(t) @ R, x_i, x_j)) < thr).astype(np.uint8)
         if int(mask.sum()) >= min_inliers:
-            R, t = refine_essential(R, t, x_i[mask > 0], x_j[mask > 0])
-        n_good, R, t, mask_pose = cv2.recoverPose(skew(t) @ R, x_i, x_j, np.eye(3), mask=mask.copy())
-        inliers = mask_pose.ravel() > 0
-    if _spread(x_i[inliers]) * focal <= 2.0:
-        return failed_rop(n, "inliers collapse to one image point (degenerate)")
-    if int(n_good) < min_inliers or not np.all(np.isfinite(R)) or np.linalg.norm(t) < 1e-12:
-        return failed_rop(n, f"{int(n_good)} inliers after chirality check < {min_inliers}")
+            R, t, cov5 = refine_essential(R, t, x_i[mask > 0], x_j[mask > 0], iters=3)
+        n_good, R, t, _, _ = cv2.recoverPose(skew(t) @ R, x_i, x_j, np.eye(3), distanceThresh=CHIRALITY_DIST,
+                                             mask=mask.copy())
+        inliers, t = mask > 0, t.ravel()
+    reason = _fail_reason(n, int(n_good), _spread(x_i[inliers]) * focal, min_inliers, R, t)
+    if reason or cov5 is None:
+        return failed_rop(n, reason or "too few inliers for the Sampson refinement")
     R_i_j, rhat_i_j = rop_from_opencv(R, t)
-    return RopMeasurement(R_i_j, rhat_i_j, int(inliers.sum()), inliers, True, "")
+    res = sampson_residuals(skew(t) @ R, x_i[inliers], x_j[inliers])
+    return RopMeasurement(R_i_j, rhat_i_j, int(inliers.sum()), inliers, True, "",
+                          float(np.sqrt(np.trace(cov5[:3, :3]) / 3.0)), float(np.sqrt(np.trace(cov5[3:, 3:]) / 2.0)),
+                          float(np.sqrt(np.mean(res ** 2)) * focal))
+
+
+def estimate_rop(p_i: np.ndarray, p_j: np.ndarray, K_i: np.ndarray, dist_i, K_j: np.ndarray, dist_j,
+                 seed: int = 0, ransac_threshold_px: float = 1.0, prob: float = 0.999,
+                 min_inliers: int = MIN_INLIERS, **kw) -> RopMeasurement:
+    """ROP of image j in image i from matched pixels ``p_i``, ``p_j`` (N,2) (distorted, as observed):
+    undistort to normalized coordinates, then :func:`estimate_rop_normalized`."""
+    p_i = np.asarray(p_i, dtype=float).reshape(-1, 2)
+    p_j = np.asarray(p_j, dtype=float).reshape(-1, 2)
+    if len(p_j) != len(p_i):
+        return failed_rop(len(p_i), f"point counts differ: {len(p_i)} vs {len(p_j)}")
+    x_i, x_j = normalized_points(p_i, K_i, dist_i), normalized_points(p_j, K_j, dist_j)
+    focal = 0.25 * (K_i[0][0] + K_i[1][1] + K_j[0][0] + K_j[1][1])
+    return estimate_rop_normalized(x_i, x_j, focal, seed, ransac_threshold_px, prob, min_inliers, **kw)

@@ -1,0 +1,146 @@
+"""KLT four-view front-end for the ROP estimator: ONE feature set gives the points of images 1-4.
+
+Images 1, 2 are the left/right images of the last keyframe epoch, 3, 4 those of the current
+frame. On a keyframe, corners are detected in the empty cells of a grid (seed 003) and matched
+left -> right by LK (forward-backward + calibrated epipolar check): ``p1``, ``p2``. Every frame,
+the tracks are followed frame to frame on the left images by LK with a forward-backward check
+(``p3``; consecutive frames, so the flow stays small) and matched into the current right image by
+LK seeded with the keyframe disparity ``p3 + (p2 - p1)``, again forward-backward and epipolar
+checked (``p4``, valid where ``ok4``). The ROPs 1-3, 1-4, 2-3, 2-4 then all come from these tracks
+with no further matching. When the current frame becomes a keyframe its ``(p3, p4)`` become the
+new ``(p1, p2)`` (tracks without a valid ``p4`` are dropped) and new corners fill the empty cells.
+
+OpenCV's Python binding of ``calcOpticalFlowPyrLK`` does not accept pre-built pyramids (the
+``buildOpticalFlowPyramid`` output is rejected as ``prevImg``), so each LK call builds its own;
+we keep the calls to four per frame (temporal and stereo, each forward and backward).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from vo.frontend.grid import Grid
+from vo.frontend.klt import KltConfig
+from vo.frontend.stereo import epipolar_mask
+from vo.rop.griddetect import detect_grid
+from vo.rop.relative import normalized_points
+
+
+@dataclass
+class FourView:
+    """Points of the current tracks in the four images: raw pixels ``p1..p4`` (N,2), normalized
+    undistorted ``x1..x4`` (N,2); ``ok4`` (N,) where ``p4`` is valid (``p1..p3`` always are)."""
+
+    p1: np.ndarray
+    p2: np.ndarray
+    p3: np.ndarray
+    p4: np.ndarray
+    x1: np.ndarray
+    x2: np.ndarray
+    x3: np.ndarray
+    x4: np.ndarray
+    ok4: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.p1)
+
+    def pair(self, p: str) -> tuple[np.ndarray, np.ndarray]:
+        """Normalized matches ``(x_i, x_j)`` of pair ``"13" | "14" | "23" | "24"``."""
+        x = {"1": self.x1, "2": self.x2, "3": self.x3, "4": self.x4}
+        sel = self.ok4 if p[1] == "4" else np.ones(len(self), bool)
+        return x[p[0]][sel], x[p[1]][sel]
+
+
+def lk_fb(img0, img1, p0, config: KltConfig, guess=None) -> tuple[np.ndarray, np.ndarray]:
+    """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back; ``ok`` where both
+    directions converge inside the image and the round trip ends < ``fb_threshold_px`` from ``p0``."""
+    n = len(p0)
+    if n == 0:
+        return np.zeros((0, 2)), np.zeros(0, bool)
+    crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
+    kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
+    a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
+    if guess is None:
+        b, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, a, None, **kw)
+    else:
+        b = np.ascontiguousarray(guess, np.float32).reshape(-1, 1, 2)
+        b, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, a, b, flags=cv2.OPTFLOW_USE_INITIAL_FLOW, **kw)
+    a2 = a.copy()
+    a2, st2, _ = cv2.calcOpticalFlowPyrLK(img1, img0, b, a2, flags=cv2.OPTFLOW_USE_INITIAL_FLOW, **kw)
+    p1 = b.reshape(-1, 2).astype(np.float64)
+    h, w = img1.shape[:2]
+    ok = (st.ravel() == 1) & (st2.ravel() == 1) & np.all(np.isfinite(p1), axis=1)
+    ok &= (p1[:, 0] >= 0) & (p1[:, 1] >= 0) & (p1[:, 0] <= w - 1) & (p1[:, 1] <= h - 1)
+    ok &= np.linalg.norm(a2.reshape(-1, 2) - p0, axis=1) < config.fb_threshold_px
+    return p1, ok
+
+
+class KltFourView:
+    """Keyframe-anchored KLT tracks (see the module docstring). ``timings`` dicts get ``detect``,
+    ``track`` and ``stereo`` in ms."""
+
+    def __init__(self, rig, config: KltConfig = KltConfig()):
+        self.rig, self.config = rig, config
+        self.cams = rig.cameras[:2]
+        cam = self.cams[0]
+        self.grid = Grid(cam.width, cam.height, config.cell)
+        self.kf = None               # FourView-like arrays at the keyframe: p1, p2, x1, x2
+        self.view = None             # the current FourView
+        self._prev_left = None
+
+    def _norm(self, p, k):
+        cam = self.cams[k]
+        if not cam.has_distortion:
+            return np.c_[(p[:, 0] - cam.cx) / cam.fx, (p[:, 1] - cam.cy) / cam.fy]
+        return normalized_points(p, cam.K, cam.dist_coeffs)
+
+    def _stereo(self, left, right, p_l, guess=None):
+        p_r, ok = lk_fb(left, right, p_l, self.config, guess)
+        if ok.any():
+            ok[ok] &= epipolar_mask(self.rig, p_l[ok], p_r[ok], self.config.epipolar_threshold_px)
+        return p_r, ok
+
+    def keyframe(self, left, right, timings: dict, keep_tracks: bool = True) -> int:
+        """Make this frame the keyframe: carry tracks with a valid ``p4`` (if ``keep_tracks``), detect
+        corners in empty cells, stereo-match them. Returns the number of keyframe features."""
+        t0 = cv2.getTickCount()
+        v = self.view
+        if keep_tracks and v is not None and len(v):
+            p1, p2, x1, x2 = v.p3[v.ok4], v.p4[v.ok4], v.x3[v.ok4], v.x4[v.ok4]
+        else:
+            p1 = p2 = x1 = x2 = np.zeros((0, 2))
+        new = detect_grid(left, self.grid, p1, self.config)
+        t1 = cv2.getTickCount()
+        new_r, ok = self._stereo(left, right, new)
+        new, new_r = new[ok], new_r[ok]
+        p1, p2 = np.vstack([p1, new]), np.vstack([p2, new_r])
+        x1, x2 = np.vstack([x1, self._norm(new, 0)]), np.vstack([x2, self._norm(new_r, 1)])
+        self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool))
+        self._prev_left = left
+        f = 1e3 / cv2.getTickFrequency()
+        timings["detect"] = timings.get("detect", 0.0) + (t1 - t0) * f
+        timings["stereo"] = timings.get("stereo", 0.0) + (cv2.getTickCount() - t1) * f
+        return len(p1)
+
+    def track(self, left, right, timings: dict) -> FourView:
+        """Track the keyframe features into the current stereo frame -> the current :class:`FourView`."""
+        v = self.view
+        t0 = cv2.getTickCount()
+        p3, ok = lk_fb(self._prev_left, left, v.p3, self.config)
+        v = FourView(v.p1[ok], v.p2[ok], p3[ok], v.p4[ok], v.x1[ok], v.x2[ok], v.x3[ok], v.x4[ok], v.ok4[ok])
+        t1 = cv2.getTickCount()
+        v.p4, v.ok4 = self._stereo(left, right, v.p3, guess=v.p3 + (v.p2 - v.p1))
+        v.x3 = self._norm(v.p3, 0)
+        v.x4 = np.zeros_like(v.p4)
+        v.x4[v.ok4] = self._norm(v.p4[v.ok4], 1)
+        self.view, self._prev_left = v, left
+        f = 1e3 / cv2.getTickFrequency()
+        timings["track"] = timings.get("track", 0.0) + (t1 - t0) * f
+        timings["stereo"] = timings.get("stereo", 0.0) + (cv2.getTickCount() - t1) * f
+        return v
+
+    @property
+    def empty_fraction(self) -> float:
+        return self.grid.empty_fraction(self.view.p3) if self.view is not None else 1.0
