@@ -51,8 +51,12 @@ def run(dataset_dir, estimator, frontend, max_frames, out_dir, as_json, no_progr
 def _evaluate(dataset_dir, result, estimator, out_dir):
     """Evaluate against the dataset's ground truth when it has one (None otherwise)."""
     from vo.dataset import open_dataset
+    from vo.errors import DatasetError
     from vo.pipeline import evaluate_run
-    ds = open_dataset(dataset_dir)
-    if ds.groundtruth is None:
+    try:
+        ds = open_dataset(dataset_dir)
+    except DatasetError:      # an external command may run on a folder our reader does not know
+        return None
+    if getattr(ds, "groundtruth", None) is None:
         return None
     return evaluate_run(ds, result, estimator, out_dir=out_dir)

@@ -4,7 +4,8 @@ Epochs (our extension, seed 000 uses strictly consecutive epochs): images 1, 2 a
 *keyframe* epoch, images 3, 4 the current frame; every frame is solved against the keyframe
 (``T_o_c0 = T_o_kf @ T_kf_c3``) and the current frame becomes the keyframe once the adjusted
 translation reaches ``keyframe_baseline_ratio`` x the stereo baseline (or the four-view tracks
-thin out, seed 003's empty-cell criterion included). Only keyframe-to-keyframe steps chain, and
+thin out below ``keyframe_min_track_ratio`` of the keyframe's; seed 003's empty-cell fraction is not
+used: border cells never get corners, so it sits near its 0.42 threshold from the start). Only keyframe-to-keyframe steps chain, and
 the essential-matrix directions of ROPs 1-3 / 2-4 are solved with a parallax comparable to the
 baseline instead of one frame's (a few pixels), where they are ill-conditioned.
 
@@ -210,7 +211,7 @@ class RopEstimator(Estimator):
             return True
         if n_feat < max(2 * o["min_matches"], o["keyframe_min_track_ratio"] * self._n_kf):
             return True
-        return self.klt is not None and self.klt.empty_fraction > self.klt.config.max_empty_fraction
+        return False
 
     # ------------------------------------------------------------------------------- frames
     def _result(self, frame, status, n_feat, n_inl, msg, timings, t0) -> FrameResult:
