@@ -58,7 +58,7 @@ COVS = ("apost", "apriori")
 DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac", ransac_max_iters=200,
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
                 cov="apost", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=False,
-                min_parallax_px=0.75, keyframe_baseline_ratio=1.0, keyframe_min_track_ratio=0.5,
+                min_parallax_px=0.75, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
                 klt_config=None)
 STAGES = ("detect", "track", "stereo", "essential", "initial", "adjust")
 
