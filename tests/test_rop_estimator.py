@@ -61,15 +61,17 @@ def test_room_sequence_tracks_truth_klt():
     est = RopEstimator(RIG, frontend="klt")
     results = [est.process(f) for f in frames(poses)]
     assert results[0].status == "init"
-    assert all(r.status == "ok" for r in results[1:]), [r.message for r in results]
+    assert all(r.status in ("ok", "keyframe") for r in results[1:]), [r.message for r in results]
+    assert "keyframe" in [r.status for r in results]       # 0.3 m steps, keyframe every 2 x 0.2857 m
     T_end, T_true = results[-1].T_o_c0, poses[-1]
     path = 4 * 0.3
     # KLT ROPs here are within ~0.4 deg (direction) / 0.04 deg (rotation); measured 0.3 % drift and
     # 0.01 deg after 4 steps - the 2 % / 0.3 deg bounds leave room for RANSAC variation
     assert np.linalg.norm(T_end[:3, 3] - T_true[:3, 3]) < 0.02 * path
     assert np.degrees(rotation_angle(T_end[:3, :3].T @ T_true[:3, :3])) < 0.3
-    assert all(set(r.timings_ms) >= {"matching", "essential", "initial", "adjust"} for r in results[1:])
-    assert np.all(np.diff([np.trace(r.cov) for r in results]) > 0)     # uncertainty grows along the chain
+    assert all(set(r.timings_ms) >= {"track", "stereo", "essential", "initial", "adjust", "total"} for r in results[1:])
+    traces = [np.trace(r.cov) for r in results]
+    assert np.all(np.isfinite(traces)) and traces[-1] > traces[1] > 0     # uncertainty grows along the chain
 
 
 def test_room_sequence_orb_error_within_its_covariance():
@@ -78,7 +80,7 @@ def test_room_sequence_orb_error_within_its_covariance():
     poses = true_poses(3)
     est = RopEstimator(RIG, frontend="orb")
     results = [est.process(f) for f in frames(poses)]
-    assert [r.status for r in results] == ["init", "ok", "ok"]
+    assert results[0].status == "init" and all(r.status in ("ok", "keyframe") for r in results[1:])
     r = results[-1]
     err = np.linalg.norm(r.T_o_c0[:3, 3] - poses[-1][:3, 3])
     assert np.all(np.isfinite(r.cov)) and err < 3 * np.sqrt(np.trace(r.cov[3:, 3:]))

@@ -56,3 +56,28 @@ def range_cmd(rig_name, baselines, ranges, matchers, image_noise, phases, tolera
             click.echo(f"wrote {kind}: {path}")
     if strict and not res.passed:
         raise SystemExit(1)
+
+
+@validate.command("imu")
+@click.option("--scene", default="campus", show_default=True)
+@click.option("--rig", "rig_name", default="cart27", show_default=True)
+@click.option("--duration", type=float, default=60.0, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@json_option
+def imu_cmd(scene, rig_name, duration, seed, as_json):
+    """Dead-reckon the ideal IMU from the true initial state and print the error against the truth."""
+    from sim.validation.imu_check import dead_reckoning
+    res = dead_reckoning(scene, rig_name, duration, seed)
+    echo_json(res.to_dict()) if as_json else click.echo(res.text())
+
+
+@validate.command("allan")
+@click.option("--imu", "imu_name", default="euroc-adis16448", show_default=True)
+@click.option("--hours", type=float, default=2.0, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@json_option
+def allan_cmd(imu_name, hours, seed, as_json):
+    """Allan deviation of a long static noisy IMU against the model's densities."""
+    from sim.validation.imu_check import allan_check
+    res = allan_check(imu_name, hours, seed)
+    echo_json(res.to_dict()) if as_json else click.echo(res.text())
