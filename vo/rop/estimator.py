@@ -14,7 +14,9 @@ pairs with :mod:`vo.frontend` instead), a rotation-only fit and parallax
 (:mod:`vo.rop.rotation_only`); if the median parallax is below ``min_parallax_px`` the epoch is
 "no translation": ``T_kf_c3 = (R_1_3, 0)``, status ``ok`` with a message (our extension: the
 essential matrices are undefined without translation). Otherwise the four ROPs (RANSAC essential
-matrix + Sampson LM, :mod:`vo.rop.relative`); a ROP with fewer than ``max(min_rop_inliers,
+matrix + Sampson LM, :mod:`vo.rop.relative`, disambiguated against the ROPs predicted from the
+rotation-only fit and constant velocity - planar scenes); a ROP whose implied ``R_1_3`` is more than
+``max_rop_rotation_deg`` off the consensus of the others (the other planar solution, 3-50 deg away), or with fewer than ``max(min_rop_inliers,
 min_inlier_ratio * matches)`` inliers is rejected (extension); with >= 3 ROPs: initial EOPs and the
 two-step adjustment (eqs. 1-3, :mod:`vo.rop.adjustment`, unchanged).
 
@@ -45,12 +47,12 @@ from vo.dataset.types import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import Estimator, FrameResult
 from vo.frontend.klt import KltConfig
-from vo.geometry import inv_T, make_T, skew
+from vo.geometry import inv_T, make_T, rotation_angle, skew
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
-from vo.rop.initial import initial_eops
+from vo.rop.initial import initial_eops, rotation_candidates
 from vo.rop.relative import METHODS, estimate_rop_normalized
-from vo.rop.ropset import PAIRS, RopSet
+from vo.rop.ropset import PAIRS, RopSet, exact_ropset
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 
@@ -58,8 +60,9 @@ COVS = ("apost", "apriori")
 DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac", ransac_max_iters=200,
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
                 cov="apost", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=False,
-                min_parallax_px=0.75, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
+                min_parallax_px=0.75, max_rop_rotation_deg=2.0, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
                 klt_config=None)
+MAX_COAST_FRAMES = 10        # constant-velocity extrapolation limit (then the translation is held)
 STAGES = ("detect", "track", "stereo", "essential", "initial", "adjust")
 
 
@@ -90,7 +93,7 @@ class RopEstimator(Estimator):
     """Options (defaults in :data:`DEFAULTS`): ``frontend`` "klt"|"orb"|"sift"; RANSAC
     ``ransac_threshold_px``, ``ransac_method`` "ransac"|"magsac", ``ransac_max_iters``, ``ransac_prob``,
     ``seed``; ``min_matches`` (four-view tracks / pair matches), ``min_rop_inliers``,
-    ``min_inlier_ratio``; ``cov`` "apost"|"apriori", ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
+    ``min_inlier_ratio``, ``max_rop_rotation_deg``; ``cov`` "apost"|"apriori", ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
     ``constant_velocity``; ``min_parallax_px``; ``keyframe_baseline_ratio``; ``keyframe_min_track_ratio``;
     ``klt_config`` (:class:`KltConfig`)."""
 
@@ -123,6 +126,8 @@ class RopEstimator(Estimator):
         self._T_kf_cur = np.eye(4)
         self._last_motion = np.eye(4)
         self._lost = False
+        self._R_rot_only = None
+        self._n_coast = 0
 
     # ------------------------------------------------------------------------------ front-end
     def _new_keyframe(self, left, right, timings, keep_tracks: bool) -> int:
@@ -147,17 +152,43 @@ class RopEstimator(Estimator):
         return pairs, min(len(a) for a, _ in pairs.values()), 0.3 * self.focal
 
     # ------------------------------------------------------------------------------- solving
-    def _rops(self, pairs: dict) -> RopSet:
+    def _priors(self, R_1_3: np.ndarray) -> dict:
+        """Predicted ROPs: rotation from the rotation-only fit, translation from constant velocity."""
+        t_pred = (self._T_kf_cur @ self._last_motion)[:3, 3]
+        if np.linalg.norm(t_pred) < 1e-6:
+            t_pred = np.array([0.0, 0.0, 1e-3])          # at rest: forward (cross pairs barely care)
+        ex = exact_ropset(make_T(R_1_3, t_pred), self.T_c1_c2)
+        return {p: (m.R_i_j, m.rhat_i_j) for p, m in ex.rops.items()}
+
+    def _rops(self, pairs: dict, R_1_3: np.ndarray) -> RopSet:
         o, rops = self.o, {}
+        priors = self._priors(R_1_3)
         for p, (x_i, x_j) in pairs.items():
             if len(x_i) < o["min_matches"]:
                 continue
             m = estimate_rop_normalized(x_i, x_j, self.focal, o["seed"], o["ransac_threshold_px"], o["ransac_prob"],
-                                        max_iters=o["ransac_max_iters"], method=o["ransac_method"])
+                                        max_iters=o["ransac_max_iters"], method=o["ransac_method"], prior=priors[p])
             need = max(o["min_rop_inliers"], o["min_inlier_ratio"] * len(x_i))
             if m.ok and m.n_inliers < need:
                 m = dataclasses.replace(m, ok=False, message=f"{m.n_inliers} inliers < {need:.0f}")
             rops[p] = m
+        return self._rotation_consensus(RopSet(rops, self.T_c1_c2), R_1_3)
+
+    def _rotation_consensus(self, ropset: RopSet, R_1_3: np.ndarray) -> RopSet:
+        """Reject ROPs whose implied ``R_1_3`` is > ``max_rop_rotation_deg`` from the consensus: the
+        implied rotation agreeing with most others (ties: closest to the rotation-only fit)."""
+        ok = ropset.ok_pairs
+        if len(ok) < 2:
+            return ropset
+        cands = dict(zip(ok, rotation_candidates(ropset, ok)[0]))
+        gate = np.radians(self.o["max_rop_rotation_deg"])
+        dev = {(a, b): rotation_angle(cands[a].T @ cands[b]) for a in ok for b in ok}
+        ref = max(ok, key=lambda a: (sum(dev[a, b] <= gate for b in ok), -rotation_angle(cands[a].T @ R_1_3)))
+        rops = dict(ropset.rops)
+        for p in ok:
+            if dev[ref, p] > gate:
+                rops[p] = dataclasses.replace(rops[p], ok=False,
+                                              message=f"rotation {np.degrees(dev[ref, p]):.1f} deg off the consensus")
         return RopSet(rops, self.T_c1_c2)
 
     def _adjust(self, ropset: RopSet, timings):
@@ -192,12 +223,13 @@ class RopEstimator(Estimator):
         t0 = time.perf_counter()
         x1, x3 = pairs["13"]
         R_1_3, parallax, _ = rotation_only(x1, x3, self.focal)
+        self._R_rot_only = R_1_3 if len(x1) >= 10 else None
         min_par = self.o["min_parallax_px"]
         if parallax < min_par:
             timings["essential"] += (time.perf_counter() - t0) * 1e3
             T, cov = self._rotation_only_step(R_1_3, parallax, len(x1), disparity)
             return T, cov, "ok", f"parallax {parallax:.2f} px < {min_par} px: no translation (rotation only)"
-        ropset = self._rops(pairs)
+        ropset = self._rops(pairs, R_1_3)
         timings["essential"] += (time.perf_counter() - t0) * 1e3
         T, cov, msg = self._adjust(ropset, timings)
         if T is None and parallax < 2.0 * min_par:
@@ -218,13 +250,23 @@ class RopEstimator(Estimator):
         timings["total"] = (time.perf_counter() - t0) * 1e3
         return FrameResult(frame.t_ns, self.T_o_c0.copy(), status, int(n_feat), int(n_inl), self.cov.copy(), msg, timings)
 
-    def _fail(self, frame, left, right, status, n_feat, msg, timings, t0) -> FrameResult:
+    def _fail(self, frame, left, right, status, n_feat, msg, timings, t0, R_1_3=None) -> FrameResult:
+        """Coast: the rotation-only fit's rotation when there was one (tracks survive a failed ROP
+        solve), the translation held or, with ``constant_velocity``, extrapolated; then a fresh keyframe."""
         T_prev = self.T_o_c0
-        self.T_o_c0 = self.T_o_c0 @ self._last_motion if self.o["constant_velocity"] else self.T_o_c0
+        coast = self.o["constant_velocity"] and self._n_coast < MAX_COAST_FRAMES
+        T_step = self._T_kf_cur @ self._last_motion if coast else self._T_kf_cur.copy()
+        if R_1_3 is not None:
+            T_step = make_T(R_1_3, T_step[:3, 3])
+        T_new = self.T_o_kf @ T_step
+        if np.all(np.isfinite(T_new)):
+            self.T_o_c0 = T_new
         self._last_motion = inv_T(T_prev) @ self.T_o_c0
+        self._n_coast += 1
         self._new_keyframe(left, right, timings, keep_tracks=False)
         self._lost = True
-        msg += "; pose held" + (" (constant velocity)" if self.o["constant_velocity"] else "") + \
+        msg += ("; rotation from the rotation-only fit" if R_1_3 is not None else "") + "; translation " + \
+               ("extrapolated (constant velocity)" if coast else "held") + \
                ", re-initialising from this frame"
         return self._result(frame, status, n_feat, 0, msg, timings, t0)
 
@@ -232,6 +274,7 @@ class RopEstimator(Estimator):
         t0 = time.perf_counter()
         timings = dict.fromkeys(STAGES, 0.0)
         left, right = _gray(frame.left), _gray(frame.right)
+        self._R_rot_only = None
         if self._kf_imgs is None:
             n = self._new_keyframe(left, right, timings, keep_tracks=False)
             return self._result(frame, "init", n, 0, "first frame defines O", timings, t0)
@@ -241,11 +284,11 @@ class RopEstimator(Estimator):
                               f"{n_feat} four-view features < {self.o['min_matches']}: texture-poor view?", timings, t0)
         T_kf_c3, cov_step, status, msg = self._step(pairs, n_feat, disparity, timings)
         if T_kf_c3 is None:
-            return self._fail(frame, left, right, status, n_feat, msg, timings, t0)
+            return self._fail(frame, left, right, status, n_feat, msg, timings, t0, self._R_rot_only)
         T_prev = self.T_o_c0
         self.T_o_c0 = self.T_o_kf @ T_kf_c3
         self.cov = propagate_cov(self.cov_kf, self.T_o_kf, T_kf_c3, cov_step)
-        self._last_motion, self._T_kf_cur = inv_T(T_prev) @ self.T_o_c0, T_kf_c3
+        self._last_motion, self._T_kf_cur, self._n_coast = inv_T(T_prev) @ self.T_o_c0, T_kf_c3, 0
         if self._lost:
             status, msg, self._lost = "reinit", ("re-initialised after a failed frame; " + msg).rstrip("; "), False
         if self._is_keyframe(T_kf_c3, n_feat):

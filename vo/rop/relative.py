@@ -165,6 +165,37 @@ def decompose(E: np.ndarray, x_i: np.ndarray, x_j: np.ndarray, mask: np.ndarray)
     return best
 
 
+def _inliers_of(R, t, x_i, x_j, thr):
+    return (np.abs(sampson_residuals(skew(t) @ R, x_i, x_j)) < thr) & chirality(R, t, x_i, x_j)
+
+
+PRIOR_AGREE_RAD = np.radians(1.0)   # the planar twin solutions seen were 3-50 deg apart
+
+
+def _disambiguate(R, t, inliers, prior, x_i, x_j, thr):
+    """RANSAC's ``(R, t, inliers)`` or the LM solution started from ``prior`` (``(R_i_j, rhat_i_j)``,
+    project convention), whichever has more inliers (skipped when RANSAC's rotation is within 1 deg
+    of the prior's); within 2 % the one whose rotation is closer to
+    the prior's (the two planar solutions fit equally well; the prior picks the physical one)."""
+    R_p = np.asarray(prior[0], float).T                        # OpenCV: R = R_j_i, t = -R_j_i rhat_i_j
+    t_p = -R_p @ np.asarray(prior[1], float)
+    if _angle(R @ R_p.T) < PRIOR_AGREE_RAD:                    # RANSAC agrees with the prediction
+        return R, t, inliers
+    sel = inliers if inliers.sum() >= 5 else np.ones(len(x_i), bool)
+    R_q, t_q, _ = refine_essential(R_p, t_p, x_i[sel], x_j[sel], iters=5)
+    inl_q = _inliers_of(R_q, t_q, x_i, x_j, thr)
+    n_a, n_q = int(inliers.sum()), int(inl_q.sum())
+    if n_q > 1.02 * n_a:
+        return R_q, t_q, inl_q
+    if n_q >= 0.98 * n_a and _angle(R_q @ R_p.T) < _angle(R @ R_p.T):
+        return R_q, t_q, inl_q
+    return R, t, inliers
+
+
+def _angle(R: np.ndarray) -> float:
+    return float(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))
+
+
 def _fail_reason(n: int, n_good: int, spread_px: float, min_inliers: int, R, t) -> str:
     if spread_px <= 2.0:
         return "inliers collapse to one image point (degenerate)"
@@ -176,7 +207,7 @@ def _fail_reason(n: int, n_good: int, spread_px: float, min_inliers: int, R, t) 
 def estimate_rop_normalized(x_i: np.ndarray, x_j: np.ndarray, focal: float, seed: int = 0,
                             ransac_threshold_px: float = 1.0, prob: float = 0.999,
                             min_inliers: int = MIN_INLIERS, max_iters: int = 1000,
-                            method: str = "ransac") -> RopMeasurement:
+                            method: str = "ransac", prior=None) -> RopMeasurement:
     """ROP of image j in image i from undistorted normalized matches ``x_i``, ``x_j`` (N,2).
 
     RANSAC essential matrix (threshold ``ransac_threshold_px / focal``, ``max_iters`` upper bound
@@ -198,10 +229,12 @@ def estimate_rop_normalized(x_i: np.ndarray, x_j: np.ndarray, focal: float, seed
     if E is None or mask is None or E.shape != (3, 3):
         return failed_rop(n, "findEssentialMat found no unique solution (degenerate points?)")
     R, t, inliers = decompose(E, x_i, x_j, mask.ravel() > 0)
+    if prior is not None:
+        R, t, inliers = _disambiguate(R, t, inliers, prior, x_i, x_j, thr)
     cov5 = None
     if int(inliers.sum()) >= min_inliers and _spread(x_i[inliers]) * focal > 2.0:
         R, t, cov5 = refine_essential(R, t, x_i[inliers], x_j[inliers])
-        inliers = (np.abs(sampson_residuals(skew(t) @ R, x_i, x_j)) < thr) & chirality(R, t, x_i, x_j)
+        inliers = _inliers_of(R, t, x_i, x_j, thr)
         if int(inliers.sum()) >= min_inliers:
             R, t, cov5 = refine_essential(R, t, x_i[inliers], x_j[inliers], iters=3)
     n_good = int(inliers.sum())
