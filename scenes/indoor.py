@@ -4,9 +4,11 @@ World frame: the floor spans x in [0, 16], y in [0, 12] (z up, floor at z = 0, c
 Rooms: south-west room S1 (y < 5, x < 8), south-east S2, a corridor (5 < y < 7.5), north-west
 room N1 (x < 6) and north-east room N2.  The route starts in S1 heading east, turns north through a
 2.6 m doorway into the corridor, east along it, north through a doorway into N2 and west along
-y = 10.2 towards two plain white walls (the north wall 1.8 m away and the N1/N2 partition ahead):
-as in the paper, P03 lies where the only thing in view is a texture-poor white wall < 2 m away.
-Those walls use an untextured white material at every ``texture_richness``.
+y = 10.2 along a texture-poor white wall (the north wall, 1.8 m away; the N1/N2 partition ahead is plaster):
+as in the paper, P03 lies next to a texture-poor white wall < 2 m away, which also fills the view
+while the cart drives north towards it.
+Those walls use a near-white, very low-contrast plaster at every ``texture_richness`` (a perfectly
+blank surface would give zero features, which no real wall does; seed 000 reports fewer, not none).
 
 Doorways are 2.2 m high, so the free corridor checked around the route is 1 m each side up to
 ``corridor_height_m = 2.1`` m (the paper's cart and cameras are below 1.5 m).
@@ -23,7 +25,7 @@ ROOM = (16.0, 12.0)
 CEILING = 3.0
 WALL_T = 0.2
 DOOR_H = 2.2
-ROUTE_CORNERS = ((1.8, 2.5), (6.25, 2.5), (6.25, 6.25), (12.0, 6.25), (12.0, 10.2), (7.2, 10.2))
+ROUTE_CORNERS = ((1.05, 2.5), (6.25, 2.5), (6.25, 6.25), (12.0, 6.25), (12.0, 10.2), (8.0, 10.2))
 
 
 class IndoorScene(BuiltScene):
@@ -96,7 +98,7 @@ class IndoorScene(BuiltScene):
     def _walls(self, b, rng):
         W, H = ROOM
         h = WALL_T / 2
-        white = b.flat_material("white_wall", (0.93, 0.93, 0.91, 1))
+        white = b.poor_material("white_wall")
         plaster = [b.material("plaster", variant=k) for k in range(3)]
         self._wall(b, "wall/south", (-2 * h, -h), (W + 2 * h, -h), plaster[0])
         self._wall(b, "wall/west", (-h, 0), (-h, H), plaster[1])
@@ -106,7 +108,7 @@ class IndoorScene(BuiltScene):
         self._wall(b, "wall/corridor_s", (0, 5.0), (W, 5.0), plaster[2], doors=((4.95, 7.55), (12.0, 13.2)))
         self._wall(b, "wall/corridor_n", (0, 7.5), (W, 7.5), plaster[0], doors=((2.0, 3.2), (10.7, 13.3)))
         self._wall(b, "wall/s1_s2", (8.0, 0.0), (8.0, 5.0 - h), plaster[1], doors=((1.5, 2.7),))
-        self._wall(b, "wall/n1_n2", (6.0, 7.5 + h), (6.0, H), white)                    # ahead at the end
+        self._wall(b, "wall/n1_n2", (6.0, 7.5 + h), (6.0, H), plaster[0])               # ahead at the end
 
     def _desk(self, b, part, xy, yaw, rng):
         top = b.material("wood", variant=int(rng.integers(4, 7)))

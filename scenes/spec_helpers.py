@@ -112,6 +112,27 @@ class SceneBuilder:
             self._materials.add(name)
         return name
 
+    def poor_material(self, name: str, kind: str = "plaster", contrast: float = 0.3, white: float = 232.0,
+                      variant: int = 0) -> str:
+        """Texture-poor near-white material: a ``kind`` texture at low ``contrast`` (independent of the
+        scene's richness) shifted to a mean grey of ``white``. Models a real white wall: almost no
+        corners, but not the perfectly blank surface no visual method could ever track."""
+        name = f"mat/poor/{name}"
+        if name not in self._materials:
+            img = make_texture(kind, self.seed, contrast, self.tex_size, variant).astype(float)
+            img = np.clip(img - img.mean() + white, 0, 255).astype(np.uint8)
+            tex_name = f"tex/poor/{name}"
+            tex = self.spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_2D,
+                                        width=img.shape[1], height=img.shape[0], nchannel=3)
+            tex.data = img.tobytes()
+            self.texture_bytes += img.nbytes
+            mat = self.spec.add_material(name=name, specular=0.05, shininess=0.1)
+            tx = list(mat.textures)
+            tx[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex_name
+            mat.textures = tx
+            self._materials.add(name)
+        return name
+
     def flat_material(self, name: str, rgba, emission: float = 0.0) -> str:
         """Untextured material (e.g. the plain white walls that stay texture-poor at any richness)."""
         name = f"mat/flat/{name}"
