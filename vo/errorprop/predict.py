@@ -102,7 +102,7 @@ def plot_cross_site(cfg, result, path) -> None:
     ax.plot(*cfg.current_site, "bs", label="current site")
     w, V = np.linalg.eigh(result.M_p)
     t = np.linspace(0, 2 * np.pi, 100)
-    ell = (V @ np.diag(np.sqrt(w)) @ np.stack([np.cos(t), np.sin(t)])) * 20 + np.c_[cfg.current_site]
+    ell = (V @ np.diag(np.sqrt(w)) @ np.stack([np.cos(t), np.sin(t)])) * 20 + np.asarray(cfg.current_site)[:, None]
     ax.plot(*ell, "b-", label="1-sigma x20")
     ax.set_aspect("equal")
     ax.set_title(f"cross-site accuracy {result.accuracy_percent:.2f}% of {result.distance_m:.1f} m")

@@ -50,6 +50,7 @@ from vo.frontend.klt import KltConfig
 from vo.geometry import inv_T, make_T, rotation_angle, skew
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
+from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops, rotation_candidates
 from vo.rop.relative import METHODS, estimate_rop_normalized
 from vo.rop.ropset import PAIRS, RopSet, exact_ropset
@@ -128,11 +129,15 @@ class RopEstimator(Estimator):
         self._lost = False
         self._R_rot_only = None
         self._n_coast = 0
+        self._t_kf = None
+        self._epoch = None            # (kind, T_initial, T_minimal, ropset) of the frame being solved
+        self.epochs: list[EpochRecord] = []   # one per frame solved against its keyframe (Fig. 5 check)
 
     # ------------------------------------------------------------------------------ front-end
     def _new_keyframe(self, left, right, timings, keep_tracks: bool) -> int:
         self.T_o_kf, self.cov_kf, self._T_kf_cur = self.T_o_c0.copy(), self.cov.copy(), np.eye(4)
         self._kf_imgs = (left, right)
+        self._t_kf = self._t_cur
         if self.klt is not None:
             self._n_kf = self.klt.keyframe(left, right, timings, keep_tracks)
         else:
@@ -198,6 +203,8 @@ class RopEstimator(Estimator):
             return None, None, f"{len(ropset.ok_pairs)} of 4 ROPs usable ({msgs or 'too few matches'})"
         t1 = time.perf_counter()
         init = initial_eops(ropset)
+        minimal = initial_eops(ropset, mode="minimal")          # the paper's simplest reading (Fig. 5 check)
+        self._epoch = ("rops", init.T_c1_c3, None if minimal.degenerate else minimal.T_c1_c3, ropset)
         t2 = time.perf_counter()
         cfg = self.config
         if self.o["cov"] == "apriori" and cfg.sigma_rot_rad is None:
@@ -228,12 +235,14 @@ class RopEstimator(Estimator):
         if parallax < min_par:
             timings["essential"] += (time.perf_counter() - t0) * 1e3
             T, cov = self._rotation_only_step(R_1_3, parallax, len(x1), disparity)
+            self._epoch = ("rotation_only", T, T, None)
             return T, cov, "ok", f"parallax {parallax:.2f} px < {min_par} px: no translation (rotation only)"
         ropset = self._rops(pairs, R_1_3)
         timings["essential"] += (time.perf_counter() - t0) * 1e3
         T, cov, msg = self._adjust(ropset, timings)
         if T is None and parallax < 2.0 * min_par:
             T, cov = self._rotation_only_step(R_1_3, parallax, len(x1), disparity)
+            self._epoch = ("rotation_only", T, T, None)
             return T, cov, "ok", f"parallax {parallax:.2f} px, {msg}: rotation only"
         return T, cov, ("lost" if T is None else "ok"), msg
 
@@ -244,6 +253,14 @@ class RopEstimator(Estimator):
         if n_feat < max(2 * o["min_matches"], o["keyframe_min_track_ratio"] * self._n_kf):
             return True
         return False
+
+    def _record_epoch(self, t_ns: int, T_kf_c3: np.ndarray) -> None:
+        if self._epoch is None:
+            return
+        kind, T_init, T_min, ropset = self._epoch
+        n = {p: ropset.rops[p].n_inliers for p in ropset.ok_pairs} if ropset is not None else {}
+        rops = {p: (ropset.rops[p].R_i_j, ropset.rops[p].rhat_i_j) for p in ropset.ok_pairs} if ropset else {}
+        self.epochs.append(EpochRecord(self._t_kf, t_ns, kind, T_init, T_kf_c3.copy(), T_min, n, rops))
 
     # ------------------------------------------------------------------------------- frames
     def _result(self, frame, status, n_feat, n_inl, msg, timings, t0) -> FrameResult:
@@ -274,7 +291,7 @@ class RopEstimator(Estimator):
         t0 = time.perf_counter()
         timings = dict.fromkeys(STAGES, 0.0)
         left, right = _gray(frame.left), _gray(frame.right)
-        self._R_rot_only = None
+        self._R_rot_only, self._epoch, self._t_cur = None, None, int(frame.t_ns)
         if self._kf_imgs is None:
             n = self._new_keyframe(left, right, timings, keep_tracks=False)
             return self._result(frame, "init", n, 0, "first frame defines O", timings, t0)
@@ -285,6 +302,7 @@ class RopEstimator(Estimator):
         T_kf_c3, cov_step, status, msg = self._step(pairs, n_feat, disparity, timings)
         if T_kf_c3 is None:
             return self._fail(frame, left, right, status, n_feat, msg, timings, t0, self._R_rot_only)
+        self._record_epoch(frame.t_ns, T_kf_c3)
         T_prev = self.T_o_c0
         self.T_o_c0 = self.T_o_kf @ T_kf_c3
         self.cov = propagate_cov(self.cov_kf, self.T_o_kf, T_kf_c3, cov_step)
