@@ -63,7 +63,9 @@ DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac",
                 cov="apost", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=False,
                 min_parallax_px=0.75, max_rop_rotation_deg=2.0, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
                 klt_config=None)
+MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MAX_COAST_FRAMES = 10        # constant-velocity extrapolation limit (then the translation is held)
+TWIN_DEG = 3.0               # planar twin solutions seen were 3-50 deg apart; closer disagreement = noise
 STAGES = ("detect", "track", "stereo", "essential", "initial", "adjust")
 
 
@@ -181,14 +183,22 @@ class RopEstimator(Estimator):
 
     def _rotation_consensus(self, ropset: RopSet, R_1_3: np.ndarray) -> RopSet:
         """Reject ROPs whose implied ``R_1_3`` is > ``max_rop_rotation_deg`` from the consensus: the
-        implied rotation agreeing with most others (ties: closest to the rotation-only fit)."""
+        implied rotation agreeing with most others. A tie (2 vs 2) between groups less than
+        :data:`TWIN_DEG` apart is ill-conditioning (13 and 24 share their tracks and bend together on
+        a fronto-parallel wall), not a planar twin: all four are kept and the adjustment averages
+        them. Ties further apart go to the group closest to the rotation-only fit."""
         ok = ropset.ok_pairs
         if len(ok) < 2:
             return ropset
         cands = dict(zip(ok, rotation_candidates(ropset, ok)[0]))
         gate = np.radians(self.o["max_rop_rotation_deg"])
         dev = {(a, b): rotation_angle(cands[a].T @ cands[b]) for a in ok for b in ok}
-        ref = max(ok, key=lambda a: (sum(dev[a, b] <= gate for b in ok), -rotation_angle(cands[a].T @ R_1_3)))
+        support = {a: sum(dev[a, b] <= gate for b in ok) for a in ok}
+        best = max(support.values())
+        tied = [a for a in ok if support[a] == best]
+        if 2 * best == len(ok) and max(dev[a, b] for a in tied for b in tied) < np.radians(TWIN_DEG):
+            return ropset
+        ref = min(tied, key=lambda a: rotation_angle(cands[a].T @ R_1_3))
         rops = dict(ropset.rops)
         for p in ok:
             if dev[ref, p] > gate:
@@ -230,7 +240,7 @@ class RopEstimator(Estimator):
         t0 = time.perf_counter()
         x1, x3 = pairs["13"]
         R_1_3, parallax, _ = rotation_only(x1, x3, self.focal)
-        self._R_rot_only = R_1_3 if len(x1) >= 10 else None
+        self._R_rot_only = R_1_3 if len(x1) >= MIN_ROTATION_TRACKS else None
         min_par = self.o["min_parallax_px"]
         if parallax < min_par:
             timings["essential"] += (time.perf_counter() - t0) * 1e3
@@ -245,6 +255,12 @@ class RopEstimator(Estimator):
             self._epoch = ("rotation_only", T, T, None)
             return T, cov, "ok", f"parallax {parallax:.2f} px, {msg}: rotation only"
         return T, cov, ("lost" if T is None else "ok"), msg
+
+    def _left_rotation(self, pairs: dict):
+        """``R_1_3`` of the rotation-only fit to the left-image tracks (pair 13 needs no stereo match),
+        or None below :data:`MIN_ROTATION_TRACKS`: a failed frame in a fast turn keeps its heading."""
+        x1, x3 = pairs["13"]
+        return rotation_only(x1, x3, self.focal)[0] if len(x1) >= MIN_ROTATION_TRACKS else None
 
     def _is_keyframe(self, T_kf_c3, n_feat) -> bool:
         o = self.o
@@ -298,7 +314,8 @@ class RopEstimator(Estimator):
         pairs, n_feat, disparity = self._pairs(left, right, timings)
         if n_feat < self.o["min_matches"]:
             return self._fail(frame, left, right, "few_features", n_feat,
-                              f"{n_feat} four-view features < {self.o['min_matches']}: texture-poor view?", timings, t0)
+                              f"{n_feat} four-view features < {self.o['min_matches']}: texture-poor view?", timings, t0,
+                              self._left_rotation(pairs))
         T_kf_c3, cov_step, status, msg = self._step(pairs, n_feat, disparity, timings)
         if T_kf_c3 is None:
             return self._fail(frame, left, right, status, n_feat, msg, timings, t0, self._R_rot_only)
