@@ -35,6 +35,7 @@ class GenerateConfig:
     images: bool = True
     vehicle: str = "cart"
     image_noise: float = 1.0
+    rgb: bool = False
     overrides: tuple = field(default_factory=tuple)
 
     def __post_init__(self):

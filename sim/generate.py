@@ -152,7 +152,7 @@ def render_frames(setup: Setup, writers, progress: bool = True, start: int = 0) 
             fr = renderer.render(states.T_w_b[k])
             images = []      # the renderer already applied lens distortion (exact inverse map)
             for img in fr.images[:2]:
-                if img.ndim == 3:
+                if img.ndim == 3 and not c.rgb:
                     img = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
                 if setup.image_noise > 0:
                     img = add_image_noise(img, setup.image_noise, rng)
@@ -183,6 +183,11 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     writers.add_groundtruth(setup.imu_t_ns, truth["T_w_i"], truth["v_w_i"], biases.b_g, biases.b_a)
     writers.add_cam0_truth(setup.frame_t_ns, truth["T_w_c0"])
     writers.add_gcps(truth["gcps"])
+    if setup.rig.wheels is not None:
+        from sim.wheels import measure_wheels
+        wheel_t = np.arange(setup.trajectory.t0_ns, setup.trajectory.t1_ns + 1,
+                            int(round(1e9 / setup.rig.wheels.rate_hz)), dtype=np.int64)
+        writers.add_wheels(measure_wheels(setup.trajectory, setup.rig.wheels, wheel_t, stream(config.seed, "wheels")))
     if config.images:
         render_frames(setup, writers, progress=progress, start=start)
     png = str(out_dir / "topdown.png")

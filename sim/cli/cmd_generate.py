@@ -18,11 +18,12 @@ from sim.cli.options import echo_json, json_option, set_option
 @click.option("--segmentation", is_flag=True, help="Also write per-frame segmentation (object id, dynamic flag).")
 @click.option("--ideal", is_flag=True, help="Turn every noise source off (IMU, image noise).")
 @click.option("--no-images", is_flag=True, help="Write IMU and ground truth only (seconds).")
+@click.option("--rgb", is_flag=True, help="Write RGB images (default: 8-bit grey, as EuRoC and KITTI odometry).")
 @click.option("--overwrite", is_flag=True, help="Replace a complete dataset already in --out.")
 @click.option("--no-progress", is_flag=True)
 @set_option
 @json_option
-def generate(scene, rig, scenario, duration, out_dir, fmt, seed, depth, segmentation, ideal, no_images,
+def generate(scene, rig, scenario, duration, out_dir, fmt, seed, depth, segmentation, ideal, no_images, rgb,
              overwrite, no_progress, overrides, as_json):
     """Generate a dataset (EuRoC, KITTI or both) with exact ground truth, GCPs and a top-down PNG."""
     from sim.config import GenerateConfig
@@ -32,11 +33,12 @@ def generate(scene, rig, scenario, duration, out_dir, fmt, seed, depth, segmenta
     if scenario:
         base = get_scenario(scenario, overrides=overrides, seed=seed)
         cfg = GenerateConfig(**{**base.to_dict(), "format": fmt, "depth": depth, "segmentation": segmentation,
-                                "ideal": ideal, "images": not no_images,
+                                "ideal": ideal, "images": not no_images, "rgb": rgb,
                                 **({"duration_s": duration} if duration else {})})
     else:
         cfg = GenerateConfig(scene=scene, rig=rig, duration_s=duration, seed=seed, format=fmt, depth=depth,
-                             segmentation=segmentation, ideal=ideal, images=not no_images, overrides=overrides)
+                             segmentation=segmentation, ideal=ideal, images=not no_images, rgb=rgb,
+                             overrides=overrides)
     res = run(cfg, out_dir, progress=not no_progress and not as_json, overwrite=overwrite)
     if as_json:
         echo_json(res.to_dict())

@@ -5,7 +5,8 @@ row-major. Observations: the 9 elements of each of ``R_2_4, R_3_4, R_1_3, R_1_4,
 the 6 inner constraints ``R^T R = I`` of each unknown rotation (3 unit columns, 3 orthogonal column
 pairs; 12), 57 in all. Models: ``R_1_3 = R3``, ``R_1_4 = R4``, ``R_2_3 = R_1_2^T R3``,
 ``R_2_4 = R_1_2^T R4``, ``R_3_4 = R3^T R4`` (R_1^O = I, R_2^O = R_1_2 calibrated). Gauss-Newton on
-the whitened system. Weights: inlier count ratio ``n / mean(n)`` for the four estimated ROPs;
+the whitened system. Weights: inlier count ratio ``n / mean(n)`` for the four estimated ROPs
+(``RopSet.weighting="sampson"``: inverse Sampson variances instead, our extension);
 ``hard_weight`` (1e8) for the calibrated ``R_3_4`` and the 12 constraints. The paper does not say
 how the 18 adjusted elements become rotations: we re-orthonormalise by SVD for output (the change
 is ~1e-8 because the constraints are nearly hard).
@@ -195,7 +196,7 @@ def _rotvec_map(R: np.ndarray) -> np.ndarray:
 
 def adjust_rotations(rops: RopSet, R_1_3_init: np.ndarray, cfg: AdjustmentConfig) -> StepResult:
     """Step 1. ``x`` = [R_1_3, R_1_4] (2,3,3) re-orthonormalised; ``Q`` (6,6) of ``[phi3, phi4]``."""
-    weights = rops.weights()
+    weights = rops.weights("rot")
     x = np.concatenate([R_1_3_init.ravel(), (R_1_3_init @ rops.R_1_2).ravel()])
     converged, it = False, 0
     for it in range(1, int(cfg.max_iter) + 1):
@@ -247,7 +248,7 @@ def _translation_system(x: np.ndarray, rops: RopSet, R_1_3: np.ndarray, weights:
 def adjust_translations(rops: RopSet, R_1_3: np.ndarray, r3: np.ndarray, r4: np.ndarray,
                         cfg: AdjustmentConfig) -> StepResult:
     """Step 2. ``x`` = [r3, r4] (6,); ``Q`` (6,6); ``extra["dx_dphi3"]`` (6,3) coupling to step 1."""
-    weights = rops.weights()
+    weights = rops.weights("dir")
     x = np.concatenate([r3, r4]).astype(float)
     converged, it = False, 0
     for it in range(1, int(cfg.max_iter) + 1):

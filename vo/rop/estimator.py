@@ -53,14 +53,14 @@ from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops, rotation_candidates
 from vo.rop.relative import METHODS, estimate_rop_normalized
-from vo.rop.ropset import PAIRS, RopSet, exact_ropset
+from vo.rop.ropset import PAIRS, WEIGHTINGS, RopSet, exact_ropset
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 
 COVS = ("apost", "apriori")
 DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac", ransac_max_iters=200,
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
-                cov="apost", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=False,
+                cov="apost", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=False,
                 min_parallax_px=0.75, max_rop_rotation_deg=2.0, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
                 klt_config=None)
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
@@ -83,12 +83,12 @@ def propagate_cov(cov_old: np.ndarray, T_o_c1: np.ndarray, T_c1_c3: np.ndarray, 
 
 def apriori_sigmas(ropset: RopSet) -> tuple:
     """Unit-weight ``(sigma_rot_rad, sigma_dir_rad)`` from the ROPs' Sampson sigmas (module docstring)."""
-    w = ropset.weights()
     ok = [p for p in ropset.ok_pairs if ropset.rops[p].sigma_rot_rad is not None]
     if not ok:
         return None, None
-    s_rot = np.sqrt(np.mean([w[p] * ropset.rops[p].sigma_rot_rad ** 2 for p in ok]))
-    s_dir = np.sqrt(np.mean([w[p] * ropset.rops[p].sigma_dir_rad ** 2 for p in ok]))
+    w_rot, w_dir = ropset.weights("rot"), ropset.weights("dir")
+    s_rot = np.sqrt(np.mean([w_rot[p] * ropset.rops[p].sigma_rot_rad ** 2 for p in ok]))
+    s_dir = np.sqrt(np.mean([w_dir[p] * ropset.rops[p].sigma_dir_rad ** 2 for p in ok]))
     return max(float(s_rot), 1e-9), max(float(s_dir), 1e-9)
 
 
@@ -110,7 +110,8 @@ class RopEstimator(Estimator):
         if not rig.is_stereo:
             raise EstimatorError(f"rop: rig {rig.name!r} has one camera; seed 000 needs a stereo rig")
         o = {**DEFAULTS, **options}
-        for key, valid in (("frontend", matching.KINDS), ("cov", COVS), ("ransac_method", tuple(METHODS))):
+        for key, valid in (("frontend", matching.KINDS), ("cov", COVS), ("ransac_method", tuple(METHODS)),
+                           ("weights", WEIGHTINGS)):
             if o[key] not in valid:
                 raise EstimatorError(f"rop.{key}: {o[key]!r}; valid: {', '.join(valid)}")
         self.o = o
@@ -179,7 +180,7 @@ class RopEstimator(Estimator):
             if m.ok and m.n_inliers < need:
                 m = dataclasses.replace(m, ok=False, message=f"{m.n_inliers} inliers < {need:.0f}")
             rops[p] = m
-        return self._rotation_consensus(RopSet(rops, self.T_c1_c2), R_1_3)
+        return self._rotation_consensus(RopSet(rops, self.T_c1_c2, o["weights"]), R_1_3)
 
     def _rotation_consensus(self, ropset: RopSet, R_1_3: np.ndarray) -> RopSet:
         """Reject ROPs whose implied ``R_1_3`` is > ``max_rop_rotation_deg`` from the consensus: the
@@ -204,7 +205,7 @@ class RopEstimator(Estimator):
             if dev[ref, p] > gate:
                 rops[p] = dataclasses.replace(rops[p], ok=False,
                                               message=f"rotation {np.degrees(dev[ref, p]):.1f} deg off the consensus")
-        return RopSet(rops, self.T_c1_c2)
+        return RopSet(rops, self.T_c1_c2, ropset.weighting)
 
     def _adjust(self, ropset: RopSet, timings):
         """-> (T_c1_c3, cov_step, message); T None on failure."""

@@ -65,7 +65,7 @@ def chordal_mean(Rs, weights) -> np.ndarray:
 def rotation_candidates(rops: RopSet, pairs: tuple) -> tuple[list, list]:
     """Estimates of ``R_1_3`` (one per pair in ``pairs``) and their weights."""
     R12, R34 = rops.R_1_2, rops.R_1_2  # R_3_4 = R_1_2 (same calibrated rig)
-    w = rops.weights()
+    w = rops.weights("rot")
     via = {"13": lambda R: R, "23": lambda R: R12 @ R,
            "14": lambda R: R @ R34.T, "24": lambda R: R12 @ R @ R34.T}
     Rs = [via[p](rops.rops[p].R_i_j) for p in pairs]
@@ -76,7 +76,7 @@ def intersect_rays(rops: RopSet, R_1_3: np.ndarray, pairs: tuple) -> tuple[np.nd
     """Least-squares intersection -> ``c3`` (3,), ray lengths per pair, conditioning."""
     c2, o34 = rops.t_1_2, R_1_3 @ rops.t_1_2            # t_3_4 = t_1_2 (calibrated rig)
     origin = {"13": np.zeros(3), "23": c2, "14": -o34, "24": c2 - o34}   # c3 - s d = origin
-    w = rops.weights()
+    w = rops.weights("dir")
     M = np.zeros((3 * len(pairs), 3 + len(pairs)))
     b = np.zeros(3 * len(pairs))
     for k, p in enumerate(pairs):
