@@ -18,6 +18,7 @@ SCENARIOS = {
     "campus-short": GenerateConfig(scene="campus", rig="cart27", duration_s=10.0, seed=0),
     "indoor-short": GenerateConfig(scene="indoor", rig="cart27", duration_s=8.0, seed=0),
     "campus-stereo27": GenerateConfig(scene="campus", rig="stereo27", duration_s=None, seed=0),
+    "smoke": GenerateConfig(scene="indoor", rig="stereo27", duration_s=3.0, seed=0),
 }
 
 DEFAULT_SCENARIO = "campus"

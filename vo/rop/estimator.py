@@ -60,7 +60,7 @@ from vo.rop.tracks import KltFourView
 COVS = ("apost", "apriori")
 DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac", ransac_max_iters=200,
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
-                cov="apost", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=False,
+                cov="apost", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=True,
                 min_parallax_px=0.75, max_rop_rotation_deg=2.0, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
                 klt_config=None)
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
