@@ -269,3 +269,27 @@ def load_rig(path) -> Rig:
 def save_rig(rig: Rig, path, header: str | None = None) -> None:
     """Write ``rig`` as YAML atomically (temp file + ``os.replace``), optional comment header."""
     write_text_atomic(path, dump_yaml(rig_to_dict(rig), header=header))
+
+
+def load_dataclass(cls, path, error=RigError):
+    """Build the frozen dataclass ``cls`` from a YAML file whose keys are its field names.
+
+    Unreadable or malformed files, a non-mapping, unknown keys and invalid values raise ``error``
+    with one line naming the file (and the field, where the dataclass's own validation names it).
+    """
+    import dataclasses
+    try:
+        data = read_yaml_file(path)
+    except RigError as e:
+        raise error(str(e)) from None
+    data = {} if data is None else data
+    if not isinstance(data, dict):
+        raise error(f"{path}: expected a mapping of field names, got {type(data).__name__}")
+    valid = sorted(f.name for f in dataclasses.fields(cls))
+    unknown = sorted(set(data) - set(valid))
+    if unknown:
+        raise error(f"{path}: unknown field {unknown[0]!r}; valid: {', '.join(valid)}")
+    try:
+        return cls(**data)
+    except (TypeError, ValueError, error) as e:
+        raise error(f"{path}: {e}") from None

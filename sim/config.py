@@ -82,20 +82,5 @@ class GenerateConfig:
 
 def load_generate_config(path) -> GenerateConfig:
     """Load a :class:`GenerateConfig` from YAML whose keys are the field names."""
-    try:
-        with open(path) as f:
-            data = yaml.safe_load(f) or {}
-    except FileNotFoundError:
-        raise SimError(f"{path}: config file not found") from None
-    except yaml.YAMLError as e:
-        raise SimError(f"{path}: malformed YAML ({str(e).splitlines()[0]})") from None
-    if not isinstance(data, dict):
-        raise SimError(f"{path}: expected a mapping of field names")
-    valid = {f.name for f in dataclasses.fields(GenerateConfig)}
-    unknown = sorted(set(data) - valid)
-    if unknown:
-        raise SimError(f"{path}: unknown field {unknown[0]!r}; valid: {', '.join(sorted(valid))}")
-    try:
-        return GenerateConfig(**data)
-    except SimError as e:
-        raise SimError(f"{path}: {e}") from None
+    from rigs.io_yaml import load_dataclass
+    return load_dataclass(GenerateConfig, path, SimError)

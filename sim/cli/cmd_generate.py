@@ -10,6 +10,9 @@ from sim.cli.options import echo_json, json_option, set_option
 @click.option("--scene", default="campus", show_default=True, help="Scene name (see `vo-testbed list`).")
 @click.option("--rig", default="cart27", show_default=True, help="Rig preset (see `vo-testbed list`).")
 @click.option("--scenario", default=None, help="Start from a named scenario instead of --scene/--rig/--duration.")
+@click.option("--config", "config_file", type=click.Path(dir_okay=False), default=None,
+              help="YAML file whose keys are GenerateConfig fields (scene, rig, duration_s, seed, format, depth, "
+                   "segmentation, ideal, images, rgb, image_noise, overrides); command-line flags are ignored.")
 @click.option("--duration", type=float, default=None, help="Seconds to simulate; default: the whole route.")
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Output folder.")
 @click.option("--format", "fmt", type=click.Choice(["euroc", "kitti", "both"]), default="euroc", show_default=True)
@@ -23,14 +26,17 @@ from sim.cli.options import echo_json, json_option, set_option
 @click.option("--no-progress", is_flag=True)
 @set_option
 @json_option
-def generate(scene, rig, scenario, duration, out_dir, fmt, seed, depth, segmentation, ideal, no_images, rgb,
+def generate(scene, rig, scenario, config_file, duration, out_dir, fmt, seed, depth, segmentation, ideal, no_images, rgb,
              overwrite, no_progress, overrides, as_json):
     """Generate a dataset (EuRoC, KITTI or both) with exact ground truth, GCPs and a top-down PNG."""
     from sim.config import GenerateConfig
     from sim.generate import generate as run
     from sim.scenarios import get_scenario
 
-    if scenario:
+    if config_file:
+        from sim.config import load_generate_config
+        cfg = load_generate_config(config_file)
+    elif scenario:
         base = get_scenario(scenario, overrides=overrides, seed=seed)
         cfg = GenerateConfig(**{**base.to_dict(), "format": fmt, "depth": depth, "segmentation": segmentation,
                                 "ideal": ideal, "images": not no_images, "rgb": rgb,

@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import yaml
 from scipy.linalg import block_diag
 
 from vo.errors import VoError
@@ -67,21 +66,8 @@ CROSS_SITE_PRESETS = {
 
 def load_cross_site_config(path) -> CrossSiteConfig:
     """YAML whose keys are :class:`CrossSiteConfig` field names."""
-    try:
-        with open(path) as f:
-            data = yaml.safe_load(f) or {}
-    except FileNotFoundError:
-        raise VoError(f"{path}: landmarks file not found") from None
-    except yaml.YAMLError as e:
-        raise VoError(f"{path}: malformed YAML ({str(e).splitlines()[0]})") from None
-    valid = set(CrossSiteConfig.__dataclass_fields__)
-    bad = sorted(set(data) - valid) if isinstance(data, dict) else ["<not a mapping>"]
-    if bad:
-        raise VoError(f"{path}: unknown field {bad[0]!r}; valid: {', '.join(sorted(valid))}")
-    try:
-        return CrossSiteConfig(**data)
-    except VoError as e:
-        raise VoError(f"{path}: {e}") from None
+    from rigs.io_yaml import load_dataclass
+    return load_dataclass(CrossSiteConfig, path, VoError)
 
 
 @dataclass(frozen=True)
