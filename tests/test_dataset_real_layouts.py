@@ -1,6 +1,8 @@
 """Hand-written real EuRoC (MH_01 style) and real KITTI odometry layouts open through open_dataset."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
@@ -42,26 +44,8 @@ distortion_coefficients: {dist}
 """
 
 
-IMU_YAML = """#Default imu sensor yaml file
-sensor_type: imu
-comment: VI-Sensor IMU (ADIS16448)
-
-# Sensor extrinsics wrt. the body-frame.
-T_BS:
-  cols: 4
-  rows: 4
-  data: [1.0, 0.0, 0.0, 0.0,
-         0.0, 1.0, 0.0, 0.0,
-         0.0, 0.0, 1.0, 0.0,
-         0.0, 0.0, 0.0, 1.0]
-rate_hz: 200
-
-# inertial sensor noise model parameters (static)
-gyroscope_noise_density: 1.6968e-04     # [ rad / s / sqrt(Hz) ]   ( gyro "white noise" )
-gyroscope_random_walk: 1.9393e-05       # [ rad / s^2 / sqrt(Hz) ] ( gyro bias diffusion )
-accelerometer_noise_density: 2.0000e-3  # [ m / s^2 / sqrt(Hz) ]  ( accel "white noise" )
-accelerometer_random_walk: 3.0000e-3    # [ m / s^3 / sqrt(Hz) ]  ( accel bias diffusion )
-"""
+# real EuRoC mav0/imu0/sensor.yaml (shared fixture)
+IMU_YAML = (Path(__file__).parent / "fixtures" / "euroc_imu0_sensor.yaml").read_text()
 
 GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], q_RS_z [], "
              "v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], b_w_RS_S_x [rad s^-1], "

@@ -1,4 +1,6 @@
 """Kalibr, EuRoC sensor.yaml and KITTI calib.txt round trips, and real-file fixtures."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 import yaml
@@ -36,26 +38,7 @@ distortion_coefficients: [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]
 """
 
 # Real EuRoC MAV file mav0/imu0/sensor.yaml.
-EUROC_IMU0_SENSOR_YAML = """#Default imu sensor yaml file
-sensor_type: imu
-comment: VI-Sensor IMU (ADIS16448)
-
-# Sensor extrinsics wrt. the body-frame.
-T_BS:
-  cols: 4
-  rows: 4
-  data: [1.0, 0.0, 0.0, 0.0,
-         0.0, 1.0, 0.0, 0.0,
-         0.0, 0.0, 1.0, 0.0,
-         0.0, 0.0, 0.0, 1.0]
-rate_hz: 200
-
-# inertial sensor noise model parameters (static)
-gyroscope_noise_density: 1.6968e-04     # [ rad / s / sqrt(Hz) ]   ( gyro "white noise" )
-gyroscope_random_walk: 1.9393e-05       # [ rad / s^2 / sqrt(Hz) ] ( gyro bias diffusion )
-accelerometer_noise_density: 2.0000e-3  # [ m / s^2 / sqrt(Hz) ]   ( accel "white noise" )
-accelerometer_random_walk: 3.0000e-3    # [ m / s^3 / sqrt(Hz) ].  ( accel bias diffusion )
-"""
+EUROC_IMU0_SENSOR_YAML = (Path(__file__).parent / "fixtures" / "euroc_imu0_sensor.yaml").read_text()
 
 
 def test_real_euroc_sensor_yaml_parses(tmp_path):
