@@ -82,6 +82,7 @@ class ConsistencyResult:
     predicted_std_m: np.ndarray = field(default=None, repr=False)   # sqrt(trace P_pos), run-averaged
     measured_std_m: np.ndarray = field(default=None, repr=False)    # sqrt(trace of the sample covariance)
     n_frames_used: int = 0
+    scored: np.ndarray = field(default=None, repr=False)             # indices of the scored timestamps
 
     def end_ratio(self) -> float:
         return float(self.measured_std_m[-1] / self.predicted_std_m[-1])
@@ -98,12 +99,43 @@ class ConsistencyResult:
         p, r = self.nees_pos, self.nees_rot
         return "\n".join([
             f"consistency of {self.estimator} on {self.scenario}: {self.runs} runs, {self.n_frames_used} timestamps",
-            f"  position NEES: mean {p.overall_mean:.2f} (dof 3), inside 95% interval [{p.bounds[0]:.2f}, "
+            f"  position NEES: mean {p.overall_mean:.2f} (dof 3; mean/3 = {p.overall_mean / 3:.2f}), inside 95% interval [{p.bounds[0]:.2f}, "
             f"{p.bounds[1]:.2f}] at {100 * p.fraction_inside:.1f}% of timestamps",
-            f"  attitude NEES: mean {r.overall_mean:.2f} (dof 3), inside at {100 * r.fraction_inside:.1f}% of timestamps",
+            f"  attitude NEES: mean {r.overall_mean:.2f} (dof 3; mean/3 = {r.overall_mean / 3:.2f}), inside at {100 * r.fraction_inside:.1f}% of timestamps",
             f"  end-point error std: predicted {self.predicted_std_m[-1]:.4f} m, measured {self.measured_std_m[-1]:.4f} m"
             f" (ratio {self.end_ratio():.2f}) after {self.distance_m[-1]:.1f} m",
         ])
+
+
+MIN_DISTANCE_M = 0.05   # timestamps before the cart has moved this far are not scored (see evaluate_runs)
+
+
+def evaluate_runs(scenario: str, estimator: str, gt_T_o_c0: np.ndarray, t_s: np.ndarray, est_T: list, covs: list,
+                  min_distance_m: float = MIN_DISTANCE_M) -> ConsistencyResult:
+    """NEES and spread from ``runs`` estimates: ``gt_T_o_c0`` (N,4,4) truth in the estimator's frame O,
+    ``est_T`` / ``covs`` lists (one per run) of (n_k,4,4) poses and (n_k,6,6) covariances of
+    ``[rotvec, position]`` of ``T_o_c0`` as the estimator reported them (runs are cut to the shortest).
+
+    Timestamps before the truth has moved ``min_distance_m`` are not scored: the first pose is the
+    anchor (zero error, zero covariance), and while the cart stands still a VO that detects
+    standstill (rop's rotation-only epochs) returns the exact zero translation, so the NEES is ~0
+    by construction and says nothing about the covariance."""
+    n = min(len(e) for e in est_T)
+    T_est = np.array([np.asarray(e)[:n] for e in est_T])
+    P = np.array([np.asarray(c)[:n] for c in covs])
+    errs = [pose_errors(gt_T_o_c0[:n], T) for T in T_est]
+    e_rot, e_pos = np.array([e[0] for e in errs]), np.array([e[1] for e in errs])
+    from vo.errorprop.nees import nees, summarize_nees
+    dist = np.r_[0, np.cumsum(np.linalg.norm(np.diff(gt_T_o_c0[:n, :3, 3], axis=0), axis=1))]
+    sl = np.flatnonzero(dist >= max(min_distance_m, 1e-12))
+    ne_pos = nees(e_pos[:, sl], P[:, sl, 3:, 3:])
+    ne_rot = nees(e_rot[:, sl], P[:, sl, :3, :3])
+    pred = np.sqrt(np.trace(P[:, :, 3:, 3:], axis1=2, axis2=3).mean(axis=0))
+    meas = np.sqrt(np.array([np.trace(np.cov(e_pos[:, t].T)) for t in range(n)]))
+    res = ConsistencyResult(scenario, estimator, len(T_est), np.asarray(t_s)[:n], dist, summarize_nees(ne_pos, 3),
+                            summarize_nees(ne_rot, 3), pred, meas, len(sl))
+    res.scored = sl
+    return res
 
 
 def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: float = 1.0, base_seed: int = 1000,
@@ -112,7 +144,6 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
     from tqdm import tqdm
     from sim.scenarios import cached_dataset, get_scenario
     from vo.dataset import open_dataset
-    from vo.errorprop.nees import nees, summarize_nees
     from vo.estimators.runner import run_estimator
     from vo.errors import VoError
 
@@ -121,28 +152,15 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
     base = open_dataset(cached_dataset(ideal, progress=progress))
     gt = base.groundtruth_cam0()
     T_o_w = np.linalg.inv(gt.T[0])
-    e_rot, e_pos, P = [], [], []
+    est_T, covs = [], []
     for k in tqdm(range(runs), desc="monte-carlo", disable=not progress):
         ds = NoisyDataset(base, image_sigma, base_seed + k, imu_model=None)
         run = run_estimator(estimator, ds, options=options or {}, progress=False, max_frames=max_frames)
-        n = len(run.frames)
-        covs = [f.cov for f in run.frames]
-        if any(c is None for c in covs[1:]):
+        if any(f.cov is None for f in run.frames[1:]):
             raise VoError(f"estimator {estimator!r} reports no covariance; consistency needs FrameResult.cov")
-        gt_T = T_o_w @ gt.T[:n]
-        er, ep = pose_errors(gt_T, np.array([f.T_o_c0 for f in run.frames]))
-        e_rot.append(er), e_pos.append(ep), P.append(np.array([c if c is not None else np.eye(6) * 1e-12
-                                                                for c in covs]))
-    n = min(len(e) for e in e_pos)
-    e_rot, e_pos, P = (np.array([e[:n] for e in a]) for a in (e_rot, e_pos, P))
-    sl = slice(1, n)   # the first pose is the anchor (zero error, zero covariance)
-    ne_pos = nees(e_pos[:, sl], P[:, sl, 3:, 3:])
-    ne_rot = nees(e_rot[:, sl], P[:, sl, :3, :3])
-    dist = np.r_[0, np.cumsum(np.linalg.norm(np.diff(gt.positions[:n], axis=0), axis=1))]
-    pred = np.sqrt(np.trace(P[:, :, 3:, 3:], axis1=2, axis2=3).mean(axis=0))
-    meas = np.sqrt(np.array([np.trace(np.cov(e_pos[:, t].T)) for t in range(n)]))
-    return ConsistencyResult(scenario, estimator, runs, gt.t_s[:n], dist, summarize_nees(ne_pos, 3),
-                             summarize_nees(ne_rot, 3), pred, meas, n - 1)
+        est_T.append(np.array([f.T_o_c0 for f in run.frames]))
+        covs.append(np.array([f.cov if f.cov is not None else np.eye(6) * 1e-12 for f in run.frames]))
+    return evaluate_runs(scenario, estimator, T_o_w @ gt.T, gt.t_s, est_T, covs)
 
 
 def plot_consistency(res: ConsistencyResult, path) -> None:
@@ -152,7 +170,7 @@ def plot_consistency(res: ConsistencyResult, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
-    d = res.distance_m[1:]
+    d = res.distance_m[res.scored] if res.scored is not None else res.distance_m[1:]
     for s, label, c in ((res.nees_pos, "position", "b"), (res.nees_rot, "attitude", "g")):
         axes[0].plot(d, s.mean_nees, c, label=f"{label} ({100 * s.fraction_inside:.0f}% inside)")
     lo, hi = res.nees_pos.bounds

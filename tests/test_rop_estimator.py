@@ -76,9 +76,11 @@ def test_room_sequence_tracks_truth_klt():
 
 def test_room_sequence_orb_error_within_its_covariance():
     """ORB keypoints (pyramid-quantised) give ~1-4 deg direction errors on forward motion here; the
-    a-posteriori covariance must own up to it: position error within 3 sigma (trace)."""
+    a-posteriori covariance must own up to it: position error within 3 sigma (trace). (The default
+    "propagated" covariance does not: 28 mm error vs 6 mm sigma - the quantisation is not in the
+    Sampson residuals of each ROP, only in their disagreement.)"""
     poses = true_poses(3)
-    est = RopEstimator(RIG, frontend="orb")
+    est = RopEstimator(RIG, frontend="orb", cov="apost")
     results = [est.process(f) for f in frames(poses)]
     assert results[0].status == "init" and all(r.status in ("ok", "keyframe") for r in results[1:])
     r = results[-1]

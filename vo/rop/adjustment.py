@@ -45,6 +45,7 @@ import numpy as np
 from vo.errors import EstimatorError
 from vo.geometry import make_T, rotation_angle, skew
 from vo.rop.initial import InitialEops, initial_eops, project_to_so3
+from vo.rop.propagation import propagated_cov
 from vo.rop.ropset import RopSet
 
 JACOBIANS = ("gauss_newton", "paper")
@@ -121,6 +122,7 @@ class RopAdjustmentResult:
     initial: InitialEops
     degenerate: bool
     message: str = ""
+    cov_propagated: Optional[np.ndarray] = None   # (6,6) from the ROPs' own cov6 (vo.rop.propagation)
 
 
 def _whitened_solve(J: np.ndarray, e: np.ndarray, w: np.ndarray):
@@ -207,14 +209,16 @@ def adjust_rotations(rops: RopSet, R_1_3_init: np.ndarray, cfg: AdjustmentConfig
             converged = True
             break
     e, J, w = _rotation_system(x, rops, weights, cfg.hard_weight)
-    _, _, Rm = _whitened_solve(J, e, w)
+    _, Qm, Rm = _whitened_solve(J, e, w)
     Q18, cond = _cofactor(Rm)
     R3, R4 = project_to_so3(x[:9].reshape(3, 3)), project_to_so3(x[9:].reshape(3, 3))
     G = np.zeros((6, 18))
     G[:3, :9], G[3:, 9:] = _rotvec_map(R3), _rotvec_map(R4)
     n_soft = len(weights)
     vtwv = float(np.sum(w[:9 * n_soft] * e[:9 * n_soft] ** 2))
-    return StepResult(np.stack([R3, R4]), G @ Q18 @ G.T, vtwv, 3 * n_soft - 3, it, converged, cond)
+    gain = G @ np.linalg.pinv(Rm) @ (Qm.T * np.sqrt(w))[:, :9 * n_soft]      # d[phi3, phi4] / d(soft rows)
+    return StepResult(np.stack([R3, R4]), G @ Q18 @ G.T, vtwv, 3 * n_soft - 3, it, converged, cond,
+                      {"gain": gain, "pairs": tuple(weights)})
 
 
 # -------------------------------------------------------------------------- step 2: translations
@@ -263,10 +267,12 @@ def adjust_translations(rops: RopSet, R_1_3: np.ndarray, r3: np.ndarray, r4: np.
     e, J, w, F = _translation_system(x, rops, R_1_3, weights, cfg.hard_weight, "gauss_newton")
     _, Qm, Rm = _whitened_solve(J, e, w)
     Q, cond = _cofactor(Rm)
-    dx_dphi3 = -np.linalg.pinv(Rm) @ (Qm.T @ (np.sqrt(w)[:, None] * F))
+    K = np.linalg.pinv(Rm) @ (Qm.T * np.sqrt(w))                                 # dx / d(residual rows)
+    dx_dphi3 = -K @ F
     n_soft = len(weights)
     vtwv = float(np.sum(w[:3 * n_soft] * e[:3 * n_soft] ** 2))
-    return StepResult(x, Q, vtwv, 2 * n_soft - 3, it, converged, cond, {"dx_dphi3": dx_dphi3})
+    return StepResult(x, Q, vtwv, 2 * n_soft - 3, it, converged, cond,
+                      {"dx_dphi3": dx_dphi3, "gain": K[:, :3 * n_soft]})
 
 
 # ------------------------------------------------------------------------------------- together
@@ -336,13 +342,14 @@ def adjust_rops(rops: RopSet, initial: Optional[InitialEops] = None,
     chosen, apost, apriori, factors = _covariances(rot, tra, config)
     pick = (lambda C: None if C is None else C[np.ix_(_T3, _T3)])
     cov = pick(chosen)
+    prop = propagated_cov(rops, rot.extra["pairs"], rot.extra["gain"], tra.extra["gain"], tra.extra["dx_dphi3"])
     degenerate = init.degenerate or tra.conditioning < 1e-9 or not np.all(np.isfinite(cov))
     msg = init.message or ("" if rot.converged and tra.converged else
                            f"not converged in {config.max_iter} iterations")
     return RopAdjustmentResult(
         make_T(R3, r3), make_T(R4, r4), cov, cov[:3, :3], cov[3:, 3:], chosen, pick(apost), pick(apriori),
         rot.sigma0_sq, tra.sigma0_sq, factors, (rot.iterations, tra.iterations),
-        rot.converged and tra.converged, _residual_angles(rops, R3, r3, r4), init, degenerate, msg)
+        rot.converged and tra.converged, _residual_angles(rops, R3, r3, r4), init, degenerate, msg, pick(prop))
 
 
 def _degenerate(init: InitialEops, message: str) -> RopAdjustmentResult:

@@ -22,18 +22,25 @@ two-step adjustment (eqs. 1-3, :mod:`vo.rop.adjustment`, unchanged).
 
 Covariance of ``[rotvec, position]`` of ``T_o_c0`` (left perturbation), first order:
 ``cov = A cov_kf A^T + B cov_step B^T`` (see :func:`propagate_cov`); keyframe steps are treated as
-independent (consecutive steps share an epoch; approximate). ``cov="apost"`` (default) uses the
-adjustment's a-posteriori unit-weight variances; ``cov="apriori"`` its a-priori sigmas, which by
-default are *derived per epoch* from the ROPs' own Sampson fits: each ROP's per-axis rotation and
-direction sigmas ``s_p`` (``s^2 (J^T J)^-1`` of its LM, so they scale with the Sampson residual RMS
-and ``1/sqrt(n_inliers)``) give the unit-weight sigma ``s_0^2 = mean_p(w_p s_p^2)`` for the
-adjustment's inlier weights ``w_p = n_p / mean(n)``; ``sigma_rot_deg`` / ``sigma_dir_deg`` fix them.
+independent (consecutive steps share an epoch; approximate). ``cov="propagated"`` (default, our
+extension): each ROP's own Sampson covariance (residual RMS, inlier count and geometry) propagated
+through the adjustment's converged gains (:mod:`vo.rop.propagation`); ``cov="apost"`` the
+adjustment's a-posteriori unit-weight variances; ``cov="apriori"`` its a-priori sigmas, *derived
+per epoch* from the ROPs' Sampson sigmas ``s_p`` as ``s_0^2 = mean_p(w_p s_p^2)`` unless
+``sigma_rot_deg`` / ``sigma_dir_deg`` fix them. docs/consistency.md has the Monte-Carlo check.
 Rotation-only epochs: rotation sigma ``3 max(parallax, 0.1 px) / (f sqrt(n))`` per axis; position
 sigma ``baseline x max(parallax, min_parallax/2) / median disparity`` per axis (the translation
 that would produce that parallax at the median stereo depth).
 
-On failure the pose is held (or extrapolated, ``constant_velocity``), never NaN, and the current
-frame becomes a fresh keyframe (re-initialisation). Timings (ms): detect, track, stereo,
+Weights: ``weights="inliers"`` (default) is seed 000's inlier-count weighting; ``"sampson"`` (our
+extension) weights each ROP by the inverse of its Sampson variance, which down-weights the
+ill-conditioned same-camera ROPs 1-3 / 2-4 on forward motion towards a wall (indoor heading drift).
+
+On failure the pose is extrapolated at constant velocity (``constant_velocity``, default; False
+holds it) with the rotation of the rotation-only fit to the left tracks when there are
+>= :data:`MIN_ROTATION_TRACKS` (a failed frame in a fast turn keeps its heading), never NaN, and the
+current frame becomes a fresh keyframe (re-initialisation). Every solved frame appends an
+:class:`~vo.rop.epochs.EpochRecord` (initial and adjusted ``T_kf_c``) to ``self.epochs``. Timings (ms): detect, track, stereo,
 essential, initial, adjust, total.
 """
 from __future__ import annotations
@@ -57,10 +64,10 @@ from vo.rop.ropset import PAIRS, WEIGHTINGS, RopSet, exact_ropset
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 
-COVS = ("apost", "apriori")
+COVS = ("propagated", "apost", "apriori")
 DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac", ransac_max_iters=200,
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
-                cov="apost", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=True,
+                cov="propagated", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=True,
                 min_parallax_px=0.75, max_rop_rotation_deg=2.0, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
                 klt_config=None)
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
@@ -96,7 +103,8 @@ class RopEstimator(Estimator):
     """Options (defaults in :data:`DEFAULTS`): ``frontend`` "klt"|"orb"|"sift"; RANSAC
     ``ransac_threshold_px``, ``ransac_method`` "ransac"|"magsac", ``ransac_max_iters``, ``ransac_prob``,
     ``seed``; ``min_matches`` (four-view tracks / pair matches), ``min_rop_inliers``,
-    ``min_inlier_ratio``, ``max_rop_rotation_deg``; ``cov`` "apost"|"apriori", ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
+    ``min_inlier_ratio``, ``max_rop_rotation_deg``; ``weights`` "inliers"|"sampson";
+    ``cov`` "propagated"|"apost"|"apriori", ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
     ``constant_velocity``; ``min_parallax_px``; ``keyframe_baseline_ratio``; ``keyframe_min_track_ratio``;
     ``klt_config`` (:class:`KltConfig`)."""
 
@@ -224,7 +232,9 @@ class RopEstimator(Estimator):
         res = adjust_rops(ropset, init, cfg)
         timings["initial"] += (t2 - t1) * 1e3
         timings["adjust"] += (time.perf_counter() - t2) * 1e3
-        cov = res.cov_apriori if self.o["cov"] == "apriori" else res.cov_apost
+        cov = {"apriori": res.cov_apriori, "apost": res.cov_apost}.get(self.o["cov"], res.cov_propagated)
+        if cov is None and self.o["cov"] == "propagated":
+            cov = res.cov_apost
         if res.degenerate or cov is None or not np.all(np.isfinite(res.T_c1_c3)) or not np.all(np.isfinite(cov)):
             return None, None, f"degenerate ROP geometry: {res.message or 'no redundancy'}"
         return res.T_c1_c3, cov, ""

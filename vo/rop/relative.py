@@ -39,6 +39,7 @@ class RopMeasurement:
     sigma_rot_rad: Optional[float] = None
     sigma_dir_rad: Optional[float] = None
     rms_px: Optional[float] = None
+    cov6: Optional[np.ndarray] = None      # (6,6) of [dphi (R_i_j = exp(dphi) R_hat), d rhat_i_j]
 
 
 def _spread(x: np.ndarray) -> float:
@@ -77,6 +78,21 @@ def sampson_residuals(E: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.nda
     Etx_j = np.einsum("...ba,nb->...na", E, h_j)
     den = Ex_i[..., 0] ** 2 + Ex_i[..., 1] ** 2 + Etx_j[..., 0] ** 2 + Etx_j[..., 1] ** 2
     return np.einsum("nj,...nj->...n", h_j, Ex_i) / np.sqrt(np.maximum(den, 1e-300))
+
+
+def project_cov(R: np.ndarray, t: np.ndarray, cov5: np.ndarray) -> np.ndarray:
+    """Sampson ``cov5`` of OpenCV's ``(R, t)`` (``[rotvec of R, tangent of t]``, basis as in
+    :func:`refine_essential`) -> (6,6) covariance of ``[dphi, d rhat_i_j]`` in the project convention:
+    ``R_i_j = R^T`` so ``dphi_ij = -R^T dphi``; ``rhat_i_j = -R^T t`` so
+    ``d rhat = -R^T skew(t) dphi - R^T B dalpha`` (from ``d(R^T) = -R^T skew(dphi)``)."""
+    t = t.ravel() / np.linalg.norm(t)
+    B = np.linalg.svd(t.reshape(1, 3))[2][1:].T
+    J = np.zeros((6, 5))
+    J[:3, :3] = -R.T
+    J[3:, :3] = -R.T @ skew(t)
+    J[3:, 3:] = -R.T @ B
+    C = J @ cov5 @ J.T
+    return 0.5 * (C + C.T)
 
 
 def _rodrigues(phi: np.ndarray) -> np.ndarray:
@@ -245,7 +261,7 @@ def estimate_rop_normalized(x_i: np.ndarray, x_j: np.ndarray, focal: float, seed
     res = sampson_residuals(skew(t) @ R, x_i[inliers], x_j[inliers])
     return RopMeasurement(R_i_j, rhat_i_j, int(inliers.sum()), inliers, True, "",
                           float(np.sqrt(np.trace(cov5[:3, :3]) / 3.0)), float(np.sqrt(np.trace(cov5[3:, 3:]) / 2.0)),
-                          float(np.sqrt(np.mean(res ** 2)) * focal))
+                          float(np.sqrt(np.mean(res ** 2)) * focal), project_cov(R, t, cov5))
 
 
 def estimate_rop(p_i: np.ndarray, p_j: np.ndarray, K_i: np.ndarray, dist_i, K_j: np.ndarray, dist_j,
