@@ -5,7 +5,7 @@ import sys
 
 import click
 
-from sim.cli.options import echo_json, json_option, set_option
+from sim.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
 
 
 @click.command("check")
@@ -21,13 +21,15 @@ from sim.cli.options import echo_json, json_option, set_option
 @click.option("--seed", type=int, default=None, help="Override the scenario's seed.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default=None, help="Keep trajectory and metrics.")
 @click.option("--no-progress", is_flag=True)
+@opt_option
 @set_option
 @json_option
-def check(estimator, scenario, max_drift, max_ate, max_rpe, frontend, seed, out_dir, no_progress, overrides, as_json):
+def check(estimator, scenario, max_drift, max_ate, max_rpe, frontend, seed, out_dir, no_progress, estimator_opts,
+          overrides, as_json):
     """Generate (or reuse, cached by configuration hash) SCENARIO, run ESTIMATOR, print the metrics and
     exit 1 when any given bound is exceeded (2 on a usage or input error)."""
     from sim.check import check as run_check
-    options = {"frontend": frontend} if frontend else {}
+    options = parse_opts(estimator_opts, frontend)
     res = run_check(estimator, scenario, {"max_drift": max_drift, "max_ate": max_ate, "max_rpe": max_rpe},
                     overrides=overrides, seed=seed, out_dir=out_dir, options=options,
                     progress=not (no_progress or as_json))

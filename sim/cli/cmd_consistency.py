@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from sim.cli.options import echo_json, json_option
+from sim.cli.options import echo_json, json_option, opt_option, parse_opts
 
 
 @click.command("consistency")
@@ -17,14 +17,16 @@ from sim.cli.options import echo_json, json_option
 @click.option("--frontend", type=click.Choice(["klt", "orb", "sift"]), default=None)
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False))
 @click.option("--no-progress", is_flag=True)
+@opt_option
 @json_option
-def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, no_progress, as_json):
+def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, no_progress, estimator_opts,
+                as_json):
     """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
     from sim.montecarlo import consistency as run_mc, plot_consistency
     from vo.pipeline import _write_json
     if runs < 2:
         raise click.BadParameter("need at least 2 runs", param_hint="--runs")
-    res = run_mc(scenario, estimator, runs, image_noise, options={"frontend": frontend} if frontend else None,
+    res = run_mc(scenario, estimator, runs, image_noise, options=parse_opts(estimator_opts, frontend) or None,
                  progress=not (no_progress or as_json), max_frames=max_frames)
     out = Path(out_dir)
     plot_consistency(res, out / "consistency.png")

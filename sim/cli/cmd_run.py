@@ -5,6 +5,8 @@ import json
 
 import click
 
+from sim.cli.options import opt_option, parse_opts
+
 
 @click.command("run")
 @click.option("--dataset", "dataset_dir", required=True, type=click.Path(exists=True, file_okay=False),
@@ -15,14 +17,15 @@ import click
               help="Front-end for estimators that take one (orb-pnp: orb|sift; rop: klt|orb|sift).")
 @click.option("--max-frames", type=click.IntRange(min=1), default=None, help="Process at most N frames.")
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Output folder.")
+@opt_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--no-progress", is_flag=True, help="Disable the progress bar.")
-def run(dataset_dir, estimator, frontend, max_frames, out_dir, as_json, no_progress):
+def run(dataset_dir, estimator, frontend, max_frames, out_dir, estimator_opts, as_json, no_progress):
     """Run ESTIMATOR on DATASET, write OUT/{trajectory_tum.txt, trajectory_kitti.txt, frames.csv, summary.json}."""
     from vo.estimators.registry import is_external
     from vo.estimators.runner import run_estimator
 
-    options = {} if frontend is None else {"frontend": frontend}
+    options = parse_opts(estimator_opts, frontend)
     if is_external(estimator):
         dataset = dataset_dir
     else:

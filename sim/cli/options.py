@@ -27,3 +27,19 @@ def _default(o):
     if hasattr(o, "to_dict"):
         return o.to_dict()
     return str(o)
+
+
+opt_option = click.option("--opt", "estimator_opts", multiple=True, metavar="KEY=VALUE",
+                          help="Estimator option, e.g. --opt weights=sampson --opt cov=apost (values parsed as YAML).")
+
+
+def parse_opts(items, frontend=None) -> dict:
+    """``("weights=sampson", "min_matches=40")`` -> ``{"weights": "sampson", "min_matches": 40}``."""
+    import yaml
+    out = {} if frontend is None else {"frontend": frontend}
+    for item in items:
+        key, sep, raw = item.partition("=")
+        if not sep or not key:
+            raise click.BadParameter(f"expected KEY=VALUE, got {item!r}", param_hint="--opt")
+        out[key] = yaml.safe_load(raw)
+    return out
