@@ -39,7 +39,7 @@ def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp
         for name in estimators:
             res = run_and_evaluate(ds, name, progress=progress, max_frames=max_frames)
             ev = res.evaluation
-            rmsd = tuple(float(v) for v in ev.gcps.rmsd) if ev.gcps is not None else (np.nan,) * 3
+            rmsd = tuple(float(v) for v in ev.gcps.rmsd_xyz) if ev.gcps is not None else (np.nan,) * 3
             rows.append(VoBenchRow(scenario, name, float(ev.drift.gt_length_m), float(ev.drift.drift_ratio_pct),
                                    float(ev.drift.end_diff_m), rmsd, float(ev.ape.trans.rmse),
                                    len(res.run.frames), int(res.run.n_lost), dict(res.run.timings_ms)))
