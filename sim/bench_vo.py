@@ -47,12 +47,12 @@ def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp
 
 
 def format_rows(rows) -> str:
-    lines = [f"{'scenario':<14}{'estimator':<10}{'path m':>8}{'drift %':>9}{'RMSD x':>8}{'RMSD y':>8}{'RMSD z':>8}"
+    lines = [f"{'scenario':<17}{'estimator':<10}{'path m':>8}{'drift %':>9}{'RMSD x':>8}{'RMSD y':>8}{'RMSD z':>8}"
              f"{'ATE m':>8}{'lost':>6}{'ms/frame':>10}  stages (ms)"]
     for r in rows:
         total = r.ms_per_frame.get("total", sum(r.ms_per_frame.values()))
         stages = " ".join(f"{k} {v:.1f}" for k, v in sorted(r.ms_per_frame.items()) if k != "total")
-        lines.append(f"{r.scenario:<14}{r.estimator:<10}{r.path_length_m:8.1f}{r.drift_pct:9.2f}"
+        lines.append(f"{r.scenario:<17}{r.estimator:<10}{r.path_length_m:8.1f}{r.drift_pct:9.2f}"
                      f"{r.gcp_rmsd_m[0]:8.3f}{r.gcp_rmsd_m[1]:8.3f}{r.gcp_rmsd_m[2]:8.3f}{r.ate_rmse_m:8.3f}"
                      f"{r.n_lost:6d}{total:10.1f}  {stages}")
     return "\n".join(lines)
