@@ -57,10 +57,12 @@ class RunResult:
     def _frames_csv(self) -> str:
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
-        w.writerow(["t_ns", "status", "n_features", "n_inliers", "message"] + [f"{s}_ms" for s in STAGES])
+        extra = sorted({k for f in self.frames for k in f.timings_ms} - set(STAGES))
+        stages = [s for s in STAGES if s != "total"] + extra + ["total"]     # every stage any frame reported
+        w.writerow(["t_ns", "status", "n_features", "n_inliers", "message"] + [f"{s}_ms" for s in stages])
         for f in self.frames:
             w.writerow([f.t_ns, f.status, f.n_features, f.n_inliers, f.message]
-                       + [f"{f.timings_ms.get(s, 0.0):.3f}" for s in STAGES])
+                       + [f"{f.timings_ms.get(s, 0.0):.3f}" for s in stages])
         return buf.getvalue()
 
 

@@ -24,7 +24,10 @@ Covariance of ``[rotvec, position]`` of ``T_o_c0`` (left perturbation), first or
 ``cov = A cov_kf A^T + B cov_step B^T`` (see :func:`propagate_cov`); keyframe steps are treated as
 independent (consecutive steps share an epoch; approximate). ``cov="propagated"`` (default, our
 extension): each ROP's own Sampson covariance (residual RMS, inlier count and geometry) propagated
-through the adjustment's converged gains (:mod:`vo.rop.propagation`); ``cov="apost"`` the
+through the adjustment's converged gains (:mod:`vo.rop.propagation`); ``cov="joint"`` (our
+extension, KLT front-end only; other front-ends fall back to ``"propagated"``) the same with the
+joint covariance of the four ROPs from the pixel noise of their shared tracks (:mod:`vo.rop.joint_cov`);
+``cov="apost"`` the
 adjustment's a-posteriori unit-weight variances; ``cov="apriori"`` its a-priori sigmas, *derived
 per epoch* from the ROPs' Sampson sigmas ``s_p`` as ``s_0^2 = mean_p(w_p s_p^2)`` unless
 ``sigma_rot_deg`` / ``sigma_dir_deg`` fix them. docs/consistency.md has the Monte-Carlo check.
@@ -59,12 +62,13 @@ from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops, rotation_candidates
+from vo.rop.joint_cov import with_pixel_factors
 from vo.rop.relative import METHODS, estimate_rop_normalized
 from vo.rop.ropset import PAIRS, WEIGHTINGS, RopSet, exact_ropset
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 
-COVS = ("propagated", "apost", "apriori")
+COVS = ("propagated", "apost", "apriori", "joint")
 DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac", ransac_max_iters=200,
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
                 cov="propagated", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=True,
@@ -104,7 +108,7 @@ class RopEstimator(Estimator):
     ``ransac_threshold_px``, ``ransac_method`` "ransac"|"magsac", ``ransac_max_iters``, ``ransac_prob``,
     ``seed``; ``min_matches`` (four-view tracks / pair matches), ``min_rop_inliers``,
     ``min_inlier_ratio``, ``max_rop_rotation_deg``; ``weights`` "inliers"|"sampson";
-    ``cov`` "propagated"|"apost"|"apriori", ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
+    ``cov`` "propagated"|"joint"|"apost"|"apriori", ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
     ``constant_velocity``; ``min_parallax_px``; ``keyframe_baseline_ratio``; ``keyframe_min_track_ratio``;
     ``klt_config`` (:class:`KltConfig`)."""
 
@@ -159,6 +163,7 @@ class RopEstimator(Estimator):
         """{pair: (x_i, x_j)}, number of usable features, median stereo disparity (px) at the keyframe."""
         if self.klt is not None:
             v = self.klt.track(left, right, timings)
+            self._ok4 = v.ok4
             disp = np.median(np.linalg.norm(v.x1 - v.x2, axis=1)) * self.focal if len(v) else 0.0
             return {p: v.pair(p) for p in PAIRS}, int(v.ok4.sum()), float(disp)
         t0 = time.perf_counter()
@@ -233,7 +238,7 @@ class RopEstimator(Estimator):
         timings["initial"] += (t2 - t1) * 1e3
         timings["adjust"] += (time.perf_counter() - t2) * 1e3
         cov = {"apriori": res.cov_apriori, "apost": res.cov_apost}.get(self.o["cov"], res.cov_propagated)
-        if cov is None and self.o["cov"] == "propagated":
+        if cov is None and self.o["cov"] in ("propagated", "joint"):
             cov = res.cov_apost
         if res.degenerate or cov is None or not np.all(np.isfinite(res.T_c1_c3)) or not np.all(np.isfinite(cov)):
             return None, None, f"degenerate ROP geometry: {res.message or 'no redundancy'}"
@@ -259,6 +264,8 @@ class RopEstimator(Estimator):
             self._epoch = ("rotation_only", T, T, None)
             return T, cov, "ok", f"parallax {parallax:.2f} px < {min_par} px: no translation (rotation only)"
         ropset = self._rops(pairs, R_1_3)
+        if self.o["cov"] == "joint" and self.klt is not None:
+            ropset = with_pixel_factors(ropset, pairs, self._ok4)
         timings["essential"] += (time.perf_counter() - t0) * 1e3
         T, cov, msg = self._adjust(ropset, timings)
         if T is None and parallax < 2.0 * min_par:

@@ -40,6 +40,7 @@ class RopMeasurement:
     sigma_dir_rad: Optional[float] = None
     rms_px: Optional[float] = None
     cov6: Optional[np.ndarray] = None      # (6,6) of [dphi (R_i_j = exp(dphi) R_hat), d rhat_i_j]
+    px_factor: Optional[np.ndarray] = None  # (6, 8N) joint factor over the epoch's tracks (vo.rop.joint_cov)
 
 
 def _spread(x: np.ndarray) -> float:
@@ -80,17 +81,23 @@ def sampson_residuals(E: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.nda
     return np.einsum("nj,...nj->...n", h_j, Ex_i) / np.sqrt(np.maximum(den, 1e-300))
 
 
-def project_cov(R: np.ndarray, t: np.ndarray, cov5: np.ndarray) -> np.ndarray:
-    """Sampson ``cov5`` of OpenCV's ``(R, t)`` (``[rotvec of R, tangent of t]``, basis as in
-    :func:`refine_essential`) -> (6,6) covariance of ``[dphi, d rhat_i_j]`` in the project convention:
-    ``R_i_j = R^T`` so ``dphi_ij = -R^T dphi``; ``rhat_i_j = -R^T t`` so
-    ``d rhat = -R^T skew(t) dphi - R^T B dalpha`` (from ``d(R^T) = -R^T skew(dphi)``)."""
+def project_jacobian(R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(6,5) ``d [dphi, d rhat_i_j] / d [rotvec of R, tangent of t]`` (see :func:`project_cov`)."""
     t = t.ravel() / np.linalg.norm(t)
     B = np.linalg.svd(t.reshape(1, 3))[2][1:].T
     J = np.zeros((6, 5))
     J[:3, :3] = -R.T
     J[3:, :3] = -R.T @ skew(t)
     J[3:, 3:] = -R.T @ B
+    return J
+
+
+def project_cov(R: np.ndarray, t: np.ndarray, cov5: np.ndarray) -> np.ndarray:
+    """Sampson ``cov5`` of OpenCV's ``(R, t)`` (``[rotvec of R, tangent of t]``, basis as in
+    :func:`refine_essential`) -> (6,6) covariance of ``[dphi, d rhat_i_j]`` in the project convention:
+    ``R_i_j = R^T`` so ``dphi_ij = -R^T dphi``; ``rhat_i_j = -R^T t`` so
+    ``d rhat = -R^T skew(t) dphi - R^T B dalpha`` (from ``d(R^T) = -R^T skew(dphi)``)."""
+    J = project_jacobian(R, t)
     C = J @ cov5 @ J.T
     return 0.5 * (C + C.T)
 
