@@ -31,7 +31,7 @@ def validate():
 @click.option("--ranges", default="2,3,5,7,10,15,20,25,30", show_default=True, help="Board ranges (m).")
 @click.option("--matchers", default="klt,sgbm", show_default=True, help="Comma list of klt, sgbm.")
 @click.option("--image-noise", type=float, default=1.0, show_default=True, help="Gaussian noise std (grey levels).")
-@click.option("--phases", type=int, default=8, show_default=True, help="Sub-pixel disparity phases per range.")
+@click.option("--phases", type=int, default=16, show_default=True, help="Sub-pixel disparity phases per range.")
 @click.option("--tolerance", type=float, default=0.2, show_default=True, help="Allowed |measured/predicted - 1|.")
 @click.option("--min-samples", type=int, default=30, show_default=True, help="Bins with fewer samples are not judged.")
 @click.option("--seed", type=int, default=0, show_default=True)

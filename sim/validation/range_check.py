@@ -301,7 +301,7 @@ def _bins_for(matches, ranges, b: float, f: float, matcher: str, outlier_px: flo
 def measure_range_errors(baselines=(0.063, 0.12, 0.27, 0.5), ranges=(2, 3, 5, 7, 10, 15, 20, 25, 30),
                          matchers=("klt", "sgbm"), image_noise: float = 1.0, seed: int = 0,
                          rig: str = "stereo27", min_samples: int = 30, tolerance: float = 0.2,
-                         outlier_px: float = 3.0, phases: int = 8,
+                         outlier_px: float = 3.0, phases: int = 16,
                          half_angles_deg=(10.0, 7.0)) -> RangeValidation:
     """Render, match and compare measured with predicted (eq. 7) range errors; see module docstring.
 
