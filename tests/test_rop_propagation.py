@@ -67,3 +67,26 @@ def test_project_cov_matches_finite_differences():
         J[:3, k], J[3:, k] = so3_log(Rk @ R0.T) / h, (rk - r0) / h
     cov5 = np.diag([1.0, 2.0, 3.0, 4.0, 5.0]) * 1e-6
     np.testing.assert_allclose(project_cov(R, t, cov5), J @ cov5 @ J.T, rtol=2e-3, atol=1e-12)   # forward differences, h = 1e-7
+
+
+def test_propagate_cov_matches_monte_carlo_of_composed_steps():
+    """Keyframe chaining ``T_o_c3 = T_o_c1 @ T_c1_c3`` (vo.rop.estimator.propagate_cov) against
+    composing independently perturbed poses (left perturbation ``[rotvec, position]``)."""
+    from vo.rop.estimator import propagate_cov
+    rng = np.random.default_rng(7)
+    T1 = make_T(so3_exp([0.1, 0.4, -0.2]), [0.3, -0.1, 2.0])
+    C1 = np.diag([3e-3, 2e-3, 4e-3, 5e-3, 4e-3, 6e-3]) ** 2
+    C2 = np.diag([1e-3, 2e-3, 1e-3, 1e-3, 1e-3, 3e-3]) ** 2
+    P = propagate_cov(C1, T1, T_TRUE, C2)
+    L1, L2 = np.linalg.cholesky(C1), np.linalg.cholesky(C2)
+    Tn = T1 @ T_TRUE
+
+    def perturb(T, e):
+        return make_T(so3_exp(e[:3]) @ T[:3, :3], T[:3, 3] + e[3:])
+
+    E = []
+    for _ in range(4000):
+        T = perturb(T1, L1 @ rng.standard_normal(6)) @ perturb(T_TRUE, L2 @ rng.standard_normal(6))
+        E.append(np.r_[so3_log(T[:3, :3] @ Tn[:3, :3].T), T[:3, 3] - Tn[:3, 3]])
+    ratio = np.sqrt(np.diag(np.cov(np.array(E).T)) / np.diag(P))
+    assert np.all(np.abs(ratio - 1) < 0.06), ratio
