@@ -42,6 +42,7 @@ class Setup:
     frame_t_ns: np.ndarray
     imu_t_ns: np.ndarray
     image_noise: float
+    motion: object = None        # the resolved sim.trajectory.MotionConfig
 
 
 def resolve(config: GenerateConfig) -> Setup:
@@ -67,7 +68,7 @@ def resolve(config: GenerateConfig) -> Setup:
     frame_t = np.arange(traj.t0_ns, traj.t1_ns + 1, period_ns, dtype=np.int64)
     imu_t = imu_times_ns(traj.t0_ns, traj.t1_ns, rig.imu.rate_hz)
     noise = ov["image_noise"] if ov["image_noise"] is not None else config.image_noise
-    return Setup(config, rig, scene, traj, frame_t, imu_t, 0.0 if config.ideal else noise)
+    return Setup(config, rig, scene, traj, frame_t, imu_t, 0.0 if config.ideal else noise, motion_cfg)
 
 
 def imu_streams(setup: Setup):
@@ -120,11 +121,16 @@ def metadata(setup: Setup) -> dict:
         "generator": "vo-testbed", "version": __version__, "mujoco": mujoco.__version__,
         "config": c.to_dict(), "config_hash": c.config_hash(), "seed": c.seed,
         "scene": dataclasses.asdict(setup.scene.config), "rig": rig_to_dict(setup.rig),
-        "motion": dataclasses.asdict(setup.trajectory.config) if hasattr(setup.trajectory, "config") else {},
+        "motion": _plain(dataclasses.asdict(setup.motion)) if setup.motion is not None else {},
         "image_noise_sigma": setup.image_noise,
         "n_frames": int(len(setup.frame_t_ns)) if c.images else 0, "n_imu": int(len(setup.imu_t_ns)),
         "path_length_m": float(setup.trajectory.path_length()),
     }
+
+
+def _plain(d: dict) -> dict:
+    """Tuples -> lists so the metadata YAML stays plain."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
 
 
 def _formats(fmt: str) -> tuple:
