@@ -1,7 +1,4 @@
-"""``vo-testbed validate``: check error predictions against rendered images.
-
-Register in ``sim/cli/__init__.py``: ``"validate": "sim.cli.cmd_validate:validate"``.
-"""
+"""``vo-testbed validate``: check error predictions against rendered images, and the IMU model."""
 from __future__ import annotations
 
 import click
