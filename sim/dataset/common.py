@@ -71,10 +71,10 @@ def prepare_folder(out_dir, metadata: dict, overwrite: bool) -> tuple[Path, bool
     elif entries and (out_dir / MARKER).exists():
         if marker_hash(out_dir) != h:
             raise SimError(f"{out_dir}: incomplete folder was started with a different configuration; "
-                           f"pass overwrite=True to regenerate it")
+                           f"pass --overwrite (overwrite=True) to regenerate it")
         resuming = True
     elif entries:
-        raise SimError(f"{out_dir}: a complete dataset is already there; pass overwrite=True to replace it")
+        raise SimError(f"{out_dir}: a complete dataset is already there; pass --overwrite (overwrite=True) to replace it")
     out_dir.mkdir(parents=True, exist_ok=True)
     write_marker(out_dir, h, "writing started")
     if (out_dir / METADATA).exists():          # stale metadata of a wiped/resumed run
