@@ -6,7 +6,6 @@ separate per sensor (``sim.rng``), so turning images off does not change the IMU
 from __future__ import annotations
 
 import dataclasses
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -96,7 +95,8 @@ def truth_records(setup: Setup, biases):
     lever_w = np.einsum("nij,j->ni", s.T_w_b[:, :3, :3], T_b_i[:3, 3])
     omega_w = np.einsum("nij,nj->ni", s.T_w_b[:, :3, :3], s.omega_b)
     v_w_i = s.v_w + np.cross(omega_w, lever_w)
-    T_w_c0 = traj.states(setup.frame_t_ns).T_w_b @ rig.cameras[0].T_b_c_array
+    T_w_b_frames = traj.states(setup.frame_t_ns).T_w_b
+    T_w_c0 = T_w_b_frames @ rig.cameras[0].T_b_c_array
     sites = setup.scene.gcp_sites
     gcps = []
     if sites:
@@ -109,7 +109,7 @@ def truth_records(setup: Setup, biases):
             ground = np.array([g.x, g.y, float(setup.scene.ground_height(g.x, g.y))])
             p_c0 = (T @ rig.cameras[0].T_b_c_array)[:3, 3]
             gcps.append(Gcp(g.name, int(t), ground, p_c0))
-    return dict(T_w_i=T_w_i, v_w_i=v_w_i, T_w_c0=T_w_c0, gcps=gcps, biases=biases)
+    return dict(T_w_i=T_w_i, v_w_i=v_w_i, T_w_b_frames=T_w_b_frames, T_w_c0=T_w_c0, gcps=gcps, biases=biases)
 
 
 def metadata(setup: Setup) -> dict:
@@ -137,8 +137,9 @@ def _formats(fmt: str) -> tuple:
     return ("euroc", "kitti") if fmt == "both" else (fmt,)
 
 
-def render_frames(setup: Setup, writers, progress: bool = True, start: int = 0) -> None:
-    """Render every stereo frame, post-process (distortion, noise, grey) and stream it to the writers."""
+def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, start: int = 0) -> None:
+    """Render every stereo frame at ``T_w_b_frames`` (N,4,4), add noise, convert to grey, stream to the writers
+    (lens distortion is already applied by the renderer)."""
     import cv2
     from tqdm import tqdm
     from sim.image_noise import add_image_noise
@@ -147,7 +148,6 @@ def render_frames(setup: Setup, writers, progress: bool = True, start: int = 0) 
 
     c, rig = setup.config, setup.rig
     world = build_world(setup.scene, rig, vehicle=c.vehicle)
-    states = setup.trajectory.states(setup.frame_t_ns)
     with StereoRenderer(world, rig, depth=c.depth, segmentation=c.segmentation) as renderer:
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
                    disable=not progress, dynamic_ncols=True)
@@ -155,7 +155,7 @@ def render_frames(setup: Setup, writers, progress: bool = True, start: int = 0) 
             if k < start:
                 continue
             rng = indexed_stream(c.seed, "image_noise", k)
-            fr = renderer.render(states.T_w_b[k])
+            fr = renderer.render(T_w_b_frames[k])
             images = []      # the renderer already applied lens distortion (exact inverse map)
             for img in fr.images[:2]:
                 if img.ndim == 3 and not c.rgb:
@@ -195,7 +195,7 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
                             int(round(1e9 / setup.rig.wheels.rate_hz)), dtype=np.int64)
         writers.add_wheels(measure_wheels(setup.trajectory, setup.rig.wheels, wheel_t, stream(config.seed, "wheels")))
     if config.images:
-        render_frames(setup, writers, progress=progress, start=start)
+        render_frames(setup, truth["T_w_b_frames"], writers, progress=progress, start=start)
     png = str(out_dir / "topdown.png")
     write_topdown(setup, truth, png)
     writers.finalize()
@@ -210,12 +210,10 @@ def write_topdown(setup: Setup, truth: dict, path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from scenes.plot import plot_topdown
+    from vo.eval.plots import save_figure
 
     fig, ax = plt.subplots(figsize=(8, 7))
     xy = truth["T_w_c0"][:, :2, 3]
     plot_topdown(setup.scene, ax, route_xy=xy)
     ax.set_title(f"{setup.config.scene} / {setup.config.rig} / seed {setup.config.seed}")
-    tmp = path + ".part.png"
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, path)
+    save_figure(fig, path)

@@ -165,7 +165,6 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
 
 def plot_consistency(res: ConsistencyResult, path) -> None:
     """NEES per timestamp with the 95% band, and predicted vs measured error spread against distance."""
-    import os
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -187,8 +186,5 @@ def plot_consistency(res: ConsistencyResult, path) -> None:
     for ax in axes:
         ax.grid(True, alpha=0.3)
     fig.suptitle(f"{res.estimator} on {res.scenario}")
-    path = str(path)
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path + ".part.png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(path + ".part.png", path)
+    from vo.eval.plots import save_figure
+    save_figure(fig, path)

@@ -14,9 +14,7 @@ STREAMS = ("motion", "imu_white", "imu_bias", "image_noise", "scene", "wheels", 
 
 def stream(seed: int, name: str) -> np.random.Generator:
     """The generator of stream ``name`` for master ``seed``."""
-    if name not in STREAMS:
-        raise ValueError(f"unknown random stream {name!r}; valid: {', '.join(STREAMS)}")
-    return np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(name.encode())]))
+    return np.random.default_rng(np.random.SeedSequence([int(seed), _stream_id(name)]))
 
 
 def indexed_stream(seed: int, name: str, index: int) -> np.random.Generator:
@@ -25,3 +23,9 @@ def indexed_stream(seed: int, name: str, index: int) -> np.random.Generator:
     if name not in STREAMS:
         raise ValueError(f"unknown random stream {name!r}; valid: {', '.join(STREAMS)}")
     return np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(name.encode()), int(index)]))
+
+
+def _stream_id(name: str) -> int:
+    if name not in STREAMS:
+        raise ValueError(f"unknown random stream {name!r}; valid: {', '.join(STREAMS)}")
+    return zlib.crc32(name.encode())

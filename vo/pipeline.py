@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -47,9 +46,7 @@ def evaluate_run(dataset, run, estimator: str, out_dir=None, align: str = "first
     gt = dataset.groundtruth_cam0()
     if gt is None or len(gt) == 0:
         raise VoError(f"{dataset.path}: no ground truth to evaluate against")
-    t0, t1 = run.trajectory.t_ns[0], run.trajectory.t_ns[-1]
-    gcps = [g for g in (dataset.gcps or []) if t0 <= g.t_ns <= t1] or None
-    ev = evaluate(gt, run.trajectory, gcps=gcps, align=align)
+    ev = evaluate(gt, run.trajectory, gcps=dataset.gcps, align=align)
     label = estimator if not estimator.startswith("cmd:") else "external"
     result = Evaluated(label, run, ev, ev.aligned_est)
     if out_dir is not None:
@@ -64,10 +61,8 @@ def evaluate_run(dataset, run, estimator: str, out_dir=None, align: str = "first
 
 
 def _write_json(path: Path, obj) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(obj, indent=2, sort_keys=True, default=_default))
-    os.replace(tmp, path)
+    from rigs.io_yaml import write_text_atomic
+    write_text_atomic(path, json.dumps(obj, indent=2, sort_keys=True, default=_default))
 
 
 def _default(o):

@@ -7,22 +7,14 @@
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
+from rigs.io_yaml import write_text_atomic as _atomic_write
 from vo.errors import DatasetError
 from vo.geometry import R_from_quat_wxyz, R_from_quat_xyzw, quat_xyzw_from_R, make_T
 from vo.trajectory import Trajectory
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 
 def _load_table(path: Path, min_cols: int, delimiter=None) -> np.ndarray:

@@ -177,11 +177,3 @@ class CsvStream:
     def close(self) -> None:
         if not self._f.closed:
             self._f.close()
-
-
-def write_text_atomic_csv(path: Path, text: str) -> None:
-    """Write a small CSV in one go (temporary name, then rename)."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(text)
-    os.replace(tmp, path)

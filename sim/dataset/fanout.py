@@ -62,11 +62,11 @@ class DatasetWriters:
 
     def add_wheels(self, samples) -> None:
         """Wheel-encoder ticks (``sim.wheels.WheelSamples``) as ``wheels.csv`` in every dataset root."""
-        from sim.dataset.common import write_text_atomic_csv
+        from rigs.io_yaml import write_text_atomic
         rows = ["#timestamp [ns],left_ticks,right_ticks"]
         rows += [f"{t},{l},{r}" for t, l, r in zip(samples.t_ns, samples.left_ticks, samples.right_ticks)]
         for w in self.writers:
-            write_text_atomic_csv(w.out_dir / "wheels.csv", "\n".join(rows) + "\n")
+            write_text_atomic(w.out_dir / "wheels.csv", "\n".join(rows) + "\n")
 
     def finalize(self) -> list:
         return [w.finalize() for w in self.writers]

@@ -25,7 +25,7 @@ import cv2  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np
 
-from scenes.base import GcpSite, Route, Scene, SceneConfig
+from scenes.base import Route, Scene, SceneConfig
 from scenes.errors import SceneError
 from scenes.textures import make_texture
 from vo.geometry import quat_wxyz_from_R

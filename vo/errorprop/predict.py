@@ -1,7 +1,6 @@
 """Predictions for a rig: range error against range (eq. 7 and the general triangulation model)."""
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -112,10 +111,5 @@ def plot_cross_site(cfg, result, path) -> None:
 
 
 def _save(fig, path) -> None:
-    import matplotlib.pyplot as plt
-    path = str(path)
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    tmp = path + ".part.png"
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, path)
+    from vo.eval.plots import save_figure
+    save_figure(fig, path)

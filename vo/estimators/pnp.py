@@ -27,7 +27,7 @@ from vo.estimators.base import Estimator, FrameResult
 from vo.estimators.pnp_core import PnpConfig, solve_pnp, to_gray
 from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
 from vo.frontend.grid import Grid
-from vo.frontend.klt import KltConfig, KltTracker, detect_in_empty_cells, is_keyframe, stereo_klt
+from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
 from vo.frontend.stereo import epipolar_mask, triangulate, undistort_px
 from vo.geometry import inv_T, transform_points
 

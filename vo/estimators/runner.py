@@ -4,7 +4,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 import sys
 import tempfile
 import time
@@ -13,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs.io_yaml import write_text_atomic as _atomic_write
 from vo.errors import EstimatorError, VoError
 from vo.estimators.base import STATUSES, FrameResult
 from vo.estimators.registry import ExternalCommand, is_external, make_estimator
@@ -64,12 +64,6 @@ class RunResult:
             w.writerow([f.t_ns, f.status, f.n_features, f.n_inliers, f.message]
                        + [f"{f.timings_ms.get(s, 0.0):.3f}" for s in stages])
         return buf.getvalue()
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 
 def run_estimator(spec: str, dataset, options: dict | None = None, progress: bool = True,

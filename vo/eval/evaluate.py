@@ -60,12 +60,14 @@ def _stats_line(label: str, s) -> str:
 def evaluate(gt: Trajectory, est: Trajectory, gcps: list[Gcp] | None = None, align: str = "first",
              max_diff_ns: int = DEFAULT_MAX_DIFF_NS, rpe_delta_m: float | None = None) -> EvalResult:
     """Associate ``est`` to ``gt``, align (``align`` method), and run ATE, RPE (1 frame and, if the path
-    allows, ``rpe_delta_m`` metres - default 10% of the gt path), drift, KITTI and GCP errors."""
+    allows, ``rpe_delta_m`` metres - default 10% of the gt path), drift, KITTI and GCP errors.
+    GCPs passed outside the matched time span (e.g. a run stopped early) are not scored."""
     gt_m, est_m = associate(gt, est, max_diff_ns)
     est_a, info = align_traj(est_m, gt_m, align)
     delta_m = rpe_delta_m if rpe_delta_m is not None else round(0.1 * gt_m.path_length, 3)
     rpe_m = rpe(gt_m, est_a, delta_m, "m") if delta_m > 0 else None
     d = drift(gt_m, est_a)
+    gcps = [g for g in (gcps or []) if est_a.t_ns[0] <= g.t_ns <= est_a.t_ns[-1]]
     table = gcp_errors(est_a, gcps, d) if gcps else None
     return EvalResult(len(gt_m), info, ate(gt_m, est_a), rpe(gt_m, est_a, 1, "frames"), rpe_m, d,
                       kitti_errors(gt_m, est_a), table, est_a, gt_m)

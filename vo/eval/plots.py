@@ -15,7 +15,8 @@ from vo.eval.rpe import RpeResult  # noqa: E402
 from vo.trajectory import Trajectory  # noqa: E402
 
 
-def _save(fig, path) -> Path:
+def save_figure(fig, path) -> Path:
+    """Save and close ``fig`` atomically (temp name, then rename); format from the suffix."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".part")
@@ -40,7 +41,7 @@ def plot_topdown(results: dict, gt: Trajectory, gcps=None, path="topdown.png") -
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def error_vs_distance(gt: Trajectory, est: Trajectory) -> tuple[np.ndarray, np.ndarray]:
@@ -60,7 +61,7 @@ def plot_error_vs_distance(gt: Trajectory, ests: dict, path="error_vs_distance.p
     ax.set_ylabel("position error (m)")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_rpe(rpes: dict, path="rpe.png") -> Path:
@@ -76,4 +77,4 @@ def plot_rpe(rpes: dict, path="rpe.png") -> Path:
     for a in (a1, a2):
         a.grid(True, alpha=0.3)
     a1.legend(loc="best", fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
