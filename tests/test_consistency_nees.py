@@ -5,7 +5,7 @@ from sim.montecarlo import evaluate_runs
 from vo.geometry import make_T, so3_exp
 
 
-def _case(rng, runs=30, n=40, scale=1.0):
+def _case(rng, runs=30, n=40, scale=1.0, bias=None, per_run_truth=False):
     """Straight 0.1 m/step trajectory; errors drawn from a known growing covariance ``P``; the
     estimator reports ``scale * P``. First 3 poses at rest (distance 0), then motion."""
     t = np.r_[0, 0, 0, np.arange(1, n - 2)] * 0.1
@@ -15,12 +15,13 @@ def _case(rng, runs=30, n=40, scale=1.0):
         T, C = [], []
         for k, G in enumerate(gt):
             P = np.diag([1e-6, 2e-6, 4e-6, 1e-4, 4e-4, 9e-4]) * (k + 1)
-            e = rng.multivariate_normal(np.zeros(6), P)
+            e = rng.multivariate_normal(np.zeros(6), P) + (0.0 if bias is None else np.sqrt(np.diag(P)) * bias)
             # pose_errors: e_rot = log(R_true R_est^T), e_pos = p_true - p_est
             T.append(make_T(so3_exp(-e[:3]) @ G[:3, :3], G[:3, 3] - e[3:]))
             C.append(scale * P)
         est.append(np.array(T)), covs.append(np.array(C))
-    return evaluate_runs("synthetic", "toy", gt, np.arange(n) * 0.1, est, covs)
+    gt_runs = np.broadcast_to(gt, (runs,) + gt.shape) if per_run_truth else gt
+    return evaluate_runs("synthetic", "toy", gt_runs, np.arange(n) * 0.1, est, covs)
 
 
 def test_consistent_covariance_is_inside_the_interval():
@@ -41,3 +42,27 @@ def test_optimistic_covariance_is_flagged():
     res = _case(np.random.default_rng(1), scale=0.25)
     assert res.nees_pos.fraction_inside < 0.1 and res.nees_pos.overall_mean > 9
     assert 1.6 < res.end_ratio() < 2.4
+
+
+def test_nees_split_separates_common_error_from_spread():
+    """Consistent spread plus an error common to all runs of 2 sigma on every axis: the split puts
+    ~3 x 2^2 = 12 in the common part (+ 3/30 from the sampled mean) and ~3 in the spread part (1110
+    chi2 samples: 2.5 %; 15 % tolerance); without the common error the common part is ~3/30.
+    Truth given per run (R,N,4,4) gives the same figures as the shared (N,4,4) truth."""
+    biased = _case(np.random.default_rng(2), bias=2.0)
+    assert abs(biased.split_pos[1] / 3 - 1) < 0.15 and abs(biased.split_rot[1] / 3 - 1) < 0.15
+    assert 10.0 < biased.split_pos[0] < 14.5 and 10.0 < biased.split_rot[0] < 14.5
+    assert biased.nees_pos.fraction_inside < 0.1                 # the plain NEES only sees "too large"
+    clean = _case(np.random.default_rng(2))
+    assert clean.split_pos[0] < 0.3 and clean.split_rot[0] < 0.3
+    same = _case(np.random.default_rng(2), per_run_truth=True)
+    assert same.nees_pos.overall_mean == clean.nees_pos.overall_mean
+    assert "NEES split" in biased.text()
+
+
+def test_consistency_rejects_unknown_vary():
+    import pytest
+    from sim.errors import SimError
+    from sim.montecarlo import consistency
+    with pytest.raises(SimError, match="vary: 'texture'; valid: noise, scene"):
+        consistency("smoke", "rop", runs=2, vary="texture")

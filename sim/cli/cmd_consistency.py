@@ -16,19 +16,26 @@ from sim.cli.options import echo_json, json_option, opt_option, parse_opts
 @click.option("--max-frames", type=int, default=None)
 @click.option("--frontend", type=click.Choice(["klt", "orb", "sift"]), default=None)
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False))
+@click.option("--vary", type=click.Choice(["noise", "scene"]), default="noise", show_default=True,
+              help="noise: render once, re-noise per run; scene: also re-render each run from a new scenario seed.")
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Runs in parallel processes (same results).")
 @click.option("--no-progress", is_flag=True)
 @opt_option
 @json_option
-def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, no_progress, estimator_opts,
+def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, no_progress, estimator_opts,
                 as_json):
     """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
     from sim.montecarlo import consistency as run_mc, plot_consistency
     from vo.pipeline import _write_json
+    from sim.montecarlo import save_npz_atomic
     if runs < 2:
         raise click.BadParameter("need at least 2 runs", param_hint="--runs")
     res = run_mc(scenario, estimator, runs, image_noise, options=parse_opts(estimator_opts, frontend) or None,
-                 progress=not (no_progress or as_json), max_frames=max_frames)
+                 progress=not (no_progress or as_json), max_frames=max_frames, workers=workers, vary=vary)
     out = Path(out_dir)
     plot_consistency(res, out / "consistency.png")
     _write_json(out / "consistency.json", res.to_dict())
+    if res.runs_data is not None:
+        save_npz_atomic(out / "runs.npz", res.runs_data)
     echo_json(res.to_dict()) if as_json else click.echo(res.text() + f"\nplot: {out / 'consistency.png'}")
