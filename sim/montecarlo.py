@@ -70,10 +70,9 @@ class NoisyDataset:
 def pose_errors(gt_T_o_c0: np.ndarray, est_T_o_c0: np.ndarray) -> tuple:
     """(N,4,4) truth and estimate -> rotation errors (N,3) ``log(R_true R_est^T)`` (left perturbation,
     as FrameResult.cov defines it) and position errors (N,3) ``p_true - p_est``."""
-    from vo.geometry import so3_log
-    dR = np.einsum("nij,nkj->nik", gt_T_o_c0[:, :3, :3], est_T_o_c0[:, :3, :3])
-    e_rot = np.array([so3_log(R) for R in dR])
-    return e_rot, gt_T_o_c0[:, :3, 3] - est_T_o_c0[:, :3, 3]
+    from vo.geometry import pose_error_left
+    e = pose_error_left(gt_T_o_c0, est_T_o_c0)
+    return e[:, :3], e[:, 3:]
 
 
 @dataclass
@@ -213,10 +212,10 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
             out.append(_one_run(*a))
             bar.update()
     bar.close()
-    gt = np.array([o[2] for o in out]) if vary == "scene" else out[0][2]
-    if vary == "scene":
-        n = min(len(g) for g in gt)
-        gt = np.array([g[:n] for g in gt])
+    gt = out[0][2]
+    if vary == "scene":                                  # one truth per run, cut to the shortest
+        n = min(len(o[2]) for o in out)
+        gt = np.array([o[2][:n] for o in out])
     res = evaluate_runs(scenario, estimator, gt, out[0][3], [o[0] for o in out], [o[1] for o in out])
     res.vary = vary
     res.runs_data = dict(T_true=gt, t_s=out[0][3], T_est=np.array([o[0] for o in out]),

@@ -26,9 +26,8 @@ from sim.cli.options import echo_json, json_option, opt_option, parse_opts
 def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, no_progress, estimator_opts,
                 as_json):
     """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
-    from sim.montecarlo import consistency as run_mc, plot_consistency
+    from sim.montecarlo import consistency as run_mc, plot_consistency, save_npz_atomic
     from vo.pipeline import _write_json
-    from sim.montecarlo import save_npz_atomic
     if runs < 2:
         raise click.BadParameter("need at least 2 runs", param_hint="--runs")
     res = run_mc(scenario, estimator, runs, image_noise, options=parse_opts(estimator_opts, frontend) or None,

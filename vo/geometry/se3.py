@@ -107,3 +107,12 @@ def rotation_angle(R: np.ndarray) -> np.ndarray:
     """Angle (rad) of rotation matrices (...,3,3), numerically safe."""
     c = (np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0
     return np.arccos(np.clip(c, -1.0, 1.0))
+
+
+def pose_error_left(T_a: np.ndarray, T_b: np.ndarray) -> np.ndarray:
+    """(...,4,4) x2 -> (...,6) ``[log(R_a R_b^T), t_a - t_b]``: the left-perturbation error of ``T_b``
+    against ``T_a`` (the convention of ``FrameResult.cov``)."""
+    T_a, T_b = np.asarray(T_a, float), np.asarray(T_b, float)
+    dR = np.einsum("...ij,...kj->...ik", T_a[..., :3, :3], T_b[..., :3, :3])
+    rot = np.array([so3_log(R) for R in dR.reshape(-1, 3, 3)]).reshape(dR.shape[:-2] + (3,))
+    return np.concatenate([rot, T_a[..., :3, 3] - T_b[..., :3, 3]], axis=-1)
