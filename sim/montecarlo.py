@@ -13,6 +13,7 @@ that per-feature error is drawn afresh each run too; each run is scored against 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -161,17 +162,24 @@ def evaluate_runs(scenario: str, estimator: str, gt_T_o_c0: np.ndarray, t_s: np.
 VARY = ("noise", "scene")
 
 
-def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dict, max_frames) -> tuple:
+def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dict, max_frames,
+             oracle_px=None) -> tuple:
     """One Monte-Carlo run on the (cached) ideal dataset of ``config`` ->
-    ((n,4,4) poses, (n,6,6) covariances, (N,4,4) truth in O, (N,) t_s); a module function for workers."""
+    ((n,4,4) poses, (n,6,6) covariances, (N,4,4) truth in O, (N,) t_s); a module function for workers.
+    With ``oracle_px`` the run uses exact tracks + that iid pixel noise (:mod:`sim.validation.oracle_tracks`)."""
     from sim.scenarios import cached_dataset
     from vo.dataset import open_dataset
     from vo.estimators.runner import run_estimator
     from vo.errors import VoError
     base = open_dataset(cached_dataset(config, progress=False))
     gt = base.groundtruth_cam0()
-    run = run_estimator(estimator, NoisyDataset(base, image_sigma, seed, imu_model=None), options=options,
-                        progress=False, max_frames=max_frames)
+    if oracle_px is None:
+        frames = run_estimator(estimator, NoisyDataset(base, image_sigma, seed, imu_model=None), options=options,
+                               progress=False, max_frames=max_frames).frames
+    else:
+        from sim.validation.oracle_tracks import run_oracle
+        frames = run_oracle(base, options, oracle_px, seed, max_frames=max_frames)
+    run = SimpleNamespace(frames=frames)
     if any(f.cov is None for f in run.frames[1:]):
         raise VoError(f"estimator {estimator!r} reports no covariance; consistency needs FrameResult.cov")
     return (np.array([f.T_o_c0 for f in run.frames]),
@@ -181,12 +189,14 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
 
 def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: float = 1.0, base_seed: int = 1000,
                 options=None, progress: bool = True, max_frames=None, workers: int = 1,
-                vary: str = "noise") -> ConsistencyResult:
+                vary: str = "noise", oracle_px=None) -> ConsistencyResult:
     """Run ``estimator`` on ``runs`` noise realisations of ``scenario``; NEES and drift-spread vs prediction.
 
     Run ``k`` re-noises the images with seed ``base_seed + k``; with ``vary="scene"`` it is also
     rendered from scenario seed ``seed + 1 + k`` (module docstring). ``workers`` > 1 runs them in
-    that many processes (spawned; same results: every run is seeded on its own)."""
+    that many processes (spawned; same results: every run is seeded on its own). ``oracle_px``
+    (``rop`` only): exact track positions from depth and truth plus that iid pixel noise instead of
+    the images' (:mod:`sim.validation.oracle_tracks`; the scenario is rendered with depth)."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
     from tqdm import tqdm
@@ -195,11 +205,15 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
 
     if vary not in VARY:
         raise SimError(f"consistency vary: {vary!r}; valid: {', '.join(VARY)}")
-    ideal = replace(get_scenario(scenario), ideal=True)
+    if oracle_px is not None and (estimator != "rop" or not np.isfinite(oracle_px) or oracle_px < 0):
+        raise SimError(f"consistency oracle_px: needs estimator 'rop' and a finite pixel sigma >= 0, "
+                       f"got estimator {estimator!r}, oracle_px {oracle_px!r}")
+    ideal = replace(get_scenario(scenario), ideal=True, depth=oracle_px is not None)
     configs = [ideal if vary == "noise" else replace(ideal, seed=ideal.seed + 1 + k) for k in range(runs)]
     if vary == "noise":
         cached_dataset(ideal, progress=progress)          # render once, before the workers start
-    args = [(c, estimator, image_sigma, base_seed + k, options or {}, max_frames) for k, c in enumerate(configs)]
+    args = [(c, estimator, image_sigma, base_seed + k, options or {}, max_frames, oracle_px)
+            for k, c in enumerate(configs)]
     bar = tqdm(total=runs, desc=f"monte-carlo ({vary})", disable=not progress)
     out = []
     if workers > 1:
@@ -217,7 +231,7 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
         n = min(len(o[2]) for o in out)
         gt = np.array([o[2][:n] for o in out])
     res = evaluate_runs(scenario, estimator, gt, out[0][3], [o[0] for o in out], [o[1] for o in out])
-    res.vary = vary
+    res.vary = vary if oracle_px is None else f"{vary}; oracle tracks, {oracle_px:g} px noise"
     res.runs_data = dict(T_true=gt, t_s=out[0][3], T_est=np.array([o[0] for o in out]),
                          cov=np.array([o[1] for o in out]))
     return res

@@ -18,3 +18,14 @@ def campus_short(tmp_path_factory):
     out = tmp_path_factory.mktemp("campus_short")
     generate(GenerateConfig(scene="campus", rig="cart27", duration_s=6.0, seed=0), out, progress=False)
     return out
+
+
+@pytest.fixture(scope="session")
+def campus_depth_ideal(tmp_path_factory):
+    """4 s of the campus route (cart27), noise-free images with depth, seed 0 (about 10 s to render)."""
+    from sim.config import GenerateConfig
+    from sim.generate import generate
+    out = tmp_path_factory.mktemp("campus_depth")
+    generate(GenerateConfig(scene="campus", rig="cart27", duration_s=4.0, seed=0, ideal=True, depth=True), out,
+             progress=False)
+    return out

@@ -20,18 +20,22 @@ from sim.cli.options import echo_json, json_option, opt_option, parse_opts
               help="noise: render once, re-noise per run; scene: also re-render each run from a new scenario seed.")
 @click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
               help="Runs in parallel processes (same results).")
+@click.option("--oracle-tracks", "oracle_px", type=click.FloatRange(min=0), default=None, metavar="PX",
+              help="rop only: exact track positions (rendered depth + truth) plus PX iid pixel noise, to check "
+                   "the back-end's error propagation on its own noise model.")
 @click.option("--no-progress", is_flag=True)
 @opt_option
 @json_option
-def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, no_progress, estimator_opts,
-                as_json):
+def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, oracle_px, no_progress,
+                estimator_opts, as_json):
     """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
     from sim.montecarlo import consistency as run_mc, plot_consistency, save_npz_atomic
     from vo.pipeline import _write_json
     if runs < 2:
         raise click.BadParameter("need at least 2 runs", param_hint="--runs")
     res = run_mc(scenario, estimator, runs, image_noise, options=parse_opts(estimator_opts, frontend) or None,
-                 progress=not (no_progress or as_json), max_frames=max_frames, workers=workers, vary=vary)
+                 progress=not (no_progress or as_json), max_frames=max_frames, workers=workers, vary=vary,
+                 oracle_px=oracle_px)
     out = Path(out_dir)
     plot_consistency(res, out / "consistency.png")
     _write_json(out / "consistency.json", res.to_dict())

@@ -1,0 +1,140 @@
+"""Oracle tracks: ``rop`` with its KLT track *positions* replaced by exact ones (docs/consistency.md).
+
+The KLT four-view front-end (:class:`vo.rop.tracks.KltFourView`) still decides which tracks exist
+(detection, survival, keyframes); after each of its ``keyframe`` / ``track`` calls the positions are
+replaced by the exact projections (rig model with distortion) of the 3-D point seen at ``p1`` in the
+keyframe's left image: rendered depth (a plane fitted to the inverse depth of the 5x5 window, exact
+on planar surfaces; depth discontinuities dropped) moved through the true camera poses. Optional iid
+Gaussian pixel noise on all four views is the first-order error model's own assumption, so the Monte
+Carlo NEES of the back-end (four ROPs, adjustment, chaining, covariance propagation) can be checked
+on its own, apart from the front-end's errors on rendered images.
+
+Needs a dataset with depth and ground truth (``GenerateConfig(depth=True)``). Validation only: a
+real estimator never sees depth or truth.
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from sim.errors import SimError
+from vo.geometry import inv_T
+from vo.frontend.klt import KltConfig
+from vo.rop.tracks import FourView, KltFourView
+
+VIEWS = ("p2", "p3", "p4")          # positions an oracle can replace (p1 is the detection itself)
+PLANE_TOL = 0.005                   # max inverse-depth plane residual / inverse depth in the 5x5 window
+
+
+def local_depth(depth: np.ndarray, p: np.ndarray, tol: float = PLANE_TOL) -> tuple[np.ndarray, np.ndarray]:
+    """(z (N,), ok (N,)) at subpixel ``p`` (N,2) in ``depth`` (H,W) metres.
+
+    Inverse depth is affine in the pixel coordinates on a plane, so a plane fitted to the 5x5 window's
+    inverse depth interpolates ground at grazing angles exactly; ``ok`` where its max residual is below
+    ``tol`` x the inverse depth (no depth discontinuity) and the depth is finite and > 0.1 m."""
+    p = np.asarray(p, float).reshape(-1, 2)
+    h, w = depth.shape
+    ij = np.clip(np.round(p).astype(int), 2, [w - 3, h - 3])
+    d = np.array([(di, dj) for dj in range(-2, 3) for di in range(-2, 3)])
+    win = np.stack([depth[ij[:, 1] + dj, ij[:, 0] + di] for di, dj in d], 1).astype(float)   # (N, 25)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = np.where(np.isfinite(win) & (win > 0.1), 1.0 / win, np.nan)
+    A = np.c_[d, np.ones(len(d))]
+    coef = np.linalg.lstsq(A, np.nan_to_num(inv).T, rcond=None)[0]                            # (3, N)
+    resid = np.abs(A @ coef - inv.T).max(axis=0)
+    off = p - ij
+    inv_p = coef[0] * off[:, 0] + coef[1] * off[:, 1] + coef[2]
+    with np.errstate(invalid="ignore"):
+        ok = np.all(np.isfinite(inv), axis=1) & (resid < tol * np.abs(coef[2])) & (inv_p > 0)
+    return 1.0 / np.where(ok, inv_p, 1.0), ok
+
+
+def project(camera, T_w_c: np.ndarray, X_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(uv (N,2), in_front (N,)) of world points ``X_w`` (N,3) in ``camera`` at pose ``T_w_c`` (4,4)."""
+    X_c = (np.asarray(X_w, float).reshape(-1, 3) - T_w_c[:3, 3]) @ T_w_c[:3, :3]
+    if not len(X_c):
+        return np.zeros((0, 2)), np.zeros(0, bool)
+    uv, _ = cv2.projectPoints(X_c, np.zeros(3), np.zeros(3), camera.K, camera.dist_coeffs)
+    return uv.reshape(-1, 2), X_c[:, 2] > 0.1
+
+
+class OracleFourView(KltFourView):
+    """:class:`KltFourView` whose positions ``exact`` (subset of :data:`VIEWS`; ``p1`` too when noise is
+    on) are exact + ``noise_px`` iid Gaussian noise from ``rng``. Set :attr:`k` (frame index) before
+    each ``keyframe`` / ``track`` call; ``record`` (a list) collects KLT vs exact positions if given."""
+
+    def __init__(self, rig, dataset, noise_px: float = 0.0, rng=None, exact=VIEWS, record=None, config=None):
+        super().__init__(rig, config or KltConfig())
+        bad = sorted(set(exact) - set(VIEWS))
+        if bad:
+            raise SimError(f"oracle tracks: unknown view(s) {bad}; valid: {', '.join(VIEWS)}")
+        self.dataset, self.exact, self.record = dataset, frozenset(exact), record
+        self.noise_px, self.rng = float(noise_px), rng if rng is not None else np.random.default_rng(0)
+        self.T_w_c0 = dataset.groundtruth_cam0().T
+        self.T_c0_c1 = inv_T(rig.cameras[0].T_b_c_array) @ rig.cameras[1].T_b_c_array
+        self.k = 0
+        self._X = {}                 # p1 (as a tuple) -> X_w of the track
+
+    def _noisy(self, p):
+        return p if self.noise_px <= 0 else p + self.noise_px * self.rng.standard_normal(p.shape)
+
+    def _poses(self):
+        T_w_c0 = self.T_w_c0[self.k]
+        return T_w_c0, T_w_c0 @ self.T_c0_c1
+
+    def keyframe(self, left, right, timings: dict, keep_tracks: bool = True) -> int:
+        super().keyframe(left, right, timings, keep_tracks)
+        v, (T_w_c0, T_w_c1) = self.view, self._poses()
+        z, ok = local_depth(np.asarray(self.dataset.depth(self.k, 0), float), v.p1)
+        xn = cv2.undistortPoints(v.p1.reshape(-1, 1, 2), self.cams[0].K, self.cams[0].dist_coeffs).reshape(-1, 2)
+        X_w = (np.c_[xn, np.ones(len(xn))] * z[:, None]) @ T_w_c0[:3, :3].T + T_w_c0[:3, 3]
+        p2, front = project(self.cams[1], T_w_c1, X_w)
+        ok &= front
+        if self.record is not None:
+            self.record.append(dict(k=self.k, kf=True, p1=v.p1, p2_klt=v.p2, p2=p2, ok=ok))
+        p1, X_w = self._noisy(v.p1[ok]), X_w[ok]
+        p2 = self._noisy(p2[ok]) if "p2" in self.exact else v.p2[ok]
+        x1, x2 = self._norm(p1, 0), self._norm(p2, 1)
+        self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool))
+        self._X = {tuple(p): X for p, X in zip(p1, X_w)}
+        return len(p1)
+
+    def track(self, left, right, timings: dict) -> FourView:
+        v = super().track(left, right, timings)
+        T_w_c0, T_w_c1 = self._poses()
+        X_w = np.array([self._X[tuple(p)] for p in v.p1]).reshape(-1, 3)
+        p3, p4 = project(self.cams[0], T_w_c0, X_w)[0], project(self.cams[1], T_w_c1, X_w)[0]
+        if self.record is not None:
+            self.record.append(dict(k=self.k, kf=False, p1=v.p1, p3_klt=v.p3, p3=p3, p4_klt=v.p4, p4=p4, ok4=v.ok4))
+        if "p3" in self.exact:
+            v.p3 = self._noisy(p3)
+            v.x3 = self._norm(v.p3, 0)
+        if "p4" in self.exact:
+            v.p4 = np.where(v.ok4[:, None], self._noisy(p4), v.p4)
+            v.x4 = np.zeros_like(v.p4)
+            v.x4[v.ok4] = self._norm(v.p4[v.ok4], 1)
+        self.view = v
+        return v
+
+
+def run_oracle(dataset, options: dict | None = None, noise_px: float = 0.0, seed: int = 0, exact=VIEWS,
+               max_frames: int | None = None, record=None, images=None) -> list:
+    """``rop`` (KLT front-end) on ``dataset`` with :class:`OracleFourView` tracks -> list of FrameResult.
+
+    ``images`` (default ``dataset``) is where the frames come from: pass a noisy view of the same
+    dataset to keep KLT's positions for the views not in ``exact``."""
+    from vo.estimators.registry import make_estimator
+    options = dict(options or {})
+    if options.get("frontend", "klt") != "klt":
+        raise SimError(f"oracle tracks: rop.frontend must be 'klt', got {options['frontend']!r}")
+    est = make_estimator("rop", dataset.rig, **options)
+    oracle = OracleFourView(dataset.rig, dataset, noise_px, np.random.default_rng([int(seed), 0x0AC1E]), exact,
+                            record, config=options.get("klt_config"))
+    est.klt = oracle
+    est.set_imu(None)
+    n = len(dataset) if max_frames is None else min(len(dataset), int(max_frames))
+    out = []
+    for frame in (images or dataset).frames(0, n):
+        oracle.k = frame.index
+        out.append(est.process(frame))
+    return out
