@@ -13,7 +13,6 @@ that per-feature error is drawn afresh each run too; each run is scored against 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -179,11 +178,10 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
     else:
         from sim.validation.oracle_tracks import run_oracle
         frames = run_oracle(base, options, oracle_px, seed, max_frames=max_frames)
-    run = SimpleNamespace(frames=frames)
-    if any(f.cov is None for f in run.frames[1:]):
+    if any(f.cov is None for f in frames[1:]):
         raise VoError(f"estimator {estimator!r} reports no covariance; consistency needs FrameResult.cov")
-    return (np.array([f.T_o_c0 for f in run.frames]),
-            np.array([f.cov if f.cov is not None else np.eye(6) * 1e-12 for f in run.frames]),
+    return (np.array([f.T_o_c0 for f in frames]),
+            np.array([f.cov if f.cov is not None else np.eye(6) * 1e-12 for f in frames]),
             np.linalg.inv(gt.T[0]) @ gt.T, gt.t_s)
 
 

@@ -5,7 +5,6 @@ image motion to the exact 3-D points (the pose correction per step). Usage:
 .venv/bin/python docs/scripts/warp_check.py [N_SCENES]   (campus-short ideal with depth, seeds 1..N, cached)."""
 import numpy as np, cv2, sys
 from dataclasses import replace
-sys.path.insert(0, "docs/scripts")
 from sim.scenarios import cached_dataset, get_scenario
 from vo.dataset import open_dataset
 from vo.geometry import inv_T
