@@ -11,6 +11,17 @@ import yaml
 
 from sim.errors import SimError
 
+MAX_SUPERSAMPLE = 7
+
+
+def check_supersample(value) -> int:
+    """Validated supersampling factor (``render.supersample``): an odd integer 1..MAX_SUPERSAMPLE (odd, so
+    every output pixel centre is the centre of one rendered sub-pixel: depth and segmentation stay exact)."""
+    ok = isinstance(value, int) and not isinstance(value, bool)
+    if not ok or not 1 <= value <= MAX_SUPERSAMPLE or value % 2 == 0:
+        raise SimError(f"render.supersample: {value!r}; must be an odd integer in 1..{MAX_SUPERSAMPLE}")
+    return int(value)
+
 FORMATS = ("euroc", "kitti", "both")
 
 
@@ -51,10 +62,12 @@ class GenerateConfig:
         for o in self.overrides:
             if "=" not in o:
                 raise SimError(f"overrides: expected key=value, got {o!r}")
+        self.split_overrides()          # validates the values it interprets (render.supersample)
 
     def split_overrides(self) -> dict:
-        """-> {"scene": {key: value}, "motion": {...}, "rig": [k=v, ...], "image_noise": float|None}."""
-        out = {"scene": {}, "motion": {}, "rig": [], "image_noise": None}
+        """-> {"scene": {key: value}, "motion": {...}, "rig": [k=v, ...], "image_noise": float|None,
+        "supersample": int} (``render.supersample=S``: see :mod:`sim.render`)."""
+        out = {"scene": {}, "motion": {}, "rig": [], "image_noise": None, "supersample": 1}
         for o in self.overrides:
             key, _, raw = o.partition("=")
             value = yaml.safe_load(raw)
@@ -64,6 +77,8 @@ class GenerateConfig:
                 out["motion"][key[7:]] = value
             elif key == "image_noise":
                 out["image_noise"] = float(value)
+            elif key == "render.supersample":
+                out["supersample"] = check_supersample(value)
             else:
                 out["rig"].append(o)
         return out

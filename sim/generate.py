@@ -148,7 +148,8 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
 
     c, rig = setup.config, setup.rig
     world = build_world(setup.scene, rig, vehicle=c.vehicle)
-    with StereoRenderer(world, rig, depth=c.depth, segmentation=c.segmentation) as renderer:
+    with StereoRenderer(world, rig, depth=c.depth, segmentation=c.segmentation,
+                        supersample=c.split_overrides()["supersample"]) as renderer:
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
                    disable=not progress, dynamic_ncols=True)
         for k, t_ns in enumerate(setup.frame_t_ns):

@@ -187,14 +187,15 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
 
 def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: float = 1.0, base_seed: int = 1000,
                 options=None, progress: bool = True, max_frames=None, workers: int = 1,
-                vary: str = "noise", oracle_px=None) -> ConsistencyResult:
+                vary: str = "noise", oracle_px=None, overrides=()) -> ConsistencyResult:
     """Run ``estimator`` on ``runs`` noise realisations of ``scenario``; NEES and drift-spread vs prediction.
 
     Run ``k`` re-noises the images with seed ``base_seed + k``; with ``vary="scene"`` it is also
     rendered from scenario seed ``seed + 1 + k`` (module docstring). ``workers`` > 1 runs them in
     that many processes (spawned; same results: every run is seeded on its own). ``oracle_px``
     (``rop`` only): exact track positions from depth and truth plus that iid pixel noise instead of
-    the images' (:mod:`sim.validation.oracle_tracks`; the scenario is rendered with depth)."""
+    the images' (:mod:`sim.validation.oracle_tracks`; the scenario is rendered with depth).
+    ``overrides``: scenario ``key=value`` overrides (as ``--set``, e.g. ``render.supersample=3``)."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
     from tqdm import tqdm
@@ -206,7 +207,7 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
     if oracle_px is not None and (estimator != "rop" or not np.isfinite(oracle_px) or oracle_px < 0):
         raise SimError(f"consistency oracle_px: needs estimator 'rop' and a finite pixel sigma >= 0, "
                        f"got estimator {estimator!r}, oracle_px {oracle_px!r}")
-    ideal = replace(get_scenario(scenario), ideal=True, depth=oracle_px is not None)
+    ideal = replace(get_scenario(scenario, overrides=tuple(overrides)), ideal=True, depth=oracle_px is not None)
     configs = [ideal if vary == "noise" else replace(ideal, seed=ideal.seed + 1 + k) for k in range(runs)]
     if vary == "noise":
         cached_dataset(ideal, progress=progress)          # render once, before the workers start

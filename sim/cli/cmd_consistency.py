@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from sim.cli.options import echo_json, json_option, opt_option, parse_opts
+from sim.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
 
 
 @click.command("consistency")
@@ -24,10 +24,11 @@ from sim.cli.options import echo_json, json_option, opt_option, parse_opts
               help="rop only: exact track positions (rendered depth + truth) plus PX iid pixel noise, to check "
                    "the back-end's error propagation on its own noise model.")
 @click.option("--no-progress", is_flag=True)
+@set_option
 @opt_option
 @json_option
 def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, oracle_px, no_progress,
-                estimator_opts, as_json):
+                overrides, estimator_opts, as_json):
     """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
     from sim.montecarlo import consistency as run_mc, plot_consistency, save_npz_atomic
     from vo.pipeline import _write_json
@@ -35,7 +36,7 @@ def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, ou
         raise click.BadParameter("need at least 2 runs", param_hint="--runs")
     res = run_mc(scenario, estimator, runs, image_noise, options=parse_opts(estimator_opts, frontend) or None,
                  progress=not (no_progress or as_json), max_frames=max_frames, workers=workers, vary=vary,
-                 oracle_px=oracle_px)
+                 oracle_px=oracle_px, overrides=overrides)
     out = Path(out_dir)
     plot_consistency(res, out / "consistency.png")
     _write_json(out / "consistency.json", res.to_dict())

@@ -9,7 +9,7 @@ json_option = click.option("--json", "as_json", is_flag=True, help="Print machin
 set_option = click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
                           help="Override any field: baseline=0.063, imu.rate_hz=400, imu=paper002, "
                                "scene.texture_richness=0.3, scene.lighting=0.7, motion.vibration_pitch_deg=0.5, "
-                               "image_noise=2.")
+                               "image_noise=2, render.supersample=3.")
 
 
 def echo_json(obj) -> None:

@@ -63,8 +63,9 @@ class OracleFourView(KltFourView):
     on) are exact + ``noise_px`` iid Gaussian noise from ``rng``. Set :attr:`k` (frame index) before
     each ``keyframe`` / ``track`` call; ``record`` (a list) collects KLT vs exact positions if given."""
 
-    def __init__(self, rig, dataset, noise_px: float = 0.0, rng=None, exact=VIEWS, record=None, config=None):
-        super().__init__(rig, config or KltConfig())
+    def __init__(self, rig, dataset, noise_px: float = 0.0, rng=None, exact=VIEWS, record=None, config=None,
+                 refine: str = "translation"):
+        super().__init__(rig, config or KltConfig(), refine)
         bad = sorted(set(exact) - set(VIEWS))
         if bad:
             raise SimError(f"oracle tracks: unknown view(s) {bad}; valid: {', '.join(VIEWS)}")
@@ -129,7 +130,7 @@ def run_oracle(dataset, options: dict | None = None, noise_px: float = 0.0, seed
         raise SimError(f"oracle tracks: rop.frontend must be 'klt', got {options['frontend']!r}")
     est = make_estimator("rop", dataset.rig, **options)
     oracle = OracleFourView(dataset.rig, dataset, noise_px, np.random.default_rng([int(seed), 0x0AC1E]), exact,
-                            record, config=options.get("klt_config"))
+                            record, config=options.get("klt_config"), refine=options.get("klt_refine", "translation"))
     est.klt = oracle
     est.set_imu(None)
     n = len(dataset) if max_frames is None else min(len(dataset), int(max_frames))

@@ -79,7 +79,7 @@ DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac",
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
                 cov="propagated", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=True,
                 min_parallax_px=0.75, max_rop_rotation_deg=1.0, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
-                klt_config=None, bootstrap_replicates=40)
+                klt_config=None, klt_refine="translation", bootstrap_replicates=40)
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MAX_COAST_FRAMES = 10        # constant-velocity extrapolation limit (then the translation is held)
 TWIN_DEG = 1.0               # 2-2 ties closer than this keep all four ROPs (never, at the default 1 deg gate)
@@ -116,7 +116,8 @@ class RopEstimator(Estimator):
     ``min_inlier_ratio``, ``max_rop_rotation_deg``; ``weights`` "inliers"|"sampson";
     ``cov`` "propagated"|"joint"|"bootstrap"|"apost"|"apriori", ``bootstrap_replicates``, ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
     ``constant_velocity``; ``min_parallax_px``; ``keyframe_baseline_ratio``; ``keyframe_min_track_ratio``;
-    ``klt_config`` (:class:`KltConfig`)."""
+    ``klt_config`` (:class:`KltConfig`); ``klt_refine`` "translation" (seed 003's LK) | "affine" (tracks refined
+    by an affine window warp against the keyframe, :mod:`vo.rop.tracks`)."""
 
     name = "rop"
 
@@ -129,7 +130,7 @@ class RopEstimator(Estimator):
             raise EstimatorError(f"rop: rig {rig.name!r} has one camera; seed 000 needs a stereo rig")
         o = {**DEFAULTS, **options}
         for key, valid in (("frontend", matching.KINDS), ("cov", COVS), ("ransac_method", tuple(METHODS)),
-                           ("weights", WEIGHTINGS)):
+                           ("weights", WEIGHTINGS), ("klt_refine", KltFourView.REFINES)):
             if o[key] not in valid:
                 raise EstimatorError(f"rop.{key}: {o[key]!r}; valid: {', '.join(valid)}")
         reps = o["bootstrap_replicates"]
@@ -143,7 +144,7 @@ class RopEstimator(Estimator):
         self.config = AdjustmentConfig(
             sigma_rot_rad=None if o["sigma_rot_deg"] is None else np.radians(float(o["sigma_rot_deg"])),
             sigma_dir_rad=None if o["sigma_dir_deg"] is None else np.radians(float(o["sigma_dir_deg"])))
-        self.klt = KltFourView(rig, o["klt_config"] or KltConfig()) if o["frontend"] == "klt" else None
+        self.klt = KltFourView(rig, o["klt_config"] or KltConfig(), o["klt_refine"]) if o["frontend"] == "klt" else None
         self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
         self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
         self._kf_imgs = None          # (left, right) of the keyframe; None before the first frame

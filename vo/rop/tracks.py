@@ -10,6 +10,13 @@ checked (``p4``, valid where ``ok4``). The ROPs 1-3, 1-4, 2-3, 2-4 then all come
 with no further matching. When the current frame becomes a keyframe its ``(p3, p4)`` become the
 new ``(p1, p2)`` (tracks without a valid ``p4`` are dropped) and new corners fill the empty cells.
 
+``refine="affine"`` (not in seed 003; see :mod:`vo.frontend.affine_lk`): every LK result is then
+refined by an affine window warp against the KEYFRAME template: ``p2`` from ``p1`` (stereo), ``p3``
+from ``p1`` in the keyframe left image, ``p4`` from ``p2`` in the keyframe right image, each seeded
+by the translation LK above and by the track's warp of the previous frame. The positions are then
+single measurements against the keyframe instead of a frame-to-frame chain, and without
+translation LK's window-averaging bias on perspective ground (docs/consistency.md).
+
 OpenCV's Python binding of ``calcOpticalFlowPyrLK`` does not accept pre-built pyramids (the
 ``buildOpticalFlowPyramid`` output is rejected as ``prevImg``), so each LK call builds its own;
 we keep the calls to four per frame (temporal and stereo, each forward and backward).
@@ -21,6 +28,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from vo.errors import VoError
+from vo.frontend.affine_lk import refine_affine
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig
 from vo.frontend.stereo import epipolar_mask
@@ -42,6 +51,8 @@ class FourView:
     x3: np.ndarray
     x4: np.ndarray
     ok4: np.ndarray
+    A3: np.ndarray | None = None     # (N,2,2) affine window warps keyframe -> current (refine="affine")
+    A4: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.p1)
@@ -81,8 +92,13 @@ class KltFourView:
     """Keyframe-anchored KLT tracks (see the module docstring). ``timings`` dicts get ``detect``,
     ``track`` and ``stereo`` in ms."""
 
-    def __init__(self, rig, config: KltConfig = KltConfig()):
-        self.rig, self.config = rig, config
+    REFINES = ("translation", "affine")
+
+    def __init__(self, rig, config: KltConfig = KltConfig(), refine: str = "translation"):
+        if refine not in self.REFINES:
+            raise VoError(f"rop.klt_refine: {refine!r}; valid: {', '.join(self.REFINES)}")
+        self.rig, self.config, self.refine = rig, config, refine
+        self._kf_imgs = None
         self.cams = rig.cameras[:2]
         cam = self.cams[0]
         self.grid = Grid(cam.width, cam.height, config.cell)
@@ -114,11 +130,14 @@ class KltFourView:
         new = detect_grid(left, self.grid, p1, self.config)
         t1 = cv2.getTickCount()
         new_r, ok = self._stereo(left, right, new)
+        if self.refine == "affine" and ok.any():
+            new_r[ok], _, ok_a = refine_affine(left, right, new[ok], new_r[ok], win=self.config.win)
+            ok[ok] = ok_a & epipolar_mask(self.rig, new[ok], new_r[ok], self.config.epipolar_threshold_px)
         new, new_r = new[ok], new_r[ok]
         p1, p2 = np.vstack([p1, new]), np.vstack([p2, new_r])
         x1, x2 = np.vstack([x1, self._norm(new, 0)]), np.vstack([x2, self._norm(new_r, 1)])
         self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool))
-        self._prev_left = left
+        self._prev_left, self._kf_imgs = left, (left, right)
         f = 1e3 / cv2.getTickFrequency()
         timings["detect"] = timings.get("detect", 0.0) + (t1 - t0) * f
         timings["stereo"] = timings.get("stereo", 0.0) + (cv2.getTickCount() - t1) * f
@@ -129,9 +148,19 @@ class KltFourView:
         v = self.view
         t0 = cv2.getTickCount()
         p3, ok = lk_fb(self._prev_left, left, v.p3, self.config)
-        v = FourView(v.p1[ok], v.p2[ok], p3[ok], v.p4[ok], v.x1[ok], v.x2[ok], v.x3[ok], v.x4[ok], v.ok4[ok])
+        A3, A4 = self._warps(v)
+        if self.refine == "affine" and ok.any():
+            p3[ok], A3[ok], ok_a = refine_affine(self._kf_imgs[0], left, v.p1[ok], p3[ok], A3[ok], self.config.win)
+            ok[ok] = ok_a
+        v = FourView(v.p1[ok], v.p2[ok], p3[ok], v.p4[ok], v.x1[ok], v.x2[ok], v.x3[ok], v.x4[ok], v.ok4[ok],
+                     A3[ok], A4[ok])
         t1 = cv2.getTickCount()
         v.p4, v.ok4 = self._stereo(left, right, v.p3, guess=v.p3 + (v.p2 - v.p1))
+        if self.refine == "affine" and v.ok4.any():
+            k = v.ok4
+            v.p4[k], v.A4[k], ok_a = refine_affine(self._kf_imgs[1], right, v.p2[k], v.p4[k], v.A4[k], self.config.win)
+            k = np.flatnonzero(k)
+            v.ok4[k] = ok_a & epipolar_mask(self.rig, v.p3[k], v.p4[k], self.config.epipolar_threshold_px)
         v.x3 = self._norm(v.p3, 0)
         v.x4 = np.zeros_like(v.p4)
         v.x4[v.ok4] = self._norm(v.p4[v.ok4], 1)
@@ -140,6 +169,13 @@ class KltFourView:
         timings["track"] = timings.get("track", 0.0) + (t1 - t0) * f
         timings["stereo"] = timings.get("stereo", 0.0) + (cv2.getTickCount() - t1) * f
         return v
+
+    @staticmethod
+    def _warps(v: FourView) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of the tracks' affine warps (zero = translation) for :meth:`track`."""
+        n = len(v)
+        return (np.zeros((n, 2, 2)) if v.A3 is None else v.A3.copy(),
+                np.zeros((n, 2, 2)) if v.A4 is None else v.A4.copy())
 
     @property
     def empty_fraction(self) -> float:
