@@ -62,3 +62,22 @@ def test_supersample_override_is_validated_on_the_config():
     assert GenerateConfig().split_overrides()["supersample"] == 1
     with pytest.raises(SimError, match="render.supersample: 4"):
         GenerateConfig(overrides=("render.supersample=4",))
+
+
+def test_supersampled_ground_texture_moves_with_the_ground():
+    """campus-short (scenario seed 2, 8 frame pairs): rendered frame k+1 against the exact geometric
+    warp of frame k over ~1300 ground corners (sim.validation.render_fidelity). At 3x the texture's
+    motion against the geometry is +0.006 px per frame in u (standard error 0.0025), bound 0.015 px;
+    the same check at 1x measures +0.022 +- 0.006 px (mipmapped texture filtering, docs/consistency.md)
+    and would fail it. The scatter (std) bound, 0.12 px (measured 0.09), keeps the alignment honest."""
+    from dataclasses import replace
+    from sim.generate import resolve
+    from sim.scenarios import get_scenario
+    from sim.validation.render_fidelity import texture_motion
+    setup = resolve(replace(get_scenario("campus-short"), ideal=True, seed=2))
+    T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
+    with StereoRenderer(build_world(setup.scene, setup.rig), depth=True, gray=True, supersample=3) as r:
+        d = texture_motion(r, [(T_w_b[k], T_w_b[k + 1]) for k in range(30, 100, 9)])
+    assert len(d) > 800, len(d)
+    assert np.all(np.abs(d.mean(axis=0)) < 0.015), d.mean(axis=0)
+    assert np.all(d.std(axis=0) < 0.12), d.std(axis=0)
