@@ -16,8 +16,9 @@ parameters) plus a photometric gain and offset, so the estimate is the motion of
 Solved by simultaneous inverse-compositional Gauss-Newton (Baker & Matthews, "Lucas-Kanade 20 years
 on", part 1 sec. 3.2 and part 3): the geometric Jacobian is the template's steepest-descent images,
 the appearance parameters enter additively, so the normal matrix is computed once per point. All
-points are refined together (vectorised); images are sampled by exact float64 bilinear
-interpolation (OpenCV's ``remap`` quantises sub-pixel positions to 1/32 px).
+points are refined together (vectorised); images are sampled by bilinear interpolation at the exact
+float64 positions (OpenCV's ``remap`` quantises sub-pixel positions to 1/32 px), in float32 for 8-bit
+images; the 8x8 normal matrices are formed and inverted in float64.
 
 Shapes: ``p0, p1`` (N,2) pixels (u, v); ``A`` (N,2,2); ``ok`` (N,) bool.
 """
@@ -32,18 +33,21 @@ MAX_LINEAR = 0.5          # |entries of A| bound (the window's scale/shear chang
 
 
 def bilinear(img: np.ndarray, xy: np.ndarray) -> np.ndarray:
-    """Exact bilinear samples of ``img`` (H,W) at ``xy`` (...,2) float64 pixel positions (u, v);
-    positions are clamped to the image (edge replication)."""
+    """Bilinear samples of ``img`` (H,W) at ``xy`` (...,2) float64 pixel positions (u, v), clamped to the
+    image (edge replication). Float64 images are sampled in float64 (exact to round-off); others in
+    float32 (weights and values: ~1e-7 relative, < 1e-4 grey levels on 8-bit images)."""
     h, w = img.shape[:2]
+    dtype = np.float64 if img.dtype == np.float64 else np.float32
     x = np.clip(xy[..., 0], 0.0, w - 1.000001)
     y = np.clip(xy[..., 1], 0.0, h - 1.000001)
-    x0, y0 = np.floor(x).astype(np.intp), np.floor(y).astype(np.intp)
-    fx, fy = x - x0, y - y0
-    flat = np.asarray(img, dtype=np.float64).ravel() if img.dtype != np.float64 else img.ravel()
-    i = y0 * w + x0
-    top = flat[i] * (1 - fx) + flat[i + 1] * fx
-    bot = flat[i + w] * (1 - fx) + flat[i + w + 1] * fx
-    return top * (1 - fy) + bot * fy
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0).astype(dtype), (y - y0).astype(dtype)
+    flat = np.asarray(img, dtype=dtype).ravel()
+    i = y0.astype(np.intp) * w + x0.astype(np.intp)
+    a, b = flat[i], flat[i + 1]
+    top = a + (b - a) * fx
+    a, b = flat[i + w], flat[i + w + 1]
+    return top + (a + (b - a) * fx - top) * fy
 
 
 def _grid(win: int) -> np.ndarray:
@@ -59,7 +63,7 @@ def _template(img0, p0, offs):
     gx, gy = _gradients(f0)
     xy = p0[:, None, :] + offs[None]
     T, Ix, Iy = bilinear(f0, xy), bilinear(gx, xy), bilinear(gy, xy)
-    u, v = offs[None, :, 0], offs[None, :, 1]
+    u, v = offs[None, :, 0].astype(T.dtype), offs[None, :, 1].astype(T.dtype)
     J = np.stack([Ix, Iy, Ix * u, Ix * v, Iy * u, Iy * v, T, np.ones_like(T)], axis=-1)
     return T, J
 
@@ -84,12 +88,12 @@ def refine_affine(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.nda
     offs = _grid(win)
     T, J = _template(img0, p0, offs)
     Jt = np.ascontiguousarray(J.transpose(0, 2, 1))                       # (N,8,P)
-    H = Jt @ J
+    H = (Jt.astype(np.float64) @ J.astype(np.float64))
     cond = np.linalg.cond(H)
     ok = np.isfinite(cond) & (cond < 1e12)
     Hinv = np.linalg.inv(np.where(ok[:, None, None], H, np.eye(8)))
     lam, beta = np.ones(n), np.zeros(n)
-    f1 = np.asarray(img1, np.float64)
+    f1 = np.asarray(img1, np.float32) if np.asarray(img1).dtype != np.float64 else np.asarray(img1)
     start = c.copy()
     active = ok.copy()
     for _ in range(iters):
@@ -98,8 +102,8 @@ def refine_affine(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.nda
             break
         M = np.eye(2)[None] + A[a]                                        # (n,2,2)
         xy = c[a, None, :] + offs[None] @ M.transpose(0, 2, 1)
-        r = bilinear(f1, xy) - lam[a, None] * T[a] - beta[a, None]
-        d = (Hinv[a] @ (Jt[a] @ r[..., None]))[..., 0]
+        r = (bilinear(f1, xy) - lam[a, None] * T[a] - beta[a, None]).astype(J.dtype)
+        d = (Hinv[a] @ (Jt[a] @ r[..., None]).astype(np.float64))[..., 0]
         # inverse composition of the geometric increment: W <- W o W(d)^-1
         Md = np.eye(2)[None] + d[:, 2:6].reshape(-1, 2, 2)
         Mdi = np.linalg.inv(Md)
