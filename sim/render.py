@@ -33,7 +33,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from rigs.model import Rig  # noqa: E402
-from sim.config import check_supersample  # noqa: E402,F401  (re-exported)
+from sim.config import check_supersample  # noqa: E402
 from sim.errors import SimError  # noqa: E402
 from sim.model import World  # noqa: E402
 from sim.vehicle import VEHICLE_GROUP  # noqa: E402
