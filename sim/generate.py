@@ -42,6 +42,7 @@ class Setup:
     imu_t_ns: np.ndarray
     image_noise: float
     motion: object = None        # the resolved sim.trajectory.MotionConfig
+    supersample: int = 1         # render.supersample override (sim.render)
 
 
 def resolve(config: GenerateConfig) -> Setup:
@@ -67,7 +68,8 @@ def resolve(config: GenerateConfig) -> Setup:
     frame_t = np.arange(traj.t0_ns, traj.t1_ns + 1, period_ns, dtype=np.int64)
     imu_t = imu_times_ns(traj.t0_ns, traj.t1_ns, rig.imu.rate_hz)
     noise = ov["image_noise"] if ov["image_noise"] is not None else config.image_noise
-    return Setup(config, rig, scene, traj, frame_t, imu_t, 0.0 if config.ideal else noise, motion_cfg)
+    return Setup(config, rig, scene, traj, frame_t, imu_t, 0.0 if config.ideal else noise, motion_cfg,
+                 ov["supersample"])
 
 
 def imu_streams(setup: Setup):
@@ -149,7 +151,7 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     c, rig = setup.config, setup.rig
     world = build_world(setup.scene, rig, vehicle=c.vehicle)
     with StereoRenderer(world, rig, depth=c.depth, segmentation=c.segmentation,
-                        supersample=c.split_overrides()["supersample"]) as renderer:
+                        supersample=setup.supersample) as renderer:
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
                    disable=not progress, dynamic_ncols=True)
         for k, t_ns in enumerate(setup.frame_t_ns):

@@ -5,7 +5,7 @@ supersampled. Usage: .venv/bin/python docs/scripts/ground_flow_check.py RIG YAW 
 import os, sys; sys.path.insert(0, "tests"); os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np, cv2
 from test_render_support import RenderTestScene, vehicle_pose
-from sim.validation.oracle_tracks import local_depth
+from sim.validation.exact_points import exact_positions
 from sim.model import build_world
 from sim.render import StereoRenderer
 from rigs.presets import get_rig
@@ -18,7 +18,7 @@ rig_r = _rep(rig, cameras=tuple(_rep(c, width=c.width * SS, height=c.height * SS
                                       cx=c.cx * SS + (SS - 1) / 2, cy=c.cy * SS + (SS - 1) / 2) for c in rig.cameras))
 yaw = float(sys.argv[2]) if len(sys.argv) > 2 else 0.0
 world = build_world(RenderTestScene(wall_x=30.0, lit=True), rig_r)
-cam = rig.cameras[0]; K, D = cam.K, cam.dist_coeffs
+cam = rig.cameras[0]
 R = []
 d = np.array([np.cos(yaw), np.sin(yaw)])
 with StereoRenderer(world, rig_r, depth=True) as r:
@@ -31,11 +31,7 @@ with StereoRenderer(world, rig_r, depth=True) as r:
         dep = f0.depth[0].astype(np.float64)
         if SS > 1:
             dep = 1.0 / cv2.resize(1.0 / dep, (cam.width, cam.height), interpolation=cv2.INTER_AREA)
-        z, ok = local_depth(dep, p0)
-        xn = cv2.undistortPoints(p0.reshape(-1, 1, 2), K, D).reshape(-1, 2)
-        Tk = inv_T(Tb1 @ cam.T_b_c_array) @ (Tb0 @ cam.T_b_c_array)
-        P1 = (np.c_[xn, np.ones(len(xn))] * z[:, None]) @ Tk[:3, :3].T + Tk[:3, 3]
-        pe, _ = cv2.projectPoints(P1, np.zeros(3), np.zeros(3), K, D); pe = pe.reshape(-1, 2)
+        pe, ok = exact_positions(cam, cam, p0, dep, inv_T(Tb0 @ cam.T_b_c_array) @ (Tb1 @ cam.T_b_c_array))
         kw = dict(winSize=(21, 21), maxLevel=3, criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
         pr, st, _ = cv2.calcOpticalFlowPyrLK(g0, g1, p0.astype(np.float32).reshape(-1, 1, 2), None, **kw)
         res = pr.reshape(-1, 2) - pe

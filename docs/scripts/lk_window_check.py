@@ -18,13 +18,12 @@ from test_render_support import RenderTestScene, vehicle_pose  # noqa: E402
 from rigs.presets import get_rig  # noqa: E402
 from sim.model import build_world  # noqa: E402
 from sim.render import StereoRenderer  # noqa: E402
-from sim.validation.oracle_tracks import local_depth  # noqa: E402
+from sim.validation.exact_points import exact_positions  # noqa: E402
 from vo.frontend.affine_lk import refine_affine  # noqa: E402
 from vo.geometry import inv_T  # noqa: E402
 
 rig = get_rig("cart27")
 cam = rig.cameras[0]
-K, D = cam.K, cam.dist_coeffs
 yaw = np.pi / 2
 d = np.array([np.cos(yaw), np.sin(yaw)])
 world = build_world(RenderTestScene(wall_x=30.0, lit=True), rig)
@@ -37,11 +36,7 @@ with StereoRenderer(world, rig, depth=True) as r:
 
 def exact(p, f, Ta, Tb):
     """Exact positions in frame b of pixels p of frame a (depth of a, true poses)."""
-    z, ok = local_depth(f.depth[0].astype(np.float64), p)
-    xn = cv2.undistortPoints(p.reshape(-1, 1, 2), K, D).reshape(-1, 2)
-    T = inv_T(Tb @ cam.T_b_c_array) @ (Ta @ cam.T_b_c_array)
-    P = (np.c_[xn, np.ones(len(xn))] * z[:, None]) @ T[:3, :3].T + T[:3, 3]
-    return cv2.projectPoints(P, np.zeros(3), np.zeros(3), K, D)[0].reshape(-1, 2), ok
+    return exact_positions(cam, cam, p, f.depth[0].astype(np.float64), inv_T(Ta @ cam.T_b_c_array) @ (Tb @ cam.T_b_c_array))
 
 
 def residuals(win, backward, affine):

@@ -4,7 +4,7 @@ Usage: .venv/bin/python docs/scripts/render_variant_check.py base|nolight|nohead
 import os, sys; os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np, cv2, mujoco
 from dataclasses import replace
-from sim.validation.oracle_tracks import local_depth
+from sim.validation.exact_points import backproject, local_depth
 from sim.scenarios import get_scenario
 from sim.generate import resolve
 from sim.model import build_world
@@ -37,9 +37,8 @@ with StereoRenderer(world, s.rig, depth=True, segmentation=True) as r:
         T0, T1 = T_w_b[k] @ cam.T_b_c_array, T_w_b[k + 1] @ cam.T_b_c_array
         p0 = cv2.goodFeaturesToTrack(g0, 800, 0.01, 8, blockSize=3).reshape(-1, 2).astype(np.float64)
         z, ok = local_depth(f0.depth[0].astype(np.float64), p0)
-        xn = cv2.undistortPoints(p0.reshape(-1, 1, 2), K, D).reshape(-1, 2)
         Tk = inv_T(T1) @ T0
-        P1 = (np.c_[xn, np.ones(len(xn))] * z[:, None]) @ Tk[:3, :3].T + Tk[:3, 3]
+        P1 = backproject(cam, p0, z) @ Tk[:3, :3].T + Tk[:3, 3]
         kw = dict(winSize=(21, 21), maxLevel=3, criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
         pr, st, _ = cv2.calcOpticalFlowPyrLK(g0, g1, p0.astype(np.float32).reshape(-1, 1, 2), None, **kw)
         pr = pr.reshape(-1, 2)

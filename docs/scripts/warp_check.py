@@ -8,7 +8,8 @@ from dataclasses import replace
 from sim.scenarios import cached_dataset, get_scenario
 from vo.dataset import open_dataset
 from vo.geometry import inv_T
-from sim.validation.oracle_tracks import local_depth
+from sim.validation.exact_points import backproject, local_depth
+from sim.validation.render_fidelity import exact_warp
 np.set_printoptions(precision=4, suppress=True, linewidth=200)
 cfg = replace(get_scenario("campus-short"), ideal=True, depth=True)
 res_real, res_syn, pos = [], [], []
@@ -17,24 +18,14 @@ for s in range(int(sys.argv[1]) if len(sys.argv) > 1 else 2):
     ds = open_dataset(cached_dataset(replace(cfg, seed=cfg.seed + 1 + s), progress=False))
     gt = ds.groundtruth_cam0().T; cam = ds.rig.cameras[0]; K, D = cam.K, cam.dist_coeffs
     H, W = cam.height, cam.width
-    uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
-    grid = np.c_[uu.ravel(), vv.ravel()]
-    xn_grid = cv2.undistortPoints(grid.reshape(-1, 1, 2), K, D).reshape(-1, 2)
     for k in range(25, 100, 3):
         g0, g1 = ds.frame(k).left, ds.frame(k + 1).left
-        d1 = ds.depth(k + 1, 0).astype(np.float64).ravel()
-        # synthetic frame k+1: each pixel's 3-D point (depth k+1) seen in frame k
-        X1 = np.c_[xn_grid, np.ones(len(d1))] * d1[:, None]
         T = inv_T(gt[k]) @ gt[k + 1]
-        X0 = X1 @ T[:3, :3].T + T[:3, 3]
-        m0, _ = cv2.projectPoints(X0, np.zeros(3), np.zeros(3), K, D)
-        m0 = m0.reshape(H, W, 2).astype(np.float32)
-        syn = cv2.remap(g0, m0[..., 0], m0[..., 1], cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE)
+        syn = exact_warp(g0, ds.depth(k + 1, 0), T, cam)     # synthetic frame k+1 from frame k
         p0 = cv2.goodFeaturesToTrack(g0, 600, 0.01, 8, blockSize=3).reshape(-1, 2).astype(np.float64)
         z, ok = local_depth(ds.depth(k, 0).astype(np.float64), p0)
-        xn = cv2.undistortPoints(p0.reshape(-1, 1, 2), K, D).reshape(-1, 2)
         Tk = inv_T(gt[k + 1]) @ gt[k]
-        P1 = (np.c_[xn, np.ones(len(xn))] * z[:, None]) @ Tk[:3, :3].T + Tk[:3, 3]
+        P1 = backproject(cam, p0, z) @ Tk[:3, :3].T + Tk[:3, 3]
         pe, _ = cv2.projectPoints(P1, np.zeros(3), np.zeros(3), K, D); pe = pe.reshape(-1, 2)
         kw = dict(winSize=(21, 21), maxLevel=3, criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
         a = p0.astype(np.float32).reshape(-1, 1, 2)

@@ -14,48 +14,15 @@ real estimator never sees depth or truth.
 """
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 from sim.errors import SimError
+from sim.validation.exact_points import backproject, local_depth, project
 from vo.geometry import inv_T
 from vo.frontend.klt import KltConfig
 from vo.rop.tracks import FourView, KltFourView
 
 VIEWS = ("p2", "p3", "p4")          # positions an oracle can replace (p1 is the detection itself)
-PLANE_TOL = 0.005                   # max inverse-depth plane residual / inverse depth in the 5x5 window
-
-
-def local_depth(depth: np.ndarray, p: np.ndarray, tol: float = PLANE_TOL) -> tuple[np.ndarray, np.ndarray]:
-    """(z (N,), ok (N,)) at subpixel ``p`` (N,2) in ``depth`` (H,W) metres.
-
-    Inverse depth is affine in the pixel coordinates on a plane, so a plane fitted to the 5x5 window's
-    inverse depth interpolates ground at grazing angles exactly; ``ok`` where its max residual is below
-    ``tol`` x the inverse depth (no depth discontinuity) and the depth is finite and > 0.1 m."""
-    p = np.asarray(p, float).reshape(-1, 2)
-    h, w = depth.shape
-    ij = np.clip(np.round(p).astype(int), 2, [w - 3, h - 3])
-    d = np.array([(di, dj) for dj in range(-2, 3) for di in range(-2, 3)])
-    win = np.stack([depth[ij[:, 1] + dj, ij[:, 0] + di] for di, dj in d], 1).astype(float)   # (N, 25)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = np.where(np.isfinite(win) & (win > 0.1), 1.0 / win, np.nan)
-    A = np.c_[d, np.ones(len(d))]
-    coef = np.linalg.lstsq(A, np.nan_to_num(inv).T, rcond=None)[0]                            # (3, N)
-    resid = np.abs(A @ coef - inv.T).max(axis=0)
-    off = p - ij
-    inv_p = coef[0] * off[:, 0] + coef[1] * off[:, 1] + coef[2]
-    with np.errstate(invalid="ignore"):
-        ok = np.all(np.isfinite(inv), axis=1) & (resid < tol * np.abs(coef[2])) & (inv_p > 0)
-    return 1.0 / np.where(ok, inv_p, 1.0), ok
-
-
-def project(camera, T_w_c: np.ndarray, X_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(uv (N,2), in_front (N,)) of world points ``X_w`` (N,3) in ``camera`` at pose ``T_w_c`` (4,4)."""
-    X_c = (np.asarray(X_w, float).reshape(-1, 3) - T_w_c[:3, 3]) @ T_w_c[:3, :3]
-    if not len(X_c):
-        return np.zeros((0, 2)), np.zeros(0, bool)
-    uv, _ = cv2.projectPoints(X_c, np.zeros(3), np.zeros(3), camera.K, camera.dist_coeffs)
-    return uv.reshape(-1, 2), X_c[:, 2] > 0.1
 
 
 class OracleFourView(KltFourView):
@@ -87,8 +54,7 @@ class OracleFourView(KltFourView):
         super().keyframe(left, right, timings, keep_tracks)
         v, (T_w_c0, T_w_c1) = self.view, self._poses()
         z, ok = local_depth(np.asarray(self.dataset.depth(self.k, 0), float), v.p1)
-        xn = cv2.undistortPoints(v.p1.reshape(-1, 1, 2), self.cams[0].K, self.cams[0].dist_coeffs).reshape(-1, 2)
-        X_w = (np.c_[xn, np.ones(len(xn))] * z[:, None]) @ T_w_c0[:3, :3].T + T_w_c0[:3, 3]
+        X_w = backproject(self.cams[0], v.p1, z) @ T_w_c0[:3, :3].T + T_w_c0[:3, 3]
         p2, front = project(self.cams[1], T_w_c1, X_w)
         ok &= front
         if self.record is not None:

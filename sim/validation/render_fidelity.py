@@ -13,6 +13,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from sim.validation.exact_points import backproject, project
 from vo.frontend.affine_lk import refine_affine
 from vo.geometry import inv_T
 
@@ -22,13 +23,9 @@ def exact_warp(img_k: np.ndarray, depth_k1: np.ndarray, T_k_k1: np.ndarray, came
     (H,W) m, ``inf`` = sky) is seen in frame k; ``T_k_k1`` (4,4) pose of camera k+1 in camera k."""
     H, W = depth_k1.shape
     v, u = np.mgrid[0:H, 0:W].astype(np.float64)
-    K, D = camera.K, camera.dist_coeffs
-    xn = cv2.undistortPoints(np.c_[u.ravel(), v.ravel()].reshape(-1, 1, 2), K, D).reshape(-1, 2)
-    X1 = np.c_[xn, np.ones(len(xn))] * depth_k1.astype(np.float64).ravel()[:, None]
-    with np.errstate(invalid="ignore"):
-        X0 = X1 @ T_k_k1[:3, :3].T + T_k_k1[:3, 3]
-    X0[~np.all(np.isfinite(X0), axis=1)] = 1e6            # sky: sampled anywhere, masked by the caller
-    m = cv2.projectPoints(X0, np.zeros(3), np.zeros(3), K, D)[0].reshape(H, W, 2).astype(np.float32)
+    X1 = backproject(camera, np.c_[u.ravel(), v.ravel()], depth_k1.astype(np.float64).ravel())
+    X1[~np.all(np.isfinite(X1), axis=1)] = 1e6            # sky: sampled anywhere, masked by the caller
+    m = project(camera, inv_T(T_k_k1), X1)[0].reshape(H, W, 2).astype(np.float32)
     return cv2.remap(img_k, m[..., 0], m[..., 1], cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE)
 
 

@@ -24,9 +24,11 @@ Shapes: ``p0, p1`` (N,2) pixels (u, v); ``A`` (N,2,2); ``ok`` (N,) bool.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from vo.frontend.lk_invariant import _gradients
+from vo.frontend.lk_invariant import central_gradients
 
 MAX_SHIFT_PX = 2.0        # refinement may move a point at most this far from its LK estimate
 MAX_LINEAR = 0.5          # |entries of A| bound (the window's scale/shear change), beyond = lost
@@ -56,16 +58,49 @@ def _grid(win: int) -> np.ndarray:
     return np.stack(np.meshgrid(g, g), axis=-1).reshape(-1, 2)          # (P,2) offsets (u, v)
 
 
-def _template(img0, p0, offs):
-    """Template values ``T`` (N,P), and the steepest-descent images ``J`` (N,P,8) of the
-    parameters ``(c_u, c_v, a11, a12, a21, a22, lam, beta)``."""
+@dataclass(frozen=True)
+class AffineTemplate:
+    """The template side of :func:`refine_affine` for points ``p0`` (N,2) of one image, computed once
+    and reused while the template image stays the same (e.g. a keyframe): values ``T`` (N,P),
+    transposed steepest-descent images ``Jt`` (N,8,P) of ``(c_u, c_v, a11, a12, a21, a22, lam, beta)``,
+    inverse normal matrices ``Hinv`` (N,8,8), ``ok`` (N,) where the normal matrix is regular and the
+    window lies inside the image, and the window size ``win``."""
+
+    p0: np.ndarray
+    T: np.ndarray
+    Jt: np.ndarray
+    Hinv: np.ndarray
+    ok: np.ndarray
+    win: int
+
+    def __len__(self) -> int:
+        return len(self.p0)
+
+    def subset(self, index) -> "AffineTemplate":
+        """The template of the points ``index`` (bool mask or integer indices)."""
+        return AffineTemplate(self.p0[index], self.T[index], self.Jt[index], self.Hinv[index], self.ok[index],
+                              self.win)
+
+
+def affine_template(img0: np.ndarray, p0: np.ndarray, win: int = 21) -> AffineTemplate:
+    """:class:`AffineTemplate` of the ``win`` x ``win`` windows of ``img0`` at ``p0`` (N,2)."""
+    p0 = np.asarray(p0, np.float64).reshape(-1, 2)
+    offs = _grid(win)
     f0 = np.asarray(img0, np.float32)
-    gx, gy = _gradients(f0)
+    gx, gy = central_gradients(f0)
     xy = p0[:, None, :] + offs[None]
     T, Ix, Iy = bilinear(f0, xy), bilinear(gx, xy), bilinear(gy, xy)
     u, v = offs[None, :, 0].astype(T.dtype), offs[None, :, 1].astype(T.dtype)
     J = np.stack([Ix, Iy, Ix * u, Ix * v, Iy * u, Iy * v, T, np.ones_like(T)], axis=-1)
-    return T, J
+    Jt = np.ascontiguousarray(J.transpose(0, 2, 1))                       # (N,8,P)
+    H = Jt.astype(np.float64) @ J.astype(np.float64)
+    cond = np.linalg.cond(H) if len(p0) else np.zeros(0)
+    ok = np.isfinite(cond) & (cond < 1e12)
+    Hinv = np.linalg.inv(np.where(ok[:, None, None], H, np.eye(8)))
+    h0, w0 = f0.shape[:2]
+    r = (win - 1) / 2.0
+    ok &= (p0[:, 0] >= r) & (p0[:, 1] >= r) & (p0[:, 0] <= w0 - 1 - r) & (p0[:, 1] <= h0 - 1 - r)
+    return AffineTemplate(p0, T, Jt, Hinv, ok, int(win))
 
 
 def refine_affine(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarray,
@@ -77,21 +112,23 @@ def refine_affine(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.nda
     translation (e.g. pyramidal LK's result). Iterates until the centre moves < ``eps`` px.
     Returns ``(p1 (N,2), A (N,2,2), ok (N,))``; ``ok`` is False where the normal matrix is singular,
     the refinement diverges (moves > ``MAX_SHIFT_PX`` or ``|A| > MAX_LINEAR``) or the warped window is
-    not wholly inside ``img1`` (or the template window not inside ``img0``).
+    not wholly inside ``img1`` (or the template window not inside ``img0``). Same as
+    :func:`refine_to` with ``affine_template(img0, p0, win)``.
     """
-    p0 = np.asarray(p0, np.float64).reshape(-1, 2)
+    return refine_to(affine_template(img0, p0, win), img1, p1, A, iters, eps)
+
+
+def refine_to(template: AffineTemplate, img1: np.ndarray, p1: np.ndarray, A: np.ndarray | None = None,
+              iters: int = 15, eps: float = 1e-3) -> tuple:
+    """:func:`refine_affine` with a precomputed :class:`AffineTemplate` (its ``win``)."""
     c = np.array(p1, np.float64).reshape(-1, 2)
-    n = len(p0)
+    n = len(c)
     A = np.zeros((n, 2, 2)) if A is None else np.array(A, np.float64).reshape(n, 2, 2)
     if n == 0:
         return c, A, np.zeros(0, bool)
+    T, Jt, Hinv, win = template.T, template.Jt, template.Hinv, template.win
     offs = _grid(win)
-    T, J = _template(img0, p0, offs)
-    Jt = np.ascontiguousarray(J.transpose(0, 2, 1))                       # (N,8,P)
-    H = (Jt.astype(np.float64) @ J.astype(np.float64))
-    cond = np.linalg.cond(H)
-    ok = np.isfinite(cond) & (cond < 1e12)
-    Hinv = np.linalg.inv(np.where(ok[:, None, None], H, np.eye(8)))
+    ok = template.ok.copy()
     lam, beta = np.ones(n), np.zeros(n)
     f1 = np.asarray(img1, np.float32) if np.asarray(img1).dtype != np.float64 else np.asarray(img1)
     start = c.copy()
@@ -102,27 +139,21 @@ def refine_affine(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.nda
             break
         M = np.eye(2)[None] + A[a]                                        # (n,2,2)
         xy = c[a, None, :] + offs[None] @ M.transpose(0, 2, 1)
-        r = (bilinear(f1, xy) - lam[a, None] * T[a] - beta[a, None]).astype(J.dtype)
+        r = (bilinear(f1, xy) - lam[a, None] * T[a] - beta[a, None]).astype(Jt.dtype)
         d = (Hinv[a] @ (Jt[a] @ r[..., None]).astype(np.float64))[..., 0]
         # inverse composition of the geometric increment: W <- W o W(d)^-1
         Md = np.eye(2)[None] + d[:, 2:6].reshape(-1, 2, 2)
-        Mdi = np.linalg.inv(Md)
-        M_new = M @ Mdi
+        M_new = M @ np.linalg.inv(Md)
         step = (M_new @ d[:, :2, None])[..., 0]
         c[a] = c[a] - step
         A[a] = M_new - np.eye(2)[None]
-        # appearance: additive
-        lam[a] += d[:, 6]
+        lam[a] += d[:, 6]                                                 # appearance: additive
         beta[a] += d[:, 7]
-        moved = np.linalg.norm(step, axis=1)
-        active[a] = moved >= eps
+        active[a] = np.linalg.norm(step, axis=1) >= eps
     h, w = np.asarray(img1).shape[:2]
     ok &= np.all(np.isfinite(c), axis=1) & np.all(np.isfinite(A.reshape(n, 4)), axis=1)
     ok &= np.linalg.norm(c - start, axis=1) <= MAX_SHIFT_PX
     ok &= np.all(np.abs(A.reshape(n, 4)) <= MAX_LINEAR, axis=1)
     corners = c[:, None, :] + _grid(2) * (win - 1) @ (np.eye(2)[None] + A).transpose(0, 2, 1)  # (N,4,2)
     ok &= np.all((corners >= 0) & (corners <= np.array([w - 1, h - 1])), axis=(1, 2))   # whole window inside
-    h0, w0 = np.asarray(img0).shape[:2]
-    r = (win - 1) / 2.0
-    ok &= (p0[:, 0] >= r) & (p0[:, 1] >= r) & (p0[:, 0] <= w0 - 1 - r) & (p0[:, 1] <= h0 - 1 - r)
     return c, A, ok

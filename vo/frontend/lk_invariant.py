@@ -27,7 +27,7 @@ def _pyramid(img: np.ndarray, levels: int) -> list:
     return pyr
 
 
-def _gradients(img: np.ndarray) -> tuple:
+def central_gradients(img: np.ndarray) -> tuple:
     """Central differences ``(I[x+1] - I[x-1]) / 2`` along u and v (float32 images)."""
     k = np.array([[-0.5, 0.0, 0.5]], dtype=np.float32)
     gx = cv2.filter2D(img, cv2.CV_32F, k, borderType=cv2.BORDER_REPLICATE)
@@ -72,7 +72,7 @@ def lk_illumination_invariant(img0: np.ndarray, img1: np.ndarray, pts: np.ndarra
 
 def _track_level(I0, I1, c0, d, ok, offs, iters, eps):
     """One pyramid level: Gauss-Newton on the mean-normalised residual for every point."""
-    gx, gy = _gradients(I0)
+    gx, gy = central_gradients(I0)
     T = _sample(I0, c0, offs).astype(np.float64)
     m0 = T.mean(axis=1)
     good = ok & (m0 > 1e-6)

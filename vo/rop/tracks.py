@@ -13,7 +13,8 @@ new ``(p1, p2)`` (tracks without a valid ``p4`` are dropped) and new corners fil
 ``refine="affine"`` (not in seed 003; see :mod:`vo.frontend.affine_lk`): every LK result is then
 refined by an affine window warp against the KEYFRAME template: ``p2`` from ``p1`` (stereo), ``p3``
 from ``p1`` in the keyframe left image, ``p4`` from ``p2`` in the keyframe right image, each seeded
-by the translation LK above and by the track's warp of the previous frame. The positions are then
+by the translation LK above and by the track's warp of the previous frame; the keyframe windows
+(:class:`vo.frontend.affine_lk.AffineTemplate`) are computed once per keyframe. The positions are then
 single measurements against the keyframe instead of a frame-to-frame chain, and without
 translation LK's window-averaging bias on perspective ground (docs/consistency.md).
 
@@ -29,7 +30,7 @@ import cv2
 import numpy as np
 
 from vo.errors import VoError
-from vo.frontend.affine_lk import refine_affine
+from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig
 from vo.frontend.stereo import epipolar_mask
@@ -53,6 +54,8 @@ class FourView:
     ok4: np.ndarray
     A3: np.ndarray | None = None     # (N,2,2) affine window warps keyframe -> current (refine="affine")
     A4: np.ndarray | None = None
+    tmpl3: AffineTemplate | None = None   # keyframe windows at p1 (left) / p2 (right), refine="affine"
+    tmpl4: AffineTemplate | None = None
 
     def __len__(self) -> int:
         return len(self.p1)
@@ -131,8 +134,8 @@ class KltFourView:
         t1 = cv2.getTickCount()
         new_r, ok = self._stereo(left, right, new)
         if self.refine == "affine" and ok.any():
-            new_r[ok], _, ok_a = refine_affine(left, right, new[ok], new_r[ok], win=self.config.win)
-            ok[ok] = ok_a & epipolar_mask(self.rig, new[ok], new_r[ok], self.config.epipolar_threshold_px)
+            new_r[ok], _, ok[ok] = self._refine_right(affine_template(left, new[ok], self.config.win), right,
+                                                      new_r[ok], None, new[ok])
         new, new_r = new[ok], new_r[ok]
         p1, p2 = np.vstack([p1, new]), np.vstack([p2, new_r])
         x1, x2 = np.vstack([x1, self._norm(new, 0)]), np.vstack([x2, self._norm(new_r, 1)])
@@ -149,18 +152,16 @@ class KltFourView:
         t0 = cv2.getTickCount()
         p3, ok = lk_fb(self._prev_left, left, v.p3, self.config)
         A3, A4 = self._warps(v)
-        if self.refine == "affine" and ok.any():
-            p3[ok], A3[ok], ok_a = refine_affine(self._kf_imgs[0], left, v.p1[ok], p3[ok], A3[ok], self.config.win)
-            ok[ok] = ok_a
+        t3, t4 = self._templates(v)
+        if t3 is not None and ok.any():
+            p3[ok], A3[ok], ok[ok] = refine_to(t3.subset(ok), left, p3[ok], A3[ok])
         v = FourView(v.p1[ok], v.p2[ok], p3[ok], v.p4[ok], v.x1[ok], v.x2[ok], v.x3[ok], v.x4[ok], v.ok4[ok],
-                     A3[ok], A4[ok])
+                     A3[ok], A4[ok], None if t3 is None else t3.subset(ok), None if t4 is None else t4.subset(ok))
         t1 = cv2.getTickCount()
         v.p4, v.ok4 = self._stereo(left, right, v.p3, guess=v.p3 + (v.p2 - v.p1))
         if self.refine == "affine" and v.ok4.any():
-            k = v.ok4
-            v.p4[k], v.A4[k], ok_a = refine_affine(self._kf_imgs[1], right, v.p2[k], v.p4[k], v.A4[k], self.config.win)
-            k = np.flatnonzero(k)
-            v.ok4[k] = ok_a & epipolar_mask(self.rig, v.p3[k], v.p4[k], self.config.epipolar_threshold_px)
+            k = np.flatnonzero(v.ok4)
+            v.p4[k], v.A4[k], v.ok4[k] = self._refine_right(v.tmpl4.subset(k), right, v.p4[k], v.A4[k], v.p3[k])
         v.x3 = self._norm(v.p3, 0)
         v.x4 = np.zeros_like(v.p4)
         v.x4[v.ok4] = self._norm(v.p4[v.ok4], 1)
@@ -169,6 +170,22 @@ class KltFourView:
         timings["track"] = timings.get("track", 0.0) + (t1 - t0) * f
         timings["stereo"] = timings.get("stereo", 0.0) + (cv2.getTickCount() - t1) * f
         return v
+
+    def _refine_right(self, template: AffineTemplate, right, p_right, A, p_left) -> tuple:
+        """Affine refinement of right-image points ``p_right`` against ``template``, then the calibrated
+        epipolar check against the left points ``p_left`` -> ``(p_right, A, ok)``."""
+        p_right, A, ok = refine_to(template, right, p_right, A)
+        return p_right, A, ok & epipolar_mask(self.rig, p_left, p_right, self.config.epipolar_threshold_px)
+
+    def _templates(self, v: FourView) -> tuple:
+        """The keyframe windows of the tracks (``refine="affine"``; else ``(None, None)``): built once per
+        keyframe, at the first :meth:`track` after it, then carried and subset with the tracks."""
+        if self.refine != "affine":
+            return None, None
+        if v.tmpl3 is None:
+            win = self.config.win
+            v.tmpl3, v.tmpl4 = affine_template(self._kf_imgs[0], v.p1, win), affine_template(self._kf_imgs[1], v.p2, win)
+        return v.tmpl3, v.tmpl4
 
     @staticmethod
     def _warps(v: FourView) -> tuple[np.ndarray, np.ndarray]:
