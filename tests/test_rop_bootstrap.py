@@ -99,19 +99,22 @@ def test_bootstrap_is_reproducible_and_handles_too_few_tracks():
     assert bootstrap_step_cov(*args, np.random.default_rng(3), 10, 1.0 / FOCAL, N_POINTS + 1, RANSAC) is None
 
 
-def test_rop_cov_bootstrap_changes_only_the_covariance(campus_short):
-    """On 30 rendered frames: ``cov="bootstrap"`` gives the same poses as the default, finite
+@pytest.mark.parametrize("cov", ["bootstrap", "chain_bootstrap"])
+def test_rop_cov_bootstrap_changes_only_the_covariance(campus_short, cov):
+    """On 44 rendered frames (keyframes at 34 and 42): ``cov="bootstrap"`` (and ``"chain_bootstrap"``, vo.rop.chain_bootstrap,
+    whose keyframe covariances come from replicate trajectories) gives the same poses as the default, finite
     positive-definite covariances, the same bytes on a rerun (seeded by ``(seed, t_ns)``), and a
     wider position covariance than the first-order model at the end (measured 5x on campus-short,
     docs/consistency.md; a bootstrap that resampled nothing would give ~0)."""
     from vo.dataset import open_dataset
     from vo.estimators.runner import run_estimator
     ds = open_dataset(campus_short)
-    runs = [run_estimator("rop", ds, options=o, progress=False, max_frames=30)
-            for o in ({}, {"cov": "bootstrap", "bootstrap_replicates": 12}, {"cov": "bootstrap", "bootstrap_replicates": 12})]
+    runs = [run_estimator("rop", ds, options=o, progress=False, max_frames=44)
+            for o in ({}, {"cov": cov, "bootstrap_replicates": 12}, {"cov": cov, "bootstrap_replicates": 12})]
     base, boot, again = ([f for f in r.frames] for r in runs)
     assert all(np.array_equal(a.T_o_c0, b.T_o_c0) for a, b in zip(base, boot))
     assert all(a.cov.tobytes() == b.cov.tobytes() for a, b in zip(boot, again))
     for f in boot[1:]:
         assert np.all(np.isfinite(f.cov)) and np.all(np.linalg.eigvalsh(f.cov + f.cov.T) >= 0)
     assert np.trace(boot[-1].cov[3:, 3:]) > np.trace(base[-1].cov[3:, 3:])
+    assert sum(f.status == "keyframe" for f in boot) >= 1          # a step was chained

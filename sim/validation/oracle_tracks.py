@@ -62,7 +62,8 @@ class OracleFourView(KltFourView):
         p1, X_w = self._noisy(v.p1[ok]), X_w[ok]
         p2 = self._noisy(p2[ok]) if "p2" in self.exact else v.p2[ok]
         x1, x2 = self._norm(p1, 0), self._norm(p2, 1)
-        self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool))
+        self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool),
+                             ids=v.ids[ok])
         self._X = {tuple(p): X for p, X in zip(p1, X_w)}
         return len(p1)
 

@@ -39,16 +39,41 @@ def _resampled_rop(m, x_i: np.ndarray, x_j: np.ndarray, thr: float, min_inliers:
     return f if f.ok else None
 
 
-def _draw_rows(rng: np.random.Generator, ok4, sizes: dict) -> dict:
-    """pair -> row indices of one bootstrap draw. Shared tracks (``ok4`` (N,) bool given): N track
-    indices with replacement, mapped to each pair's rows (pairs 13 / 23 hold all tracks, 14 / 24 the
-    ``ok4`` subset), so a drawn track enters all its ROPs. ``ok4`` None (descriptor front-ends, one
-    match set per pair): each pair's matches are drawn independently."""
-    if ok4 is None:
-        return {p: rng.integers(0, n, n) for p, n in sizes.items()}
-    idx = rng.integers(0, len(ok4), len(ok4))
+def _rows_of(idx: np.ndarray, ok4, sizes: dict) -> dict:
+    """pair -> row indices of one bootstrap draw given the drawn track indices ``idx`` (with
+    repeats): pairs 13 / 23 hold all tracks, 14 / 24 the ``ok4`` subset, so a drawn track enters all
+    its ROPs."""
     pos4 = np.cumsum(ok4) - 1                              # track index -> row of the 14 / 24 arrays
     return {p: (pos4[idx[ok4[idx]]] if p[1] == "4" else idx) for p in sizes}
+
+
+def _draw_rows(rng: np.random.Generator, ok4, sizes: dict) -> dict:
+    """pair -> row indices of one bootstrap draw. Shared tracks (``ok4`` (N,) bool given): N track
+    indices with replacement (:func:`_rows_of`). ``ok4`` None (descriptor front-ends, one match set
+    per pair): each pair's matches are drawn independently."""
+    if ok4 is None:
+        return {p: rng.integers(0, n, n) for p, n in sizes.items()}
+    return _rows_of(rng.integers(0, len(ok4), len(ok4)), ok4, sizes)
+
+
+def _replicate(ropset: RopSet, tracks: dict, rows: dict, config: AdjustmentConfig, rng: np.random.Generator,
+               threshold: float, min_inliers: int, ransac: dict | None):
+    """Adjusted ``T_c1_c3`` (4,4) of one bootstrap draw ``rows`` (pair -> row indices), or None when
+    fewer than 3 ROPs survive or the adjustment degenerates."""
+    rops = {}
+    for p in ropset.ok_pairs:
+        x_i, x_j = tracks[p]
+        opts = {**(ransac or {}), "seed": int(rng.integers(2 ** 31))}
+        fit = _resampled_rop(ropset.rops[p], x_i[rows[p]], x_j[rows[p]], threshold, min_inliers, opts)
+        if fit is not None:
+            rops[p] = fit
+    if len(rops) < 3:
+        return None
+    rs = RopSet(rops, ropset.T_c1_c2, ropset.weighting)
+    res = adjust_rops(rs, initial_eops(rs), config)
+    if res.degenerate or not np.all(np.isfinite(res.T_c1_c3)):
+        return None
+    return res.T_c1_c3
 
 
 def bootstrap_step_cov(ropset: RopSet, tracks: dict, ok4, T_c1_c3: np.ndarray, config: AdjustmentConfig,
@@ -62,24 +87,31 @@ def bootstrap_step_cov(ropset: RopSet, tracks: dict, ok4, T_c1_c3: np.ndarray, c
     :func:`vo.rop.relative.estimate_rop_normalized` (``max_iters``, ``prob``, ``method``; None: its
     defaults), its RANSAC repeated per replicate with a seed drawn from ``rng``. None when fewer than
     :data:`MIN_REPLICATES` of ``n_boot`` replicates give >= 3 ROPs and a non-degenerate adjustment."""
-    errors = []
+    reps = bootstrap_step_replicates(ropset, tracks, ok4, None, config, rng, n_boot, threshold, min_inliers, ransac)
+    return replicate_cov(reps, T_c1_c3)
+
+
+def bootstrap_step_replicates(ropset: RopSet, tracks: dict, ok4, counts, config: AdjustmentConfig,
+                              rng: np.random.Generator, n_boot: int = 40, threshold: float = 1.0 / 500,
+                              min_inliers: int = 20, ransac: dict = None) -> list:
+    """Adjusted ``T_c1_c3`` of each bootstrap replicate: list of (4,4) arrays, None for a failed one
+    (:func:`_replicate`). ``counts`` (B,N) integers: replicate ``b`` takes track ``i`` ``counts[b, i]``
+    times (e.g. Poisson(1) multiplicities kept per track identity, :mod:`vo.rop.chain_bootstrap`;
+    needs ``ok4``); None: ``n_boot`` draws of :func:`_draw_rows`. Other arguments as
+    :func:`bootstrap_step_cov`."""
     sizes = {p: len(tracks[p][0]) for p in ropset.ok_pairs}
-    for _ in range(int(n_boot)):
-        rows = _draw_rows(rng, ok4, sizes)
-        rops = {}
-        for p in ropset.ok_pairs:
-            x_i, x_j = tracks[p]
-            opts = {**(ransac or {}), "seed": int(rng.integers(2 ** 31))}
-            fit = _resampled_rop(ropset.rops[p], x_i[rows[p]], x_j[rows[p]], threshold, min_inliers, opts)
-            if fit is not None:
-                rops[p] = fit
-        if len(rops) < 3:
-            continue
-        rs = RopSet(rops, ropset.T_c1_c2, ropset.weighting)
-        res = adjust_rops(rs, initial_eops(rs), config)
-        if res.degenerate or not np.all(np.isfinite(res.T_c1_c3)):
-            continue
-        errors.append(pose_error_left(res.T_c1_c3, T_c1_c3))
+    if counts is None:
+        draws = (_draw_rows(rng, ok4, sizes) for _ in range(int(n_boot)))
+    else:
+        base = np.arange(len(ok4))
+        draws = (_rows_of(np.repeat(base, c), ok4, sizes) for c in np.asarray(counts, int))
+    return [_replicate(ropset, tracks, rows, config, rng, threshold, min_inliers, ransac) for rows in draws]
+
+
+def replicate_cov(replicates: list, T_ref: np.ndarray):
+    """(6,6) covariance (ddof 1, about the replicates' mean) of ``pose_error_left(T_b, T_ref)`` over the
+    replicates that are not None, or None when fewer than :data:`MIN_REPLICATES`."""
+    errors = [pose_error_left(T, T_ref) for T in replicates if T is not None]
     if len(errors) < MIN_REPLICATES:
         return None
     return np.cov(np.array(errors), rowvar=False, ddof=1)

@@ -23,7 +23,8 @@ two-step adjustment (eqs. 1-3, :mod:`vo.rop.adjustment`, unchanged).
 
 Covariance of ``[rotvec, position]`` of ``T_o_c0`` (left perturbation), first order:
 ``cov = A cov_kf A^T + B cov_step B^T`` (see :func:`propagate_cov`); keyframe steps are treated as
-independent (consecutive steps share an epoch; approximate). ``cov="propagated"`` (default, our
+independent (consecutive steps share an epoch; approximate; ``cov="chain_bootstrap"`` keeps their
+correlation). ``cov="propagated"`` (default, our
 extension): each ROP's own Sampson covariance (residual RMS, inlier count and geometry) propagated
 through the adjustment's converged gains (:mod:`vo.rop.propagation`); ``cov="joint"`` (our
 extension, KLT front-end only; other front-ends fall back to ``"propagated"``) the same with the
@@ -32,7 +33,11 @@ joint covariance of the four ROPs from the pixel noise of their shared tracks (:
 and adjustment repeated per replicate (``bootstrap_replicates``, default 40; :mod:`vo.rop.bootstrap_cov`)
 at keyframe steps, the first-order step covariance scaled per axis by the last bootstrap's ratio in
 between (about +1 s per keyframe at 40 replicates): it sees the feature / inlier-selection spread
-that the first-order models miss (docs/consistency.md); ``cov="apost"`` the
+that the first-order models miss (docs/consistency.md); ``cov="chain_bootstrap"`` (our extension,
+:mod:`vo.rop.chain_bootstrap`) the same per-step replicates, but each track keeps its Poisson
+multiplicity for its whole life and each replicate composes its own trajectory, so the keyframe
+covariance is that of the replicate trajectories and keeps the correlation of consecutive steps
+through shared tracks (descriptor front-ends: independent draws per step); ``cov="apost"`` the
 adjustment's a-posteriori unit-weight variances; ``cov="apriori"`` its a-priori sigmas, *derived
 per epoch* from the ROPs' Sampson sigmas ``s_p`` as ``s_0^2 = mean_p(w_p s_p^2)`` unless
 ``sigma_rot_deg`` / ``sigma_dir_deg`` fix them. docs/consistency.md has the Monte-Carlo check.
@@ -65,7 +70,8 @@ from vo.frontend.klt import KltConfig
 from vo.geometry import inv_T, make_T, rotation_angle, skew
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
-from vo.rop.bootstrap_cov import MIN_REPLICATES, bootstrap_step_cov
+from vo.rop.bootstrap_cov import MIN_REPLICATES, bootstrap_step_replicates, replicate_cov
+from vo.rop.chain_bootstrap import ReplicateChain
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops, rotation_candidates
 from vo.rop.joint_cov import with_pixel_factors
@@ -74,7 +80,7 @@ from vo.rop.ropset import PAIRS, WEIGHTINGS, RopSet, exact_ropset
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 
-COVS = ("propagated", "apost", "apriori", "joint", "bootstrap")
+COVS = ("propagated", "apost", "apriori", "joint", "bootstrap", "chain_bootstrap")
 DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac", ransac_max_iters=200,
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
                 cov="propagated", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=True,
@@ -114,7 +120,8 @@ class RopEstimator(Estimator):
     ``ransac_threshold_px``, ``ransac_method`` "ransac"|"magsac", ``ransac_max_iters``, ``ransac_prob``,
     ``seed``; ``min_matches`` (four-view tracks / pair matches), ``min_rop_inliers``,
     ``min_inlier_ratio``, ``max_rop_rotation_deg``; ``weights`` "inliers"|"sampson";
-    ``cov`` "propagated"|"joint"|"bootstrap"|"apost"|"apriori", ``bootstrap_replicates``, ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
+    ``cov`` "propagated"|"joint"|"bootstrap"|"chain_bootstrap"|"apost"|"apriori", ``bootstrap_replicates``,
+    ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
     ``constant_velocity``; ``min_parallax_px``; ``keyframe_baseline_ratio``; ``keyframe_min_track_ratio``;
     ``klt_config`` (:class:`KltConfig`); ``klt_refine`` "translation" (seed 003's LK) | "affine" (tracks refined
     by an affine window warp against the keyframe, :mod:`vo.rop.tracks`)."""
@@ -156,6 +163,10 @@ class RopEstimator(Estimator):
         self._n_coast = 0
         self._t_kf = None
         self._boot_scale = None       # cov="bootstrap": per-axis std ratio bootstrap / first order, last keyframe
+        self._chain = ReplicateChain(reps, np.random.default_rng([int(o["seed"]), 0xC4A1])) \
+            if o["cov"] == "chain_bootstrap" else None
+        self._reps = None             # this frame's bootstrap step replicates (chain_bootstrap)
+        self._ids = None              # this frame's track identities (KLT front-end)
         self._epoch = None            # (kind, T_initial, T_minimal, ropset) of the frame being solved
         self.epochs: list[EpochRecord] = []   # one per frame solved against its keyframe (Fig. 5 check)
 
@@ -174,7 +185,7 @@ class RopEstimator(Estimator):
         """{pair: (x_i, x_j)}, number of usable features, median stereo disparity (px) at the keyframe."""
         if self.klt is not None:
             v = self.klt.track(left, right, timings)
-            self._ok4 = v.ok4
+            self._ok4, self._ids = v.ok4, v.ids
             disp = np.median(np.linalg.norm(v.x1 - v.x2, axis=1)) * self.focal if len(v) else 0.0
             return {p: v.pair(p) for p in PAIRS}, int(v.ok4.sum()), float(disp)
         t0 = time.perf_counter()
@@ -263,7 +274,9 @@ class RopEstimator(Estimator):
         return res.T_c1_c3, cov, ""
 
     def _bootstrap_cov(self, pairs: dict, T_kf_c3: np.ndarray, cov_step: np.ndarray, fresh: bool, timings) -> np.ndarray:
-        """``cov="bootstrap"``: the step covariance from :func:`vo.rop.bootstrap_cov.bootstrap_step_cov`
+        """``cov="bootstrap"`` / ``"chain_bootstrap"``: the step covariance of the bootstrap replicates
+        (:func:`vo.rop.bootstrap_cov.bootstrap_step_replicates`; with the chain, at keyframe steps the
+        tracks' persistent multiplicities, and the replicates kept in ``self._reps`` for the chain)
         (RANSAC repeated per replicate; seeded by ``(seed, t_ns)``, so a rerun gives the same bytes) at
         keyframe steps (``fresh``; the ones that chain) and at the first ROP epoch; other frames scale
         the first-order ``cov_step`` per axis by the last bootstrap's std ratio (``D C D``).
@@ -273,11 +286,16 @@ class RopEstimator(Estimator):
         if fresh or self._boot_scale is None:
             t0 = time.perf_counter()
             o = self.o
-            C = bootstrap_step_cov(self._epoch[3], pairs, self._ok4 if self.klt is not None else None, T_kf_c3,
-                                   self.config, np.random.default_rng([int(o["seed"]), int(self._t_cur)]),
-                                   int(o["bootstrap_replicates"]), o["ransac_threshold_px"] / self.focal,
-                                   o["min_rop_inliers"], dict(max_iters=o["ransac_max_iters"], prob=o["ransac_prob"],
-                                                              method=o["ransac_method"]))
+            counts = None
+            if self._chain is not None and self.klt is not None and fresh:
+                counts = self._chain.counts(self._ids)
+            reps = bootstrap_step_replicates(
+                self._epoch[3], pairs, self._ok4 if self.klt is not None else None, counts, self.config,
+                np.random.default_rng([int(o["seed"]), int(self._t_cur)]), int(o["bootstrap_replicates"]),
+                o["ransac_threshold_px"] / self.focal, o["min_rop_inliers"],
+                dict(max_iters=o["ransac_max_iters"], prob=o["ransac_prob"], method=o["ransac_method"]))
+            C = replicate_cov(reps, T_kf_c3)
+            self._reps = reps if C is not None else None
             timings["adjust"] += (time.perf_counter() - t0) * 1e3
             if C is None:
                 return cov_step
@@ -357,6 +375,8 @@ class RopEstimator(Estimator):
             self.T_o_c0 = T_new
         self._last_motion = inv_T(T_prev) @ self.T_o_c0
         self._n_coast += 1
+        if self._chain is not None:
+            self._chain.reset(self.T_o_c0, self.cov)
         self._new_keyframe(left, right, timings, keep_tracks=False)
         self._lost = True
         msg += ("; rotation from the rotation-only fit" if R_1_3 is not None else "") + "; translation " + \
@@ -368,7 +388,7 @@ class RopEstimator(Estimator):
         t0 = time.perf_counter()
         timings = dict.fromkeys(STAGES, 0.0)
         left, right = _gray(frame.left), _gray(frame.right)
-        self._R_rot_only, self._epoch, self._t_cur = None, None, int(frame.t_ns)
+        self._R_rot_only, self._epoch, self._t_cur, self._reps = None, None, int(frame.t_ns), None
         if self._kf_imgs is None:
             n = self._new_keyframe(left, right, timings, keep_tracks=False)
             return self._result(frame, "init", n, 0, "first frame defines O", timings, t0)
@@ -382,11 +402,15 @@ class RopEstimator(Estimator):
             return self._fail(frame, left, right, status, n_feat, msg, timings, t0, self._R_rot_only)
         self._record_epoch(frame.t_ns, T_kf_c3)
         is_kf = self._is_keyframe(T_kf_c3, n_feat)
-        if self.o["cov"] == "bootstrap":
+        if self.o["cov"] in ("bootstrap", "chain_bootstrap"):
             cov_step = self._bootstrap_cov(pairs, T_kf_c3, cov_step, fresh=is_kf, timings=timings)
         T_prev = self.T_o_c0
         self.T_o_c0 = self.T_o_kf @ T_kf_c3
         self.cov = propagate_cov(self.cov_kf, self.T_o_kf, T_kf_c3, cov_step)
+        if is_kf and self._chain is not None:
+            T_reps = self._chain.advance(T_kf_c3, self._reps, cov_step)
+            self.cov = ReplicateChain.cov(T_reps, self.T_o_c0)
+            self._chain.commit(T_reps)
         self._last_motion, self._T_kf_cur, self._n_coast = inv_T(T_prev) @ self.T_o_c0, T_kf_c3, 0
         if self._lost:
             status, msg, self._lost = "reinit", ("re-initialised after a failed frame; " + msg).rstrip("; "), False

@@ -56,6 +56,7 @@ class FourView:
     A4: np.ndarray | None = None
     tmpl3: AffineTemplate | None = None   # keyframe windows at p1 (left) / p2 (right), refine="affine"
     tmpl4: AffineTemplate | None = None
+    ids: np.ndarray | None = None         # (N,) int64 track identities, kept across keyframes (chain bootstrap)
 
     def __len__(self) -> int:
         return len(self.p1)
@@ -108,6 +109,13 @@ class KltFourView:
         self.kf = None               # FourView-like arrays at the keyframe: p1, p2, x1, x2
         self.view = None             # the current FourView
         self._prev_left = None
+        self._next_id = 0            # identity of the next new track
+
+    def new_ids(self, n: int) -> np.ndarray:
+        """(n,) fresh track identities."""
+        ids = np.arange(self._next_id, self._next_id + n, dtype=np.int64)
+        self._next_id += n
+        return ids
 
     def _norm(self, p, k):
         cam = self.cams[k]
@@ -127,9 +135,10 @@ class KltFourView:
         t0 = cv2.getTickCount()
         v = self.view
         if keep_tracks and v is not None and len(v):
-            p1, p2, x1, x2 = v.p3[v.ok4], v.p4[v.ok4], v.x3[v.ok4], v.x4[v.ok4]
+            p1, p2, x1, x2, ids = v.p3[v.ok4], v.p4[v.ok4], v.x3[v.ok4], v.x4[v.ok4], v.ids[v.ok4]
         else:
             p1 = p2 = x1 = x2 = np.zeros((0, 2))
+            ids = np.zeros(0, np.int64)
         new = detect_grid(left, self.grid, p1, self.config)
         t1 = cv2.getTickCount()
         new_r, ok = self._stereo(left, right, new)
@@ -139,7 +148,9 @@ class KltFourView:
         new, new_r = new[ok], new_r[ok]
         p1, p2 = np.vstack([p1, new]), np.vstack([p2, new_r])
         x1, x2 = np.vstack([x1, self._norm(new, 0)]), np.vstack([x2, self._norm(new_r, 1)])
-        self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool))
+        ids = np.r_[ids, self.new_ids(len(new))]
+        self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool),
+                             ids=ids)
         self._prev_left, self._kf_imgs = left, (left, right)
         f = 1e3 / cv2.getTickFrequency()
         timings["detect"] = timings.get("detect", 0.0) + (t1 - t0) * f
@@ -156,7 +167,8 @@ class KltFourView:
         if t3 is not None and ok.any():
             p3[ok], A3[ok], ok[ok] = refine_to(t3.subset(ok), left, p3[ok], A3[ok])
         v = FourView(v.p1[ok], v.p2[ok], p3[ok], v.p4[ok], v.x1[ok], v.x2[ok], v.x3[ok], v.x4[ok], v.ok4[ok],
-                     A3[ok], A4[ok], None if t3 is None else t3.subset(ok), None if t4 is None else t4.subset(ok))
+                     A3[ok], A4[ok], None if t3 is None else t3.subset(ok), None if t4 is None else t4.subset(ok),
+                     v.ids[ok])
         t1 = cv2.getTickCount()
         v.p4, v.ok4 = self._stereo(left, right, v.p3, guess=v.p3 + (v.p2 - v.p1))
         if self.refine == "affine" and v.ok4.any():
