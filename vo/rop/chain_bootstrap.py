@@ -2,7 +2,7 @@
 
 Why: per keyframe step the track bootstrap of :mod:`vo.rop.bootstrap_cov` is right on rendered
 sequences (campus-short, 30 scenes at 3x rendering, 390 keyframe steps: per-axis std of the step
-error over its bootstrap std 0.94-1.07), but summing independent step covariances is not:
+error over its bootstrap std 0.88-1.05, docs/scripts/step_correlation.py), but summing independent step covariances is not:
 consecutive keyframe steps' errors correlate (lag-1 correlation 0.13-0.44 per axis, lag-2 up to
 0.31; docs/consistency.md). A track outlives a keyframe (its current ``p3, p4`` become the next
 keyframe's ``p1, p2``, :mod:`vo.rop.tracks`) and what is wrong with it (texture, rendering, LK
