@@ -163,6 +163,8 @@ class RopEstimator(Estimator):
         self._n_coast = 0
         self._t_kf = None
         self._boot_scale = None       # cov="bootstrap": per-axis std ratio bootstrap / first order, last keyframe
+        self._boot_len = None         # step length (m) at the last bootstrap
+        self._chained = False         # a keyframe step has been chained (start-up is over)
         self._chain = ReplicateChain(reps, np.random.default_rng([int(o["seed"]), 0xC4A1])) \
             if o["cov"] == "chain_bootstrap" else None
         self._reps = None             # this frame's bootstrap step replicates (chain_bootstrap)
@@ -278,12 +280,13 @@ class RopEstimator(Estimator):
         (:func:`vo.rop.bootstrap_cov.bootstrap_step_replicates`; with the chain, at keyframe steps the
         tracks' persistent multiplicities, and the replicates kept in ``self._reps`` for the chain)
         (RANSAC repeated per replicate; seeded by ``(seed, t_ns)``, so a rerun gives the same bytes) at
-        keyframe steps (``fresh``; the ones that chain) and at the first ROP epoch; other frames scale
+        keyframe steps (``fresh``; the ones that chain), at the first ROP epoch and, until the first
+        keyframe step is chained, whenever the step has doubled in length (:meth:`_startup_due`); other frames scale
         the first-order ``cov_step`` per axis by the last bootstrap's std ratio (``D C D``).
         Rotation-only epochs keep their covariance."""
         if self._epoch is None or self._epoch[0] != "rops":
             return cov_step
-        if fresh or self._boot_scale is None:
+        if fresh or self._boot_scale is None or self._startup_due(T_kf_c3):
             t0 = time.perf_counter()
             o = self.o
             counts = None
@@ -301,9 +304,17 @@ class RopEstimator(Estimator):
                 return cov_step
             d = np.sqrt(np.maximum(np.diag(cov_step), 1e-300))
             self._boot_scale = np.sqrt(np.diag(C)) / d
+            self._boot_len = float(np.linalg.norm(T_kf_c3[:3, 3]))
             return C
         D = np.diag(self._boot_scale)
         return D @ cov_step @ D
+
+    def _startup_due(self, T_kf_c3: np.ndarray) -> bool:
+        """Before the first keyframe step is chained the step covariance is the whole covariance, and
+        the bootstrap / first-order ratio changes as the parallax grows from < 1 px: bootstrap again
+        each time the step has doubled in length since the last bootstrap (about 3 extra per run)."""
+        return not self._chained and self._boot_len is not None and \
+            float(np.linalg.norm(T_kf_c3[:3, 3])) >= 2.0 * max(self._boot_len, 1e-6)
 
     def _rotation_only_step(self, R_1_3, parallax, n, disparity):
         cov = np.zeros((6, 6))
@@ -407,6 +418,7 @@ class RopEstimator(Estimator):
         T_prev = self.T_o_c0
         self.T_o_c0 = self.T_o_kf @ T_kf_c3
         self.cov = propagate_cov(self.cov_kf, self.T_o_kf, T_kf_c3, cov_step)
+        self._chained |= is_kf
         if is_kf and self._chain is not None:
             T_reps = self._chain.advance(T_kf_c3, self._reps, cov_step)
             self.cov = ReplicateChain.cov(T_reps, self.T_o_c0)
