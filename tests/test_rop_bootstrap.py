@@ -118,3 +118,27 @@ def test_rop_cov_bootstrap_changes_only_the_covariance(campus_short, cov):
         assert np.all(np.isfinite(f.cov)) and np.all(np.linalg.eigvalsh(f.cov + f.cov.T) >= 0)
     assert np.trace(boot[-1].cov[3:, 3:]) > np.trace(base[-1].cov[3:, 3:])
     assert sum(f.status == "keyframe" for f in boot) >= 1          # a step was chained
+
+
+def test_startup_bootstraps_again_as_the_step_doubles(campus_short, monkeypatch):
+    """Before the first keyframe step is chained the step covariance is the whole covariance; the
+    bootstrap is repeated each time the step has doubled in length (the bootstrap / first-order ratio
+    of a < 1 px parallax epoch does not hold at 0.5 m). Recorded: the step length at every bootstrap
+    of the first 44 frames (first keyframe at frame 34)."""
+    import vo.rop.estimator as E
+    from vo.dataset import open_dataset
+    from vo.estimators.runner import run_estimator
+    lengths, inner = [], E.RopEstimator._bootstrap_cov
+
+    def recording(self, pairs, T_kf_c3, cov_step, fresh, timings):
+        C = inner(self, pairs, T_kf_c3, cov_step, fresh, timings)
+        if self._boot_len is not None and (not lengths or lengths[-1][0] != self._boot_len):
+            lengths.append((self._boot_len, fresh))          # a bootstrap ran at this step length
+        return C
+
+    monkeypatch.setattr(E.RopEstimator, "_bootstrap_cov", recording)
+    run_estimator("rop", open_dataset(campus_short), options={"cov": "bootstrap", "bootstrap_replicates": 8},
+                  progress=False, max_frames=44)
+    startup = [length for length, fresh in lengths[:next(i for i, (_, f) in enumerate(lengths) if f)]]
+    assert len(startup) >= 3, lengths                          # the first ROP epoch and >= 2 refreshes
+    assert all(b >= 2.0 * a for a, b in zip(startup, startup[1:])), startup
