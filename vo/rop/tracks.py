@@ -9,6 +9,8 @@ LK seeded with the keyframe disparity ``p3 + (p2 - p1)``, again forward-backward
 checked (``p4``, valid where ``ok4``). The ROPs 1-3, 1-4, 2-3, 2-4 then all come from these tracks
 with no further matching. When the current frame becomes a keyframe its ``(p3, p4)`` become the
 new ``(p1, p2)`` (tracks without a valid ``p4`` are dropped) and new corners fill the empty cells.
+Every track has an identity (``FourView.ids``, kept across keyframes), which the chain bootstrap
+(:mod:`vo.rop.chain_bootstrap`) uses to resample a track the same way in every step it enters.
 
 ``refine="affine"`` (not in seed 003; see :mod:`vo.frontend.affine_lk`): every LK result is then
 refined by an affine window warp against the KEYFRAME template: ``p2`` from ``p1`` (stereo), ``p3``
