@@ -131,10 +131,10 @@ def test_startup_bootstraps_again_as_the_step_doubles(campus_short, monkeypatch)
     lengths, inner = [], E.RopEstimator._bootstrap_cov
 
     def recording(self, pairs, T_kf_c3, cov_step, fresh, timings):
-        C = inner(self, pairs, T_kf_c3, cov_step, fresh, timings)
+        out = inner(self, pairs, T_kf_c3, cov_step, fresh, timings)
         if self._boot_len is not None and (not lengths or lengths[-1][0] != self._boot_len):
             lengths.append((self._boot_len, fresh))          # a bootstrap ran at this step length
-        return C
+        return out
 
     monkeypatch.setattr(E.RopEstimator, "_bootstrap_cov", recording)
     run_estimator("rop", open_dataset(campus_short), options={"cov": "bootstrap", "bootstrap_replicates": 8},

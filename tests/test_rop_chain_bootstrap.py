@@ -73,9 +73,8 @@ def _predict(steps, rng, n_boot=40):
         C = replicate_cov(reps, T_step)
         cov_indep = propagate_cov(cov_indep, T, T_step, C)
         T = T @ T_step
-        T_reps = chain.advance(T_step, reps, C)
-        chain.commit(T_reps)
-    return ReplicateChain.cov(chain.T, T), cov_indep
+        cov_chain = chain.step(T_step, reps, C, T)
+    return cov_chain, cov_indep
 
 
 def test_chain_bootstrap_sees_errors_that_persist_across_steps():

@@ -40,9 +40,9 @@ def one_run(k: int, options: dict):
     step_cov, inner = {}, est._bootstrap_cov
 
     def recording(pairs, T, cov_step, fresh, timings):        # keep the keyframe steps' covariance
-        C = inner(pairs, T, cov_step, fresh, timings)
-        step_cov[est._t_cur] = C
-        return C
+        out = inner(pairs, T, cov_step, fresh, timings)
+        step_cov[est._t_cur] = out[0]
+        return out
 
     est._bootstrap_cov = recording
     T, kf, cov = [], [0], []

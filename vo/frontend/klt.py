@@ -139,6 +139,18 @@ def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,
     return p_right, ok
 
 
+class TrackIds:
+    """Source of persistent track identities: ``take(n)`` -> (n,) int64 ids, never reused."""
+
+    def __init__(self):
+        self._next = 0
+
+    def take(self, n: int) -> np.ndarray:
+        ids = np.arange(self._next, self._next + n, dtype=np.int64)
+        self._next += n
+        return ids
+
+
 class KltTracker:
     """Frame-to-frame KLT tracks with persistent integer ids on the left image.
 
@@ -151,7 +163,7 @@ class KltTracker:
         self.pts = np.zeros((0, 2))
         self.ids = np.zeros(0, np.int64)
         self.image = None
-        self._next_id = 0
+        self._ids = TrackIds()
 
     def track(self, img: np.ndarray) -> np.ndarray:
         """Track all points into ``img`` (forward-backward checked); drop failures. Returns the
@@ -168,8 +180,7 @@ class KltTracker:
     def detect(self, img: np.ndarray) -> np.ndarray:
         """Add one corner per empty non-border cell of ``img``; returns the new ids."""
         new = detect_in_empty_cells(img, self.grid, self.pts, self.config)
-        ids = np.arange(self._next_id, self._next_id + len(new), dtype=np.int64)
-        self._next_id += len(new)
+        ids = self._ids.take(len(new))
         self.pts = np.vstack([self.pts, new])
         self.ids = np.concatenate([self.ids, ids])
         self.image = img

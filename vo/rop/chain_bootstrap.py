@@ -33,9 +33,8 @@ def gaussian_pose_draws(T: np.ndarray, cov: np.ndarray, n: int, rng: np.random.G
     w, V = np.linalg.eigh(0.5 * (cov + cov.T))
     xi = rng.standard_normal((n, 6)) @ (V * np.sqrt(np.clip(w, 0.0, None))).T
     out = np.tile(np.asarray(T, float), (n, 1, 1))
-    for k in range(n):
-        out[k, :3, :3] = so3_exp(xi[k, :3]) @ T[:3, :3]
-        out[k, :3, 3] = T[:3, 3] + xi[k, 3:]
+    out[:, :3, :3] = so3_exp(xi[:, :3]).reshape(n, 3, 3) @ T[:3, :3]
+    out[:, :3, 3] = T[:3, 3] + xi[:, 3:]
     return out
 
 
@@ -62,23 +61,22 @@ class ReplicateChain:
         self._counts = kept
         return np.array([kept[i] for i in ids]).reshape(len(ids), self.n).T
 
-    def advance(self, T_step: np.ndarray, replicates, cov_step: np.ndarray) -> np.ndarray:
-        """(n,4,4) replicate poses after the step ``T_step`` (4,4): each replicate's own step from
-        ``replicates`` (list of n (4,4) or None; None: no replicates) or a Gaussian draw of ``cov_step``."""
+    def step(self, T_step: np.ndarray, replicates, cov_step: np.ndarray, T_hat: np.ndarray) -> np.ndarray:
+        """Compose every replicate with its own step: its entry of ``replicates`` (list of n (4,4) or
+        None; the list None: no replicates) or a Gaussian draw of ``cov_step`` about ``T_step`` (4,4).
+        -> (6,6) covariance of the new keyframe pose ``T_hat`` (4,4) (:meth:`cov` of the replicates)."""
         draws = gaussian_pose_draws(T_step, cov_step, self.n, self.rng)
         if replicates is not None:
             for b, T_b in enumerate(replicates):
                 if T_b is not None:
                     draws[b] = T_b
-        return self.T @ draws
+        self.T = self.T @ draws
+        return self.cov(self.T, T_hat)
 
     @staticmethod
     def cov(T_reps: np.ndarray, T_hat: np.ndarray) -> np.ndarray:
         """(6,6) covariance of ``pose_error_left(T_reps[b], T_hat)`` over the replicates (ddof 1)."""
         return np.cov(pose_error_left(T_reps, np.broadcast_to(T_hat, T_reps.shape)), rowvar=False, ddof=1)
-
-    def commit(self, T_reps: np.ndarray) -> None:
-        self.T = np.array(T_reps, float)
 
     def reset(self, T_hat: np.ndarray, cov: np.ndarray) -> None:
         """Restart the replicates as Gaussian draws about ``T_hat`` (after a failed frame: the tracks

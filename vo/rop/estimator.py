@@ -167,7 +167,6 @@ class RopEstimator(Estimator):
         self._chained = False         # a keyframe step has been chained (start-up is over)
         self._chain = ReplicateChain(reps, np.random.default_rng([int(o["seed"]), 0xC4A1])) \
             if o["cov"] == "chain_bootstrap" else None
-        self._reps = None             # this frame's bootstrap step replicates (chain_bootstrap)
         self._ids = None              # this frame's track identities (KLT front-end)
         self._epoch = None            # (kind, T_initial, T_minimal, ropset) of the frame being solved
         self.epochs: list[EpochRecord] = []   # one per frame solved against its keyframe (Fig. 5 check)
@@ -275,17 +274,17 @@ class RopEstimator(Estimator):
             return None, None, f"degenerate ROP geometry: {res.message or 'no redundancy'}"
         return res.T_c1_c3, cov, ""
 
-    def _bootstrap_cov(self, pairs: dict, T_kf_c3: np.ndarray, cov_step: np.ndarray, fresh: bool, timings) -> np.ndarray:
+    def _bootstrap_cov(self, pairs: dict, T_kf_c3: np.ndarray, cov_step: np.ndarray, fresh: bool, timings) -> tuple:
         """``cov="bootstrap"`` / ``"chain_bootstrap"``: the step covariance of the bootstrap replicates
         (:func:`vo.rop.bootstrap_cov.bootstrap_step_replicates`; with the chain, at keyframe steps the
-        tracks' persistent multiplicities, and the replicates kept in ``self._reps`` for the chain)
+        tracks' persistent multiplicities) -> ``(cov_step, replicates or None)``
         (RANSAC repeated per replicate; seeded by ``(seed, t_ns)``, so a rerun gives the same bytes) at
         keyframe steps (``fresh``; the ones that chain), at the first ROP epoch and, until the first
         keyframe step is chained, whenever the step has doubled in length (:meth:`_startup_due`); other frames scale
         the first-order ``cov_step`` per axis by the last bootstrap's std ratio (``D C D``).
         Rotation-only epochs keep their covariance."""
         if self._epoch is None or self._epoch[0] != "rops":
-            return cov_step
+            return cov_step, None
         if fresh or self._boot_scale is None or self._startup_due(T_kf_c3):
             t0 = time.perf_counter()
             o = self.o
@@ -298,16 +297,15 @@ class RopEstimator(Estimator):
                 o["ransac_threshold_px"] / self.focal, o["min_rop_inliers"],
                 dict(max_iters=o["ransac_max_iters"], prob=o["ransac_prob"], method=o["ransac_method"]))
             C = replicate_cov(reps, T_kf_c3)
-            self._reps = reps if C is not None else None
             timings["adjust"] += (time.perf_counter() - t0) * 1e3
             if C is None:
-                return cov_step
+                return cov_step, None
             d = np.sqrt(np.maximum(np.diag(cov_step), 1e-300))
             self._boot_scale = np.sqrt(np.diag(C)) / d
             self._boot_len = float(np.linalg.norm(T_kf_c3[:3, 3]))
-            return C
+            return C, reps
         D = np.diag(self._boot_scale)
-        return D @ cov_step @ D
+        return D @ cov_step @ D, None
 
     def _startup_due(self, T_kf_c3: np.ndarray) -> bool:
         """Before the first keyframe step is chained the step covariance is the whole covariance, and
@@ -399,7 +397,7 @@ class RopEstimator(Estimator):
         t0 = time.perf_counter()
         timings = dict.fromkeys(STAGES, 0.0)
         left, right = _gray(frame.left), _gray(frame.right)
-        self._R_rot_only, self._epoch, self._t_cur, self._reps = None, None, int(frame.t_ns), None
+        self._R_rot_only, self._epoch, self._t_cur = None, None, int(frame.t_ns)
         if self._kf_imgs is None:
             n = self._new_keyframe(left, right, timings, keep_tracks=False)
             return self._result(frame, "init", n, 0, "first frame defines O", timings, t0)
@@ -413,16 +411,15 @@ class RopEstimator(Estimator):
             return self._fail(frame, left, right, status, n_feat, msg, timings, t0, self._R_rot_only)
         self._record_epoch(frame.t_ns, T_kf_c3)
         is_kf = self._is_keyframe(T_kf_c3, n_feat)
+        reps = None
         if self.o["cov"] in ("bootstrap", "chain_bootstrap"):
-            cov_step = self._bootstrap_cov(pairs, T_kf_c3, cov_step, fresh=is_kf, timings=timings)
+            cov_step, reps = self._bootstrap_cov(pairs, T_kf_c3, cov_step, fresh=is_kf, timings=timings)
         T_prev = self.T_o_c0
         self.T_o_c0 = self.T_o_kf @ T_kf_c3
         self.cov = propagate_cov(self.cov_kf, self.T_o_kf, T_kf_c3, cov_step)
         self._chained |= is_kf
         if is_kf and self._chain is not None:
-            T_reps = self._chain.advance(T_kf_c3, self._reps, cov_step)
-            self.cov = ReplicateChain.cov(T_reps, self.T_o_c0)
-            self._chain.commit(T_reps)
+            self.cov = self._chain.step(T_kf_c3, reps, cov_step, self.T_o_c0)
         self._last_motion, self._T_kf_cur, self._n_coast = inv_T(T_prev) @ self.T_o_c0, T_kf_c3, 0
         if self._lost:
             status, msg, self._lost = "reinit", ("re-initialised after a failed frame; " + msg).rstrip("; "), False

@@ -34,7 +34,7 @@ import numpy as np
 from vo.errors import VoError
 from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
 from vo.frontend.grid import Grid
-from vo.frontend.klt import KltConfig
+from vo.frontend.klt import KltConfig, TrackIds
 from vo.frontend.stereo import epipolar_mask
 from vo.rop.griddetect import detect_grid
 from vo.rop.relative import normalized_points
@@ -108,16 +108,9 @@ class KltFourView:
         self.cams = rig.cameras[:2]
         cam = self.cams[0]
         self.grid = Grid(cam.width, cam.height, config.cell)
-        self.kf = None               # FourView-like arrays at the keyframe: p1, p2, x1, x2
         self.view = None             # the current FourView
         self._prev_left = None
-        self._next_id = 0            # identity of the next new track
-
-    def new_ids(self, n: int) -> np.ndarray:
-        """(n,) fresh track identities."""
-        ids = np.arange(self._next_id, self._next_id + n, dtype=np.int64)
-        self._next_id += n
-        return ids
+        self._ids = TrackIds()       # identities of new tracks
 
     def _norm(self, p, k):
         cam = self.cams[k]
@@ -150,7 +143,7 @@ class KltFourView:
         new, new_r = new[ok], new_r[ok]
         p1, p2 = np.vstack([p1, new]), np.vstack([p2, new_r])
         x1, x2 = np.vstack([x1, self._norm(new, 0)]), np.vstack([x2, self._norm(new_r, 1)])
-        ids = np.r_[ids, self.new_ids(len(new))]
+        ids = np.r_[ids, self._ids.take(len(new))]
         self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool),
                              ids=ids)
         self._prev_left, self._kf_imgs = left, (left, right)
