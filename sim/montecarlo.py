@@ -75,6 +75,23 @@ def pose_errors(gt_T_o_c0: np.ndarray, est_T_o_c0: np.ndarray) -> tuple:
     return e[:, :3], e[:, 3:]
 
 
+def end_errors(runs_data: dict) -> tuple:
+    """Per-run error of the last pose, ``runs_data`` as :func:`consistency` fills it (or ``runs.npz``):
+    rotation (R,3) rad and position (R,3) m, left perturbation in the frame of each run's first true
+    camera pose (x right, y down, z forward)."""
+    T_est = runs_data["T_est"]
+    T_true = np.asarray(runs_data["T_true"])
+    if T_true.ndim == 3:                                   # vary="noise": one truth for all runs
+        T_true = np.broadcast_to(T_true, (len(T_est),) + T_true.shape)
+    rot, pos = [], []
+    for T_t, T_e in zip(T_true, T_est):
+        n = min(len(T_t), len(T_e))
+        e_rot, e_pos = pose_errors(np.linalg.inv(T_t[0]) @ T_t[:n], np.asarray(T_e)[:n])
+        rot.append(e_rot[-1])
+        pos.append(e_pos[-1])
+    return np.array(rot), np.array(pos)
+
+
 @dataclass
 class ConsistencyResult:
     scenario: str

@@ -111,3 +111,18 @@ def test_tracker_keeps_ids_and_correspondences():
         assert np.linalg.norm(p - before[i] - [-1.5, 0.5]) < 0.05
     p_a, p_b = correspondences(img0, img1, "klt")
     assert len(p_a) > 30 and np.abs(p_b - p_a - [-1.5, 0.5]).max() < 0.05
+
+
+def test_klt_config_from_option_takes_a_mapping_and_names_bad_fields():
+    import pytest
+    from vo.errors import VoError
+    assert KltConfig.from_option(None) == KltConfig()
+    cfg = KltConfig(win=11)
+    assert KltConfig.from_option(cfg) is cfg
+    assert KltConfig.from_option({"win": 11, "levels": 3}) == KltConfig(win=11, levels=3)
+    with pytest.raises(VoError, match=r"rop.klt_config: unknown field\(s\) \['wn'\]; valid: cell, .*win"):
+        KltConfig.from_option({"wn": 11}, "rop.klt_config")
+    with pytest.raises(VoError, match="rop.klt_config: 11; expected a mapping"):
+        KltConfig.from_option(11, "rop.klt_config")
+    with pytest.raises(VoError, match="KltConfig.win: invalid value 10"):
+        KltConfig.from_option({"win": 10})

@@ -2,23 +2,18 @@
 
 Usage: .venv/bin/python docs/scripts/mc_end_errors.py OUT_DIR [OUT_DIR ...]
 Reads OUT_DIR/runs.npz; per run, the error of the last pose (left perturbation, camera axes x right,
-y down, z forward) relative to the run's own first true pose; prints mean +- standard error and std
-over the runs, and the rms end-position error."""
+y down, z forward) relative to the run's own first true pose (:func:`sim.montecarlo.end_errors`);
+prints mean +- standard error and std over the runs, and the rms end-position error."""
 import sys
 
 import numpy as np
 
-from sim.montecarlo import pose_errors
+from sim.montecarlo import end_errors
 
 np.set_printoptions(precision=3, suppress=True, linewidth=200)
 for path in sys.argv[1:]:
-    runs = np.load(f"{path}/runs.npz")
-    rot, pos = [], []
-    for T_true, T_est in zip(runs["T_true"], runs["T_est"]):
-        e_rot, e_pos = pose_errors(np.linalg.inv(T_true[0]) @ T_true, T_est)
-        rot.append(e_rot[-1])
-        pos.append(e_pos[-1])
-    rot, pos = np.array(rot) * 1e3, np.array(pos) * 1e3
+    rot, pos = end_errors(dict(np.load(f"{path}/runs.npz")))
+    rot, pos = rot * 1e3, pos * 1e3
     n = len(rot)
     print(f"{path}: {n} runs")
     print("  end rotation (mrad) mean", rot.mean(0), "+-", rot.std(0) / np.sqrt(n), "std", rot.std(0))

@@ -4,6 +4,11 @@ For ``R`` Monte-Carlo runs of a ``d``-dimensional error ``e`` with claimed covar
 ``NEES = e^T P^-1 e``; a consistent estimator has ``E[NEES] = d``, and the run-averaged NEES times
 ``R`` is chi-square with ``R d`` degrees of freedom, so the two-sided 95% interval of the run
 average is ``chi2.ppf([0.025, 0.975], R d) / R``.
+
+That interval assumes the claimed ``P`` is exact. When ``P`` is itself a sample covariance of ``n``
+draws (a bootstrap's replicates), even an estimator whose draws come from the true error distribution
+scores higher: :func:`expected_nees_sample_cov` (Hotelling's T^2 mean) and
+:func:`inside_fraction_sample_cov` give the ideal figures to compare a bootstrap covariance with.
 """
 from __future__ import annotations
 
@@ -66,3 +71,30 @@ def nees_split(err: np.ndarray, cov: np.ndarray) -> tuple:
     bias = nees(m, cov.mean(axis=0))
     spread = nees(err - m[None], cov).mean(axis=0) * runs / max(runs - 1, 1)
     return bias, spread
+
+
+def expected_nees_sample_cov(dof: int, n_samples: int) -> float:
+    """``E[e^T S^-1 e]`` for ``e ~ N(0, P)`` and ``S`` an independent sample covariance (ddof 1) of
+    ``n`` draws of ``N(0, P)``: ``e^T S^-1 e ~ d (n - 1) / (n - d) F(d, n - d)`` (Hotelling's T^2),
+    whose mean is ``d (n - 1) / (n - d - 2)``; 3.34 for ``d = 3, n = 40``. Needs ``n > d + 2``."""
+    if n_samples <= dof + 2:
+        raise ValueError(f"expected_nees_sample_cov: n_samples {n_samples} must exceed dof + 2 = {dof + 2}")
+    return dof * (n_samples - 1) / (n_samples - dof - 2)
+
+
+def inside_fraction_sample_cov(dof: int, n_samples: int, runs: int, rng: np.random.Generator,
+                               trials: int = 4000, confidence: float = 0.95) -> float:
+    """Monte-Carlo: the fraction of timestamps whose ``runs``-averaged NEES falls inside the chi-square
+    interval (:func:`chi2_interval`) for an ideal estimator whose covariance is the sample covariance
+    of ``n_samples`` exact draws (``trials`` independent timestamps). The best a bootstrap with that
+    many replicates can score against the issue's interval."""
+    lo, hi = chi2_interval(dof, runs, confidence)
+    inside = 0
+    for k in range(0, trials, 500):                     # chunks keep the (t, R, n, d) draws small
+        t = min(500, trials - k)
+        e = rng.standard_normal((t, runs, dof))
+        z = rng.standard_normal((t, runs, n_samples, dof))
+        z -= z.mean(axis=2, keepdims=True)
+        mean = nees(e, np.einsum("trni,trnj->trij", z, z) / (n_samples - 1)).mean(axis=1)
+        inside += int(np.sum((mean >= lo) & (mean <= hi)))
+    return inside / trials

@@ -6,7 +6,7 @@ Pyramid levels: seed 003 says "pyramid level 4"; OpenCV's ``maxLevel`` is the in
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import cv2
 import numpy as np
@@ -58,6 +58,22 @@ class KltConfig:
             if not good:
                 raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
                               "(cell>=8, odd win>=3, levels>=1, 0<=max_empty_fraction<=1, thresholds > 0)")
+
+    @classmethod
+    def from_option(cls, value, where: str = "klt_config") -> "KltConfig":
+        """An estimator's ``klt_config`` option -> :class:`KltConfig`: ``None`` (the defaults), a
+        :class:`KltConfig`, or a mapping of field names (``--opt 'klt_config={win: 11}'``)."""
+        if value is None:
+            return cls()
+        if isinstance(value, cls):
+            return value
+        if not isinstance(value, dict):
+            raise VoError(f"{where}: {value!r}; expected a mapping of KltConfig fields, e.g. {{win: 11}}")
+        names = [f.name for f in fields(cls)]
+        bad = sorted(set(value) - set(names))
+        if bad:
+            raise VoError(f"{where}: unknown field(s) {bad}; valid: {', '.join(names)}")
+        return cls(**value)
 
     @property
     def max_level(self) -> int:

@@ -123,7 +123,7 @@ class RopEstimator(Estimator):
     ``cov`` "propagated"|"joint"|"bootstrap"|"chain_bootstrap"|"apost"|"apriori", ``bootstrap_replicates``,
     ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
     ``constant_velocity``; ``min_parallax_px``; ``keyframe_baseline_ratio``; ``keyframe_min_track_ratio``;
-    ``klt_config`` (:class:`KltConfig`); ``klt_refine`` "translation" (seed 003's LK) | "affine" (tracks refined
+    ``klt_config`` (:class:`KltConfig` or a mapping of its fields, ``--opt 'klt_config={win: 11}'``); ``klt_refine`` "translation" (seed 003's LK) | "affine" (tracks refined
     by an affine window warp against the keyframe, :mod:`vo.rop.tracks`)."""
 
     name = "rop"
@@ -151,7 +151,8 @@ class RopEstimator(Estimator):
         self.config = AdjustmentConfig(
             sigma_rot_rad=None if o["sigma_rot_deg"] is None else np.radians(float(o["sigma_rot_deg"])),
             sigma_dir_rad=None if o["sigma_dir_deg"] is None else np.radians(float(o["sigma_dir_deg"])))
-        self.klt = KltFourView(rig, o["klt_config"] or KltConfig(), o["klt_refine"]) if o["frontend"] == "klt" else None
+        self.klt = KltFourView(rig, KltConfig.from_option(o["klt_config"], "rop.klt_config"),
+                                o["klt_refine"]) if o["frontend"] == "klt" else None
         self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
         self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
         self._kf_imgs = None          # (left, right) of the keyframe; None before the first frame
