@@ -87,3 +87,21 @@ def test_nees_with_a_sample_covariance_matches_hotelling():
     assert inside_fraction_sample_cov(3, 100, 30, np.random.default_rng(2)) >= 0.91
     with pytest.raises(ValueError, match="n_samples 5 must exceed"):
         expected_nees_sample_cov(3, 5)
+
+
+def test_end_errors_reads_the_last_pose_error_in_the_first_camera_frame():
+    """A run whose estimate is the truth moved by a known last-pose error, on a truth that does not
+    start at the origin: end_errors returns that error (camera-0 frame of the run), for one truth
+    shared by all runs (vary noise) and one truth per run (vary scene)."""
+    from sim.montecarlo import end_errors
+    T0 = make_T(so3_exp([0.0, 0.3, 0.0]), [5.0, -2.0, 1.0])
+    gt = np.array([T0 @ make_T(np.eye(3), [0.0, 0.0, 0.1 * k]) for k in range(5)])
+    rel = np.linalg.inv(T0) @ gt
+    e_rot, e_pos = np.array([1e-3, -2e-3, 3e-3]), np.array([0.01, -0.02, 0.03])
+    est = rel.copy()
+    est[-1] = make_T(so3_exp(-e_rot) @ rel[-1, :3, :3], rel[-1, :3, 3] - e_pos)
+    for T_true in (gt, np.array([gt, gt])):
+        rot, pos = end_errors(dict(T_true=T_true, T_est=np.array([est, est])))
+        assert rot.shape == pos.shape == (2, 3)
+        np.testing.assert_allclose(rot, [e_rot, e_rot], atol=1e-12)
+        np.testing.assert_allclose(pos, [e_pos, e_pos], atol=1e-12)
