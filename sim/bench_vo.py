@@ -24,8 +24,9 @@ class VoBenchRow:
 
 
 def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp", "orb-pnp"),
-                     one_core: bool = True, progress: bool = True, max_frames=None) -> list:
-    """Run every estimator on every scenario (datasets cached) -> list of :class:`VoBenchRow`."""
+                     one_core: bool = True, progress: bool = True, max_frames=None, options=None) -> list:
+    """Run every estimator on every scenario (datasets cached) -> list of :class:`VoBenchRow`;
+    ``options`` (estimator options, as ``--opt``) go to every estimator."""
     import cv2
     from sim.scenarios import cached_dataset, get_scenario
     from vo.dataset import open_dataset
@@ -37,7 +38,7 @@ def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp
     for scenario in scenarios:
         ds = open_dataset(cached_dataset(get_scenario(scenario), progress=progress))
         for name in estimators:
-            res = run_and_evaluate(ds, name, progress=progress, max_frames=max_frames)
+            res = run_and_evaluate(ds, name, options=options, progress=progress, max_frames=max_frames)
             ev = res.evaluation
             rmsd = tuple(float(v) for v in ev.gcps.rmsd_xyz) if ev.gcps is not None else (np.nan,) * 3
             rows.append(VoBenchRow(scenario, name, float(ev.drift.gt_length_m), float(ev.drift.drift_ratio_pct),

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from sim.cli.options import echo_json, json_option
+from sim.cli.options import echo_json, json_option, opt_option, parse_opts
 
 
 @click.group("bench")
@@ -38,11 +38,13 @@ def render(scenes, pairs, shadows, as_json):
 @click.option("--all-cores", is_flag=True, help="Let OpenCV use every core (default: one thread).")
 @click.option("--max-frames", type=int, default=None)
 @click.option("--no-progress", is_flag=True)
+@opt_option
 @json_option
-def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, as_json):
+def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, estimator_opts, as_json):
     """Drift ratio, GCP RMSD, ATE and ms per frame per stage of each estimator on each scenario."""
     from sim.bench_vo import bench_estimators, format_rows
     rows = bench_estimators(tuple(scenarios) or ("campus", "indoor"),
                             tuple(estimators) or ("rop", "klt-pnp", "orb-pnp"), one_core=not all_cores,
-                            progress=not (no_progress or as_json), max_frames=max_frames)
+                            progress=not (no_progress or as_json), max_frames=max_frames,
+                            options=parse_opts(estimator_opts))
     echo_json([r.to_dict() for r in rows]) if as_json else click.echo(format_rows(rows))
