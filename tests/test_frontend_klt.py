@@ -126,3 +126,17 @@ def test_klt_config_from_option_takes_a_mapping_and_names_bad_fields():
         KltConfig.from_option(11, "rop.klt_config")
     with pytest.raises(VoError, match="KltConfig.win: invalid value 10"):
         KltConfig.from_option({"win": 10})
+
+
+def test_estimators_take_klt_config_as_a_mapping_and_name_themselves_in_errors():
+    """``--opt 'klt_config={win: 11}'`` reaches each KLT-using estimator; a bad field names the estimator."""
+    import pytest
+    from rigs.presets import get_rig
+    from vo.errors import VoError
+    from vo.estimators.registry import make_estimator
+    rig = get_rig("cart27")
+    assert make_estimator("rop", rig, klt_config={"win": 11}).klt.config.win == 11
+    for name in ("klt-pnp", "orb-pnp"):
+        assert make_estimator(name, rig, klt_config={"win": 11}).klt_config.win == 11
+        with pytest.raises(VoError, match=rf"^{name}.klt_config: unknown field"):
+            make_estimator(name, rig, klt_config={"wn": 11})

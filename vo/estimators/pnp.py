@@ -124,7 +124,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         if frontend != "klt":
             raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
         super().__init__(rig, **options)
-        self.klt_config = KltConfig.from_option(klt_config, "klt-pnp.klt_config")
+        self.klt_config = KltConfig.from_option(klt_config, f"{self.name}.klt_config")
         cam = rig.cameras[0]
         self.tracker = KltTracker(cam.width, cam.height, self.klt_config)
         self.landmarks: dict = {}        # track id -> p_o (3,)
@@ -196,7 +196,7 @@ class OrbPnpEstimator(_StereoPnpEstimator):
         super().__init__(rig, **options)
         self.frontend = frontend
         self.desc_config = descriptor_config or DescriptorConfig()
-        self.klt_config = KltConfig.from_option(klt_config, "klt-pnp.klt_config")
+        self.klt_config = KltConfig.from_option(klt_config, f"{self.name}.klt_config")
         cam = rig.cameras[0]
         self.grid = Grid(cam.width, cam.height, self.klt_config.cell)
         self.kf_p_o = np.zeros((0, 3))
