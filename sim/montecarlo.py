@@ -75,16 +75,19 @@ def pose_errors(gt_T_o_c0: np.ndarray, est_T_o_c0: np.ndarray) -> tuple:
     return e[:, :3], e[:, 3:]
 
 
+def truth_per_run(T_true, runs: int) -> np.ndarray:
+    """(R,N,4,4) truth: ``T_true`` (N,4,4) shared by all runs (``vary="noise"``) or already (R,N,4,4)."""
+    T_true = np.asarray(T_true)
+    return np.broadcast_to(T_true[None], (runs,) + T_true.shape) if T_true.ndim == 3 else T_true
+
+
 def end_errors(runs_data: dict) -> tuple:
     """Per-run error of the last pose, ``runs_data`` as :func:`consistency` fills it (or ``runs.npz``):
     rotation (R,3) rad and position (R,3) m, left perturbation in the frame of each run's first true
     camera pose (x right, y down, z forward)."""
     T_est = runs_data["T_est"]
-    T_true = np.asarray(runs_data["T_true"])
-    if T_true.ndim == 3:                                   # vary="noise": one truth for all runs
-        T_true = np.broadcast_to(T_true, (len(T_est),) + T_true.shape)
     rot, pos = [], []
-    for T_t, T_e in zip(T_true, T_est):
+    for T_t, T_e in zip(truth_per_run(runs_data["T_true"], len(T_est)), T_est):
         n = min(len(T_t), len(T_e))
         e_rot, e_pos = pose_errors(np.linalg.inv(T_t[0]) @ T_t[:n], np.asarray(T_e)[:n])
         rot.append(e_rot[-1])
@@ -155,8 +158,7 @@ def evaluate_runs(scenario: str, estimator: str, gt_T_o_c0: np.ndarray, t_s: np.
     n = min(len(e) for e in est_T)
     T_est = np.array([np.asarray(e)[:n] for e in est_T])
     P = np.array([np.asarray(c)[:n] for c in covs])
-    gt = np.asarray(gt_T_o_c0)
-    gt = np.broadcast_to(gt[None], (len(T_est),) + gt.shape) if gt.ndim == 3 else gt   # (R, N, 4, 4)
+    gt = truth_per_run(gt_T_o_c0, len(T_est))                                         # (R, N, 4, 4)
     errs = [pose_errors(g[:n], T) for g, T in zip(gt, T_est)]
     e_rot, e_pos = np.array([e[0] for e in errs]), np.array([e[1] for e in errs])
     from vo.errorprop.nees import nees, nees_split, summarize_nees
