@@ -105,3 +105,13 @@ def test_end_errors_reads_the_last_pose_error_in_the_first_camera_frame():
         assert rot.shape == pos.shape == (2, 3)
         np.testing.assert_allclose(rot, [e_rot, e_rot], atol=1e-12)
         np.testing.assert_allclose(pos, [e_pos, e_pos], atol=1e-12)
+
+
+def test_nees_of_a_singular_covariance_is_infinite_off_its_range():
+    """A claimed zero variance: an error inside the covariance's range scores as usual (1 + 4/4 = 2),
+    an error along a zero-variance axis scores inf, a zero error with a zero covariance scores 0."""
+    from vo.errorprop.nees import nees
+    cov = np.stack([np.diag([1.0, 4.0, 0.0]), np.diag([1.0, 4.0, 0.0]), np.zeros((3, 3))])
+    err = np.array([[1.0, 2.0, 0.0], [1.0, 0.0, 1e-3], [0.0, 0.0, 0.0]])
+    np.testing.assert_allclose(nees(err, cov), [2.0, np.inf, 0.0])
+    np.testing.assert_allclose(nees(np.array([1.0, 2.0, 3.0]), np.diag([1.0, 4.0, 9.0])), 3.0)

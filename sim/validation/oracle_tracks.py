@@ -61,7 +61,7 @@ class OracleFourView(KltFourView):
             self.record.append(dict(k=self.k, kf=True, p1=v.p1, p2_klt=v.p2, p2=p2, ok=ok))
         p1, X_w = self._noisy(v.p1[ok]), X_w[ok]
         p2 = self._noisy(p2[ok]) if "p2" in self.exact else v.p2[ok]
-        x1, x2 = self._norm(p1, 0), self._norm(p2, 1)
+        x1, x2 = self.normalize(p1, 0), self.normalize(p2, 1)
         self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool),
                              ids=v.ids[ok])
         self._X = {tuple(p): X for p, X in zip(p1, X_w)}
@@ -76,11 +76,11 @@ class OracleFourView(KltFourView):
             self.record.append(dict(k=self.k, kf=False, p1=v.p1, p3_klt=v.p3, p3=p3, p4_klt=v.p4, p4=p4, ok4=v.ok4))
         if "p3" in self.exact:
             v.p3 = self._noisy(p3)
-            v.x3 = self._norm(v.p3, 0)
+            v.x3 = self.normalize(v.p3, 0)
         if "p4" in self.exact:
             v.p4 = np.where(v.ok4[:, None], self._noisy(p4), v.p4)
             v.x4 = np.zeros_like(v.p4)
-            v.x4[v.ok4] = self._norm(v.p4[v.ok4], 1)
+            v.x4[v.ok4] = self.normalize(v.p4[v.ok4], 1)
         self.view = v
         return v
 

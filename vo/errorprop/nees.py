@@ -19,10 +19,19 @@ from scipy.stats import chi2
 
 
 def nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """``err`` (..., d), ``cov`` (..., d, d) -> NEES (...)."""
+    """``err`` (..., d), ``cov`` (..., d, d) -> NEES (...). A singular ``cov`` (a claimed zero variance,
+    e.g. ``rop --opt cov=noise_chain --opt image_noise_sigma=0``) gives ``inf`` where the error leaves
+    its range, not an exception."""
     err = np.asarray(err, dtype=float)
-    sol = np.linalg.solve(cov, err[..., None])[..., 0]
-    return np.einsum("...i,...i->...", err, sol)
+    try:
+        sol = np.linalg.solve(cov, err[..., None])[..., 0]
+        return np.einsum("...i,...i->...", err, sol)
+    except np.linalg.LinAlgError:
+        w, V = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, -1, -2)))
+        proj = np.einsum("...ji,...j->...i", V, err) ** 2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            terms = np.where(w > 1e-300, proj / np.where(w > 1e-300, w, 1.0), np.where(proj > 0, np.inf, 0.0))
+        return terms.sum(axis=-1)
 
 
 def chi2_interval(dof: int, runs: int, confidence: float = 0.95) -> tuple:

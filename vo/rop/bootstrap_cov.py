@@ -56,7 +56,7 @@ def _draw_rows(rng: np.random.Generator, ok4, sizes: dict) -> dict:
     return _rows_of(rng.integers(0, len(ok4), len(ok4)), ok4, sizes)
 
 
-def _replicate(ropset: RopSet, tracks: dict, rows: dict, config: AdjustmentConfig, rng: np.random.Generator,
+def replicate_step(ropset: RopSet, tracks: dict, rows: dict, config: AdjustmentConfig, rng: np.random.Generator,
                threshold: float, min_inliers: int, ransac: dict | None):
     """Adjusted ``T_c1_c3`` (4,4) of one bootstrap draw ``rows`` (pair -> row indices), or None when
     fewer than 3 ROPs survive or the adjustment degenerates."""
@@ -95,7 +95,7 @@ def bootstrap_step_replicates(ropset: RopSet, tracks: dict, ok4, counts, config:
                               rng: np.random.Generator, n_boot: int = 40, threshold: float = 1.0 / 500,
                               min_inliers: int = 20, ransac: dict = None) -> list:
     """Adjusted ``T_c1_c3`` of each bootstrap replicate: list of (4,4) arrays, None for a failed one
-    (:func:`_replicate`). ``counts`` (B,N) integers: replicate ``b`` takes track ``i`` ``counts[b, i]``
+    (:func:`replicate_step`). ``counts`` (B,N) integers: replicate ``b`` takes track ``i`` ``counts[b, i]``
     times (e.g. Poisson(1) multiplicities kept per track identity, :mod:`vo.rop.chain_bootstrap`;
     needs ``ok4``); None: ``n_boot`` draws of :func:`_draw_rows`. Other arguments as
     :func:`bootstrap_step_cov`."""
@@ -105,7 +105,7 @@ def bootstrap_step_replicates(ropset: RopSet, tracks: dict, ok4, counts, config:
     else:
         base = np.arange(len(ok4))
         draws = (_rows_of(np.repeat(base, c), ok4, sizes) for c in np.asarray(counts, int))
-    return [_replicate(ropset, tracks, rows, config, rng, threshold, min_inliers, ransac) for rows in draws]
+    return [replicate_step(ropset, tracks, rows, config, rng, threshold, min_inliers, ransac) for rows in draws]
 
 
 def replicate_cov(replicates: list, T_ref: np.ndarray):

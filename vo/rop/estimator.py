@@ -67,11 +67,14 @@ from vo.dataset.types import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import Estimator, FrameResult
 from vo.frontend.klt import KltConfig
+from vo.frontend.lk_noise import lk_noise_cov
+from vo.frontend.noise_level import estimate_noise_sigma
 from vo.geometry import inv_T, make_T, rotation_angle, skew
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.bootstrap_cov import MIN_REPLICATES, bootstrap_step_replicates, replicate_cov
 from vo.rop.chain_bootstrap import ReplicateChain
+from vo.rop.noise_chain import NoiseChain, noise_step_replicates
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops, rotation_candidates
 from vo.rop.joint_cov import with_pixel_factors
@@ -80,12 +83,13 @@ from vo.rop.ropset import PAIRS, WEIGHTINGS, RopSet, exact_ropset
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 
-COVS = ("propagated", "apost", "apriori", "joint", "bootstrap", "chain_bootstrap")
+COVS = ("propagated", "apost", "apriori", "joint", "bootstrap", "chain_bootstrap", "noise_chain")
+BOOTSTRAPS = ("bootstrap", "chain_bootstrap", "noise_chain")
 DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac", ransac_max_iters=200,
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
                 cov="propagated", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=True,
                 min_parallax_px=0.75, max_rop_rotation_deg=1.0, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
-                klt_config=None, klt_refine="translation", bootstrap_replicates=40)
+                klt_config=None, klt_refine="translation", bootstrap_replicates=40, image_noise_sigma=None)
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MAX_COAST_FRAMES = 10        # constant-velocity extrapolation limit (then the translation is held)
 TWIN_DEG = 1.0               # 2-2 ties closer than this keep all four ROPs (never, at the default 1 deg gate)
@@ -102,6 +106,16 @@ def propagate_cov(cov_old: np.ndarray, T_o_c1: np.ndarray, T_c1_c3: np.ndarray, 
     B[:3, :3] = B[3:, 3:] = R
     C = A @ cov_old @ A.T + B @ cov_step @ B.T
     return 0.5 * (C + C.T)
+
+
+def _check_noise_options(o: dict) -> None:
+    """``cov="noise_chain"`` needs the KLT front-end (its footprints are LK's); ``image_noise_sigma``
+    None (estimated from the images) or a finite number >= 0 (grey levels)."""
+    if o["cov"] == "noise_chain" and o["frontend"] != "klt":
+        raise EstimatorError(f"rop.cov: 'noise_chain' needs frontend='klt' (LK footprints), got frontend={o['frontend']!r}")
+    s = o["image_noise_sigma"]
+    if s is not None and (isinstance(s, bool) or not isinstance(s, (int, float)) or not np.isfinite(s) or s < 0):
+        raise EstimatorError(f"rop.image_noise_sigma: {s!r}; must be None (estimated) or a finite number >= 0 (grey levels)")
 
 
 def apriori_sigmas(ropset: RopSet) -> tuple:
@@ -143,6 +157,7 @@ class RopEstimator(Estimator):
         reps = o["bootstrap_replicates"]
         if isinstance(reps, bool) or not isinstance(reps, (int, np.integer)) or reps < MIN_REPLICATES:
             raise EstimatorError(f"rop.bootstrap_replicates: {reps!r}; must be an integer >= {MIN_REPLICATES}")
+        _check_noise_options(o)
         self.o = o
         self.cams = rig.cameras[:2]
         self.focal = float(np.mean([c.fx for c in self.cams] + [c.fy for c in self.cams]))
@@ -166,8 +181,9 @@ class RopEstimator(Estimator):
         self._boot_scale = None       # cov="bootstrap": per-axis std ratio bootstrap / first order, last keyframe
         self._boot_len = None         # step length (m) at the last bootstrap
         self._chained = False         # a keyframe step has been chained (start-up is over)
-        self._chain = ReplicateChain(reps, np.random.default_rng([int(o["seed"]), 0xC4A1])) \
-            if o["cov"] == "chain_bootstrap" else None
+        chain = {"chain_bootstrap": ReplicateChain, "noise_chain": NoiseChain}.get(o["cov"])
+        self._chain = chain(reps, np.random.default_rng([int(o["seed"]), 0xC4A1])) if chain else None
+        self._cur_imgs = None         # (left, right) of the frame being solved (cov="noise_chain")
         self._ids = None              # this frame's track identities (KLT front-end)
         self._epoch = None            # (kind, T_initial, T_minimal, ropset) of the frame being solved
         self.epochs: list[EpochRecord] = []   # one per frame solved against its keyframe (Fig. 5 check)
@@ -288,15 +304,7 @@ class RopEstimator(Estimator):
             return cov_step, None
         if fresh or self._boot_scale is None or self._startup_due(T_kf_c3):
             t0 = time.perf_counter()
-            o = self.o
-            counts = None
-            if self._chain is not None and self.klt is not None and fresh:
-                counts = self._chain.counts(self._ids)
-            reps = bootstrap_step_replicates(
-                self._epoch[3], pairs, self._ok4 if self.klt is not None else None, counts, self.config,
-                np.random.default_rng([int(o["seed"]), int(self._t_cur)]), int(o["bootstrap_replicates"]),
-                o["ransac_threshold_px"] / self.focal, o["min_rop_inliers"],
-                dict(max_iters=o["ransac_max_iters"], prob=o["ransac_prob"], method=o["ransac_method"]))
+            reps = self._replicates(pairs, fresh)
             C = replicate_cov(reps, T_kf_c3)
             timings["adjust"] += (time.perf_counter() - t0) * 1e3
             if C is None:
@@ -307,6 +315,35 @@ class RopEstimator(Estimator):
             return C, reps
         D = np.diag(self._boot_scale)
         return D @ cov_step @ D, None
+
+    def _replicates(self, pairs: dict, fresh: bool) -> list:
+        """The step's bootstrap replicates (:meth:`_bootstrap_cov`): tracks resampled (with the chain,
+        by their kept multiplicities at keyframe steps) or, ``cov="noise_chain"``, perturbed by image
+        noise footprints (:mod:`vo.rop.noise_chain`; kept across the keyframe when ``fresh``)."""
+        o = self.o
+        rng = np.random.default_rng([int(o["seed"]), int(self._t_cur)])
+        args = (self.config, rng, int(o["bootstrap_replicates"]), o["ransac_threshold_px"] / self.focal,
+                o["min_rop_inliers"], dict(max_iters=o["ransac_max_iters"], prob=o["ransac_prob"], method=o["ransac_method"]))
+        if o["cov"] == "noise_chain":
+            view = self.klt.view
+            offsets = self._chain.offsets(view.ids, self._footprint_covs(view))
+            if fresh:
+                self._chain.commit()
+            return noise_step_replicates(self._epoch[3], view, offsets, self.klt.normalize, args[0], rng, *args[3:])
+        counts = self._chain.counts(self._ids) if self._chain is not None and self.klt is not None and fresh else None
+        return bootstrap_step_replicates(self._epoch[3], pairs, self._ok4 if self.klt is not None else None, counts, *args)
+
+    def _footprint_covs(self, view) -> np.ndarray:
+        """(N,4,2,2) image-noise footprint covariances of the tracks in views 1-4 (keyframe left/right,
+        current left/right; :func:`vo.frontend.lk_noise.lk_noise_cov`); sigma the option or estimated
+        from the current left image (:func:`vo.frontend.noise_level.estimate_noise_sigma`)."""
+        sigma = self.o["image_noise_sigma"]
+        if sigma is None:
+            sigma = estimate_noise_sigma(self._cur_imgs[0])
+        p4 = np.where(view.ok4[:, None], view.p4, view.p3)
+        imgs = (*self._kf_imgs, *self._cur_imgs)
+        win = self.klt.config.win
+        return np.stack([lk_noise_cov(img, p, win, sigma) for img, p in zip(imgs, (view.p1, view.p2, view.p3, p4))], 1)
 
     def _startup_due(self, T_kf_c3: np.ndarray) -> bool:
         """Before the first keyframe step is chained the step covariance is the whole covariance, and
@@ -399,6 +436,7 @@ class RopEstimator(Estimator):
         timings = dict.fromkeys(STAGES, 0.0)
         left, right = _gray(frame.left), _gray(frame.right)
         self._R_rot_only, self._epoch, self._t_cur = None, None, int(frame.t_ns)
+        self._cur_imgs = (left, right)
         if self._kf_imgs is None:
             n = self._new_keyframe(left, right, timings, keep_tracks=False)
             return self._result(frame, "init", n, 0, "first frame defines O", timings, t0)
@@ -413,7 +451,7 @@ class RopEstimator(Estimator):
         self._record_epoch(frame.t_ns, T_kf_c3)
         is_kf = self._is_keyframe(T_kf_c3, n_feat)
         reps = None
-        if self.o["cov"] in ("bootstrap", "chain_bootstrap"):
+        if self.o["cov"] in BOOTSTRAPS:
             cov_step, reps = self._bootstrap_cov(pairs, T_kf_c3, cov_step, fresh=is_kf, timings=timings)
         T_prev = self.T_o_c0
         self.T_o_c0 = self.T_o_kf @ T_kf_c3

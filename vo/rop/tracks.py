@@ -112,7 +112,7 @@ class KltFourView:
         self._prev_left = None
         self._ids = TrackIds()       # identities of new tracks
 
-    def _norm(self, p, k):
+    def normalize(self, p, k):
         cam = self.cams[k]
         if not cam.has_distortion:
             return np.c_[(p[:, 0] - cam.cx) / cam.fx, (p[:, 1] - cam.cy) / cam.fy]
@@ -142,7 +142,7 @@ class KltFourView:
                                                       new_r[ok], None, new[ok])
         new, new_r = new[ok], new_r[ok]
         p1, p2 = np.vstack([p1, new]), np.vstack([p2, new_r])
-        x1, x2 = np.vstack([x1, self._norm(new, 0)]), np.vstack([x2, self._norm(new_r, 1)])
+        x1, x2 = np.vstack([x1, self.normalize(new, 0)]), np.vstack([x2, self.normalize(new_r, 1)])
         ids = np.r_[ids, self._ids.take(len(new))]
         self.view = FourView(p1, p2, p1.copy(), p2.copy(), x1, x2, x1.copy(), x2.copy(), np.ones(len(p1), bool),
                              ids=ids)
@@ -169,9 +169,9 @@ class KltFourView:
         if self.refine == "affine" and v.ok4.any():
             k = np.flatnonzero(v.ok4)
             v.p4[k], v.A4[k], v.ok4[k] = self._refine_right(v.tmpl4.subset(k), right, v.p4[k], v.A4[k], v.p3[k])
-        v.x3 = self._norm(v.p3, 0)
+        v.x3 = self.normalize(v.p3, 0)
         v.x4 = np.zeros_like(v.p4)
-        v.x4[v.ok4] = self._norm(v.p4[v.ok4], 1)
+        v.x4[v.ok4] = self.normalize(v.p4[v.ok4], 1)
         self.view, self._prev_left = v, left
         f = 1e3 / cv2.getTickFrequency()
         timings["track"] = timings.get("track", 0.0) + (t1 - t0) * f
