@@ -1,5 +1,6 @@
 """Noise chain (vo.rop.noise_chain): the parametric bootstrap of image noise along the keyframe chain,
 against a Monte-Carlo of the same pipeline, and its footprint bookkeeping."""
+from functools import reduce
 from types import SimpleNamespace
 
 import numpy as np
@@ -46,13 +47,10 @@ def _step(L, R, j):
 
 
 def _run(P, rng):
+    """One run -> end pose T_o_cN and per-step (ropset, view, T_step)."""
     L, R = _images(P, rng)
-    T, steps = np.eye(4), []
-    for j in range(N_STEPS):
-        rs, view, T_step = _step(L, R, j)
-        steps.append((rs, view, T_step))
-        T = T @ T_step
-    return T, steps
+    steps = [_step(L, R, j) for j in range(N_STEPS)]
+    return reduce(np.matmul, [T_step for _, _, T_step in steps], np.eye(4)), steps
 
 
 def _predict(steps, rng, chained: bool, n=40):

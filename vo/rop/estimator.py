@@ -37,7 +37,10 @@ that the first-order models miss (docs/consistency.md); ``cov="chain_bootstrap"`
 :mod:`vo.rop.chain_bootstrap`) the same per-step replicates, but each track keeps its Poisson
 multiplicity for its whole life and each replicate composes its own trajectory, so the keyframe
 covariance is that of the replicate trajectories and keeps the correlation of consecutive steps
-through shared tracks (descriptor front-ends: independent draws per step); ``cov="apost"`` the
+through shared tracks (descriptor front-ends: independent draws per step); ``cov="noise_chain"`` (our
+extension, KLT only, :mod:`vo.rop.noise_chain`) the same replicate trajectories, but each replicate
+perturbs the tracks by image-noise footprints (``image_noise_sigma``, None: estimated from the
+images) instead of resampling them: the prediction for runs that differ only in image noise; ``cov="apost"`` the
 adjustment's a-posteriori unit-weight variances; ``cov="apriori"`` its a-priori sigmas, *derived
 per epoch* from the ROPs' Sampson sigmas ``s_p`` as ``s_0^2 = mean_p(w_p s_p^2)`` unless
 ``sigma_rot_deg`` / ``sigma_dir_deg`` fix them. docs/consistency.md has the Monte-Carlo check.
@@ -134,7 +137,8 @@ class RopEstimator(Estimator):
     ``ransac_threshold_px``, ``ransac_method`` "ransac"|"magsac", ``ransac_max_iters``, ``ransac_prob``,
     ``seed``; ``min_matches`` (four-view tracks / pair matches), ``min_rop_inliers``,
     ``min_inlier_ratio``, ``max_rop_rotation_deg``; ``weights`` "inliers"|"sampson";
-    ``cov`` "propagated"|"joint"|"bootstrap"|"chain_bootstrap"|"apost"|"apriori", ``bootstrap_replicates``,
+    ``cov`` "propagated"|"joint"|"bootstrap"|"chain_bootstrap"|"noise_chain"|"apost"|"apriori", ``bootstrap_replicates``,
+    ``image_noise_sigma`` (grey levels, ``noise_chain``; None: estimated per frame),
     ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
     ``constant_velocity``; ``min_parallax_px``; ``keyframe_baseline_ratio``; ``keyframe_min_track_ratio``;
     ``klt_config`` (:class:`KltConfig` or a mapping of its fields, ``--opt 'klt_config={win: 11}'``); ``klt_refine`` "translation" (seed 003's LK) | "affine" (tracks refined
