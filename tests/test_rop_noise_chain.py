@@ -1,7 +1,6 @@
 """Noise chain (vo.rop.noise_chain): the parametric bootstrap of image noise along the keyframe chain,
 against a Monte-Carlo of the same pipeline, and its footprint bookkeeping."""
 from functools import reduce
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -13,6 +12,7 @@ from vo.rop.adjustment import AdjustmentConfig
 from vo.rop.noise_chain import NoiseChain, draw_footprints, noise_step_replicates
 from vo.rop.relative import estimate_rop_normalized
 from vo.rop.ropset import PAIRS, RopSet
+from vo.rop.tracks import FourView
 
 T_C1_C2 = make_T(so3_exp([0.0, -0.01, 0.0]), [0.27, 0.0, 0.0])
 FOCAL, N_POINTS, N_STEPS, SIGMA_PX = 500.0, 150, 4, 0.1
@@ -37,8 +37,8 @@ def _images(P, rng):
 
 
 def _step(L, R, j):
-    view = SimpleNamespace(p1=L[j], p2=R[j], p3=L[j + 1], p4=R[j + 1], ok4=np.ones(N_POINTS, bool),
-                           x4=R[j + 1] / FOCAL)
+    view = FourView(L[j], R[j], L[j + 1], R[j + 1], L[j] / FOCAL, R[j] / FOCAL, L[j + 1] / FOCAL,
+                    R[j + 1] / FOCAL, np.ones(N_POINTS, bool))
     x = {1: L[j], 2: R[j], 3: L[j + 1], 4: R[j + 1]}
     rs = RopSet({p: estimate_rop_normalized(x[int(p[0])] / FOCAL, x[int(p[1])] / FOCAL, FOCAL, seed=j)
                  for p in PAIRS}, T_C1_C2)

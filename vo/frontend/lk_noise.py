@@ -24,15 +24,13 @@ import cv2
 import numpy as np
 
 from vo.errors import VoError
-
-_CENTRAL = np.array([[-0.5, 0.0, 0.5]], np.float32)
-
+from vo.frontend.lk_invariant import central_gradients
 
 def _gradients(img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Scharr (1/32) and central-difference gradients, each (H,W,2) float32 ``[d/dx, d/dy]``."""
     f = np.asarray(img, np.float32)
     g_s = np.stack([cv2.Scharr(f, cv2.CV_32F, 1, 0, scale=1 / 32), cv2.Scharr(f, cv2.CV_32F, 0, 1, scale=1 / 32)], -1)
-    g_c = np.stack([cv2.filter2D(f, -1, _CENTRAL), cv2.filter2D(f, -1, _CENTRAL.T)], -1)
+    g_c = np.stack(central_gradients(f), -1)
     return g_s, g_c
 
 

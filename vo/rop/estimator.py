@@ -325,17 +325,18 @@ class RopEstimator(Estimator):
         by their kept multiplicities at keyframe steps) or, ``cov="noise_chain"``, perturbed by image
         noise footprints (:mod:`vo.rop.noise_chain`; kept across the keyframe when ``fresh``)."""
         o = self.o
-        rng = np.random.default_rng([int(o["seed"]), int(self._t_cur)])
-        args = (self.config, rng, int(o["bootstrap_replicates"]), o["ransac_threshold_px"] / self.focal,
-                o["min_rop_inliers"], dict(max_iters=o["ransac_max_iters"], prob=o["ransac_prob"], method=o["ransac_method"]))
+        kw = dict(config=self.config, rng=np.random.default_rng([int(o["seed"]), int(self._t_cur)]),
+                  threshold=o["ransac_threshold_px"] / self.focal, min_inliers=o["min_rop_inliers"],
+                  ransac=dict(max_iters=o["ransac_max_iters"], prob=o["ransac_prob"], method=o["ransac_method"]))
         if o["cov"] == "noise_chain":
             view = self.klt.view
             offsets = self._chain.offsets(view.ids, self._footprint_covs(view))
             if fresh:
                 self._chain.commit()
-            return noise_step_replicates(self._epoch[3], view, offsets, self.klt.normalize, args[0], rng, *args[3:])
+            return noise_step_replicates(self._epoch[3], view, offsets, self.klt.normalize, **kw)
         counts = self._chain.counts(self._ids) if self._chain is not None and self.klt is not None and fresh else None
-        return bootstrap_step_replicates(self._epoch[3], pairs, self._ok4 if self.klt is not None else None, counts, *args)
+        return bootstrap_step_replicates(self._epoch[3], pairs, self._ok4 if self.klt is not None else None, counts,
+                                         n_boot=int(o["bootstrap_replicates"]), **kw)
 
     def _footprint_covs(self, view) -> np.ndarray:
         """(N,4,2,2) image-noise footprint covariances of the tracks in views 1-4 (keyframe left/right,

@@ -24,6 +24,8 @@ replicate's keyframe pose (:class:`~vo.rop.chain_bootstrap.ReplicateChain`). ``s
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from vo.rop.bootstrap_cov import replicate_step
@@ -84,15 +86,14 @@ def noise_step_replicates(ropset, view, offsets: np.ndarray, normalize, config, 
     """Adjusted ``T_c1_c3`` (4,4) of each replicate (None where it fails): the four-view tracks ``view``
     (:class:`vo.rop.tracks.FourView`) with pixels ``p_k + offsets[b, :, k]`` ((n,N,4,2)), normalized by
     ``normalize(p, camera)``, re-solved by :func:`vo.rop.bootstrap_cov.replicate_step`."""
-    p = (view.p1, view.p2, view.p3, view.p4)
-    ok4 = view.ok4
+    p, ok4 = (view.p1, view.p2, view.p3, view.p4), view.ok4
     out = []
     for off in offsets:
         x = [normalize(p[k] + off[:, k], VIEW_CAMERA[k]) for k in range(3)]
         x4 = np.zeros_like(view.x4)
         x4[ok4] = normalize(p[3][ok4] + off[ok4, 3], 1)
-        x = dict(zip("1234", x + [x4]))
-        pairs = {q: (x[q[0]][ok4], x[q[1]][ok4]) if q[1] == "4" else (x[q[0]], x[q[1]]) for q in ropset.ok_pairs}
+        moved = dataclasses.replace(view, x1=x[0], x2=x[1], x3=x[2], x4=x4)
+        pairs = {q: moved.pair(q) for q in ropset.ok_pairs}
         rows = {q: np.arange(len(pairs[q][0])) for q in pairs}
         out.append(replicate_step(ropset, pairs, rows, config, rng, threshold, min_inliers, ransac))
     return out
