@@ -17,40 +17,18 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from sim.rng import stream
+from vo.dataset.image_noise import ImageNoiseDataset
 
 
-class NoisyDataset:
-    """A reader-API dataset whose images (and IMU) get seeded noise on the fly. Delegates the rest."""
+class NoisyDataset(ImageNoiseDataset):
+    """A reader-API dataset whose images (:class:`vo.dataset.image_noise.ImageNoiseDataset`, stream
+    ``seed``) and IMU get seeded noise on the fly. Delegates the rest."""
 
     def __init__(self, base, image_sigma: float, seed: int, imu_model=None):
-        self._base = base
-        self._sigma = float(image_sigma)
+        super().__init__(base, image_sigma, int(seed))
         self._seed = int(seed)
         self._imu_model = imu_model
         self._imu = None
-
-    def __getattr__(self, name):
-        return getattr(self._base, name)
-
-    def __len__(self):
-        return len(self._base)
-
-    def _noisy(self, frame):
-        from vo.dataset.types import StereoFrame
-        if self._sigma <= 0:
-            return frame
-        # one generator per frame index: frames may be read in any order and give the same bytes
-        rng = np.random.default_rng([self._seed, frame.index, 0xC0FFEE])
-        imgs = [np.clip(np.rint(im.astype(np.float64) + self._sigma * rng.standard_normal(im.shape)), 0, 255)
-                .astype(np.uint8) for im in (frame.left, frame.right)]
-        return StereoFrame(frame.index, frame.t_ns, imgs[0], imgs[1])
-
-    def frame(self, k):
-        return self._noisy(self._base.frame(k))
-
-    def frames(self, start=0, stop=None, step=1):
-        for f in self._base.frames(start, stop, step):
-            yield self._noisy(f)
 
     @property
     def imu(self):
@@ -181,10 +159,13 @@ VARY = ("noise", "scene")
 
 
 def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dict, max_frames,
-             oracle_px=None) -> tuple:
+             oracle_px=None, renoise: int = 0) -> tuple:
     """One Monte-Carlo run on the (cached) ideal dataset of ``config`` ->
     ((n,4,4) poses, (n,6,6) covariances, (N,4,4) truth in O, (N,) t_s); a module function for workers.
-    With ``oracle_px`` the run uses exact tracks + that iid pixel noise (:mod:`sim.validation.oracle_tracks`)."""
+    With ``oracle_px`` the run uses exact tracks + that iid pixel noise (:mod:`sim.validation.oracle_tracks`).
+    ``renoise`` > 0: the covariances are those of that many re-noised replicates of this run's images
+    (:func:`vo.errorprop.renoise.renoise_covariance`, noise level estimated from the images) instead
+    of the estimator's own."""
     from sim.scenarios import cached_dataset
     from vo.dataset import open_dataset
     from vo.estimators.runner import run_estimator
@@ -197,16 +178,22 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
     else:
         from sim.validation.oracle_tracks import run_oracle
         frames = run_oracle(base, options, oracle_px, seed, max_frames=max_frames)
+    T_est = np.array([f.T_o_c0 for f in frames])
+    if renoise:
+        from vo.errorprop.renoise import renoise_covariance
+        rn = renoise_covariance(NoisyDataset(base, image_sigma, seed), estimator, options, renoise, seed=seed,
+                                T_hat=T_est, max_frames=max_frames)
+        return T_est[:len(rn.cov)], rn.cov, np.linalg.inv(gt.T[0]) @ gt.T, gt.t_s
     if any(f.cov is None for f in frames[1:]):
-        raise VoError(f"estimator {estimator!r} reports no covariance; consistency needs FrameResult.cov")
-    return (np.array([f.T_o_c0 for f in frames]),
-            np.array([f.cov if f.cov is not None else np.eye(6) * 1e-12 for f in frames]),
+        raise VoError(f"estimator {estimator!r} reports no covariance; consistency needs FrameResult.cov "
+                      f"(or --renoise R)")
+    return (T_est, np.array([f.cov if f.cov is not None else np.eye(6) * 1e-12 for f in frames]),
             np.linalg.inv(gt.T[0]) @ gt.T, gt.t_s)
 
 
 def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: float = 1.0, base_seed: int = 1000,
                 options=None, progress: bool = True, max_frames=None, workers: int = 1,
-                vary: str = "noise", oracle_px=None, overrides=()) -> ConsistencyResult:
+                vary: str = "noise", oracle_px=None, overrides=(), renoise: int = 0) -> ConsistencyResult:
     """Run ``estimator`` on ``runs`` noise realisations of ``scenario``; NEES and drift-spread vs prediction.
 
     Run ``k`` re-noises the images with seed ``base_seed + k``; with ``vary="scene"`` it is also
@@ -214,7 +201,9 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
     that many processes (spawned; same results: every run is seeded on its own). ``oracle_px``
     (``rop`` only): exact track positions from depth and truth plus that iid pixel noise instead of
     the images' (:mod:`sim.validation.oracle_tracks`; the scenario is rendered with depth).
-    ``overrides``: scenario ``key=value`` overrides (as ``--set``, e.g. ``render.supersample=3``)."""
+    ``overrides``: scenario ``key=value`` overrides (as ``--set``, e.g. ``render.supersample=3``).
+    ``renoise`` > 0: score the covariance of that many re-noised replicates per run instead of the
+    estimator's own (:mod:`vo.errorprop.renoise`; (1 + renoise) x the run time)."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
     from tqdm import tqdm
@@ -223,6 +212,9 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
 
     if vary not in VARY:
         raise SimError(f"consistency vary: {vary!r}; valid: {', '.join(VARY)}")
+    if isinstance(renoise, bool) or not isinstance(renoise, (int, np.integer)) or renoise < 0 or 0 < renoise < 3 or \
+            (renoise and oracle_px is not None):
+        raise SimError(f"consistency renoise: {renoise!r}; must be 0 (off) or an integer >= 3, and not with oracle_px")
     if oracle_px is not None and (estimator != "rop" or not np.isfinite(oracle_px) or oracle_px < 0):
         raise SimError(f"consistency oracle_px: needs estimator 'rop' and a finite pixel sigma >= 0, "
                        f"got estimator {estimator!r}, oracle_px {oracle_px!r}")
@@ -230,7 +222,7 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
     configs = [ideal if vary == "noise" else replace(ideal, seed=ideal.seed + 1 + k) for k in range(runs)]
     if vary == "noise":
         cached_dataset(ideal, progress=progress)          # render once, before the workers start
-    args = [(c, estimator, image_sigma, base_seed + k, options or {}, max_frames, oracle_px)
+    args = [(c, estimator, image_sigma, base_seed + k, options or {}, max_frames, oracle_px, renoise)
             for k, c in enumerate(configs)]
     bar = tqdm(total=runs, desc=f"monte-carlo ({vary})", disable=not progress)
     out = []
@@ -250,6 +242,8 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
         gt = np.array([o[2][:n] for o in out])
     res = evaluate_runs(scenario, estimator, gt, out[0][3], [o[0] for o in out], [o[1] for o in out])
     res.vary = vary if oracle_px is None else f"{vary}; oracle tracks, {oracle_px:g} px noise"
+    if renoise:
+        res.vary += f"; covariance of {renoise} re-noised replicates"
     res.runs_data = dict(T_true=gt, t_s=out[0][3], T_est=np.array([o[0] for o in out]),
                          cov=np.array([o[1] for o in out]))
     return res
@@ -270,7 +264,8 @@ def plot_consistency(res: ConsistencyResult, path) -> None:
     axes[0].set_xlabel("distance travelled (m)")
     axes[0].set_ylabel(f"NEES averaged over {res.runs} runs")
     axes[0].legend(fontsize=8)
-    axes[1].plot(res.distance_m, res.predicted_std_m, "k-", label="predicted (ROP covariance)")
+    source = "re-noised replicates" if "re-noised" in res.vary else "estimator's covariance"
+    axes[1].plot(res.distance_m, res.predicted_std_m, "k-", label=f"predicted ({source})")
     axes[1].plot(res.distance_m, res.measured_std_m, "r.", ms=3, label="Monte-Carlo spread")
     if res.mean_error_m is not None:
         axes[1].plot(res.distance_m, res.mean_error_m, "c--", lw=1, label="|run-mean error| (common to all runs)")

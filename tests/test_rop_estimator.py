@@ -109,6 +109,8 @@ def test_options_are_validated():
         RopEstimator(RIG, frontend="surf")
     with pytest.raises(EstimatorError, match="unknown option"):
         RopEstimator(RIG, frontends="orb")
+    with pytest.raises(EstimatorError, match="rop.rop_loss: 'huber'; valid: gate, cauchy, tukey"):
+        RopEstimator(RIG, rop_loss="huber")
 
 
 def test_propagate_cov_matches_monte_carlo_linearisation():

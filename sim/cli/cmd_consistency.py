@@ -23,12 +23,15 @@ from sim.cli.options import echo_json, json_option, opt_option, parse_opts, set_
 @click.option("--oracle-tracks", "oracle_px", type=click.FloatRange(min=0), default=None, metavar="PX",
               help="rop only: exact track positions (rendered depth + truth) plus PX iid pixel noise, to check "
                    "the back-end's error propagation on its own noise model.")
+@click.option("--renoise", type=click.IntRange(min=0), default=0, show_default=True, metavar="R",
+              help="Score the covariance of R re-noised replicates of each run (any estimator; (1+R)x the time) "
+                   "instead of the estimator's own: vo.errorprop.renoise.")
 @click.option("--no-progress", is_flag=True)
 @set_option
 @opt_option
 @json_option
-def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, oracle_px, no_progress,
-                overrides, estimator_opts, as_json):
+def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, oracle_px, renoise,
+                no_progress, overrides, estimator_opts, as_json):
     """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
     from sim.montecarlo import consistency as run_mc, plot_consistency, save_npz_atomic
     from vo.pipeline import _write_json
@@ -36,7 +39,7 @@ def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, ou
         raise click.BadParameter("need at least 2 runs", param_hint="--runs")
     res = run_mc(scenario, estimator, runs, image_noise, options=parse_opts(estimator_opts, frontend) or None,
                  progress=not (no_progress or as_json), max_frames=max_frames, workers=workers, vary=vary,
-                 oracle_px=oracle_px, overrides=overrides)
+                 oracle_px=oracle_px, overrides=overrides, renoise=renoise)
     out = Path(out_dir)
     plot_consistency(res, out / "consistency.png")
     _write_json(out / "consistency.json", res.to_dict())

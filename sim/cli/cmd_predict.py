@@ -3,12 +3,12 @@ from __future__ import annotations
 
 import click
 
-from sim.cli.options import echo_json, json_option, set_option
+from sim.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
 
 
 @click.group("predict")
 def predict():
-    """Error-propagation predictions: stereo range error, cross-site localisation accuracy."""
+    """Error-propagation predictions: stereo range error, cross-site localisation accuracy, image-noise spread."""
 
 
 @predict.command("range")
@@ -61,3 +61,26 @@ def cross_site_cmd(preset, landmarks_file, mc, seed, plot_path, as_json):
                f"= {res.accuracy_percent:.3f}% of distance travelled")
     if mc:
         click.echo(f"Monte Carlo ({mc} draws): {out['monte_carlo']['accuracy_percent']:.3f}%")
+
+
+@predict.command("renoise")
+@click.option("--dataset", "dataset_dir", required=True, type=click.Path(exists=True, file_okay=False),
+              help="Dataset folder (ours EuRoC/KITTI, real EuRoC mav0 parent, KITTI sequences/NN).")
+@click.option("--estimator", default="rop", show_default=True, help="Registered name or 'package.module:Class'.")
+@click.option("--replicates", type=click.IntRange(min=3), default=10, show_default=True)
+@click.option("--sigma", type=click.FloatRange(min=0), default=None,
+              help="Image noise, grey levels (default: estimated from the first left image).")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--max-frames", type=click.IntRange(min=1), default=None)
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None, help="Write a PNG plot.")
+@opt_option
+@json_option
+def renoise_cmd(dataset_dir, estimator, replicates, sigma, seed, max_frames, plot_path, estimator_opts, as_json):
+    """Pose spread from image noise: re-run ESTIMATOR on DATASET re-noised at its own noise level."""
+    from vo.dataset import open_dataset
+    from vo.errorprop.renoise import renoise_covariance
+    res = renoise_covariance(open_dataset(dataset_dir), estimator, parse_opts(estimator_opts, None) or None,
+                             replicates, sigma, seed, max_frames=max_frames)
+    if plot_path:
+        res.plot(plot_path)
+    echo_json(res.to_dict()) if as_json else click.echo(res.text())

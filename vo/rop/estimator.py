@@ -81,7 +81,7 @@ from vo.rop.noise_chain import NoiseChain, noise_step_replicates
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops, rotation_candidates
 from vo.rop.joint_cov import with_pixel_factors
-from vo.rop.relative import METHODS, estimate_rop_normalized
+from vo.rop.relative import LOSSES, METHODS, estimate_rop_normalized
 from vo.rop.ropset import PAIRS, WEIGHTINGS, RopSet, exact_ropset
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
@@ -92,7 +92,8 @@ DEFAULTS = dict(frontend="klt", ransac_threshold_px=1.0, ransac_method="ransac",
                 ransac_prob=0.999, min_matches=30, min_rop_inliers=20, min_inlier_ratio=0.5, seed=0,
                 cov="propagated", weights="inliers", sigma_rot_deg=None, sigma_dir_deg=None, constant_velocity=True,
                 min_parallax_px=0.75, max_rop_rotation_deg=1.0, keyframe_baseline_ratio=2.0, keyframe_min_track_ratio=0.5,
-                klt_config=None, klt_refine="translation", bootstrap_replicates=40, image_noise_sigma=None)
+                klt_config=None, klt_refine="translation", bootstrap_replicates=40, image_noise_sigma=None,
+                rop_loss="gate")
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MAX_COAST_FRAMES = 10        # constant-velocity extrapolation limit (then the translation is held)
 TWIN_DEG = 1.0               # 2-2 ties closer than this keep all four ROPs (never, at the default 1 deg gate)
@@ -142,7 +143,10 @@ class RopEstimator(Estimator):
     ``sigma_rot_deg`` / ``sigma_dir_deg`` (None: derived);
     ``constant_velocity``; ``min_parallax_px``; ``keyframe_baseline_ratio``; ``keyframe_min_track_ratio``;
     ``klt_config`` (:class:`KltConfig` or a mapping of its fields, ``--opt 'klt_config={win: 11}'``); ``klt_refine`` "translation" (seed 003's LK) | "affine" (tracks refined
-    by an affine window warp against the keyframe, :mod:`vo.rop.tracks`)."""
+    by an affine window warp against the keyframe, :mod:`vo.rop.tracks`); ``rop_loss`` "gate" (default:
+    RANSAC inliers re-selected at a hard 1 px Sampson gate, least squares) | "tukey" | "cauchy"
+    (robust final fit with no step: :func:`vo.rop.relative.estimate_rop_normalized`; the gate has
+    two self-consistent inlier sets on some ROPs and noise flips between them, docs/consistency.md)."""
 
     name = "rop"
 
@@ -155,7 +159,7 @@ class RopEstimator(Estimator):
             raise EstimatorError(f"rop: rig {rig.name!r} has one camera; seed 000 needs a stereo rig")
         o = {**DEFAULTS, **options}
         for key, valid in (("frontend", matching.KINDS), ("cov", COVS), ("ransac_method", tuple(METHODS)),
-                           ("weights", WEIGHTINGS), ("klt_refine", KltFourView.REFINES)):
+                           ("weights", WEIGHTINGS), ("klt_refine", KltFourView.REFINES), ("rop_loss", LOSSES)):
             if o[key] not in valid:
                 raise EstimatorError(f"rop.{key}: {o[key]!r}; valid: {', '.join(valid)}")
         reps = o["bootstrap_replicates"]
@@ -232,7 +236,8 @@ class RopEstimator(Estimator):
             if len(x_i) < o["min_matches"]:
                 continue
             m = estimate_rop_normalized(x_i, x_j, self.focal, o["seed"], o["ransac_threshold_px"], o["ransac_prob"],
-                                        max_iters=o["ransac_max_iters"], method=o["ransac_method"], prior=priors[p])
+                                        max_iters=o["ransac_max_iters"], method=o["ransac_method"], prior=priors[p],
+                                        loss=o["rop_loss"])
             need = max(o["min_rop_inliers"], o["min_inlier_ratio"] * len(x_i))
             if m.ok and m.n_inliers < need:
                 m = dataclasses.replace(m, ok=False, message=f"{m.n_inliers} inliers < {need:.0f}")
@@ -327,7 +332,8 @@ class RopEstimator(Estimator):
         o = self.o
         kw = dict(config=self.config, rng=np.random.default_rng([int(o["seed"]), int(self._t_cur)]),
                   threshold=o["ransac_threshold_px"] / self.focal, min_inliers=o["min_rop_inliers"],
-                  ransac=dict(max_iters=o["ransac_max_iters"], prob=o["ransac_prob"], method=o["ransac_method"]))
+                  ransac=dict(max_iters=o["ransac_max_iters"], prob=o["ransac_prob"], method=o["ransac_method"],
+                              loss=o["rop_loss"]))
         if o["cov"] == "noise_chain":
             view = self.klt.view
             offsets = self._chain.offsets(view.ids, self._footprint_covs(view))

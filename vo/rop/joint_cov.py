@@ -29,7 +29,7 @@ import dataclasses
 import numpy as np
 
 from vo.geometry import skew
-from vo.rop.relative import project_jacobian, sampson_jacobian, sampson_residuals
+from vo.rop.relative import project_jacobian, sampson_jacobian, sampson_residuals, tangent_basis
 
 FD_STEP = 1e-6     # normalized coordinates (~1e-3 px at f = 500): central-difference error ~h^2
 
@@ -58,7 +58,7 @@ def rop_point_sensitivity(R_i_j, rhat_i_j, x_i: np.ndarray, x_j: np.ndarray) -> 
     """(6, N, 4) ``d [dphi, d rhat_i_j] / d [x_i, x_j]_n`` of the Sampson-LM ROP at its optimum
     (``x_i``, ``x_j`` the inlier matches it was fitted to, normalized coordinates)."""
     R, t = opencv_pose(R_i_j, rhat_i_j)
-    B = np.linalg.svd(t.reshape(1, 3))[2][1:].T
+    B = tangent_basis(t)
     _, J = sampson_jacobian(R, t, B, x_i, x_j)                      # (N,5)
     D = residual_point_jacobian(skew(t) @ R, x_i, x_j)              # (N,4)
     dz = -np.einsum("ab,nb,nc->anc", np.linalg.pinv(J.T @ J), J, D)  # (5,N,4)
