@@ -172,23 +172,22 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
     from vo.errors import VoError
     base = open_dataset(cached_dataset(config, progress=False))
     gt = base.groundtruth_cam0()
+    truth = (np.linalg.inv(gt.T[0]) @ gt.T, gt.t_s)
+    noisy = NoisyDataset(base, image_sigma, seed, imu_model=None)
     if oracle_px is None:
-        frames = run_estimator(estimator, NoisyDataset(base, image_sigma, seed, imu_model=None), options=options,
-                               progress=False, max_frames=max_frames).frames
+        frames = run_estimator(estimator, noisy, options=options, progress=False, max_frames=max_frames).frames
     else:
         from sim.validation.oracle_tracks import run_oracle
         frames = run_oracle(base, options, oracle_px, seed, max_frames=max_frames)
     T_est = np.array([f.T_o_c0 for f in frames])
     if renoise:
         from vo.errorprop.renoise import renoise_covariance
-        rn = renoise_covariance(NoisyDataset(base, image_sigma, seed), estimator, options, renoise, seed=seed,
-                                T_hat=T_est, max_frames=max_frames)
-        return T_est[:len(rn.cov)], rn.cov, np.linalg.inv(gt.T[0]) @ gt.T, gt.t_s
+        rn = renoise_covariance(noisy, estimator, options, renoise, seed=seed, T_hat=T_est, max_frames=max_frames)
+        return (T_est[:len(rn.cov)], rn.cov) + truth
     if any(f.cov is None for f in frames[1:]):
         raise VoError(f"estimator {estimator!r} reports no covariance; consistency needs FrameResult.cov "
                       f"(or --renoise R)")
-    return (T_est, np.array([f.cov if f.cov is not None else np.eye(6) * 1e-12 for f in frames]),
-            np.linalg.inv(gt.T[0]) @ gt.T, gt.t_s)
+    return (T_est, np.array([f.cov if f.cov is not None else np.eye(6) * 1e-12 for f in frames])) + truth
 
 
 def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: float = 1.0, base_seed: int = 1000,
@@ -212,9 +211,11 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
 
     if vary not in VARY:
         raise SimError(f"consistency vary: {vary!r}; valid: {', '.join(VARY)}")
-    if isinstance(renoise, bool) or not isinstance(renoise, (int, np.integer)) or renoise < 0 or 0 < renoise < 3 or \
-            (renoise and oracle_px is not None):
-        raise SimError(f"consistency renoise: {renoise!r}; must be 0 (off) or an integer >= 3, and not with oracle_px")
+    from vo.errorprop.renoise import MIN_REPLICATES
+    if isinstance(renoise, bool) or not isinstance(renoise, (int, np.integer)) or renoise < 0 or \
+            0 < renoise < MIN_REPLICATES or (renoise and oracle_px is not None):
+        raise SimError(f"consistency renoise: {renoise!r}; must be 0 (off) or an integer >= {MIN_REPLICATES}, "
+                       f"and not with oracle_px")
     if oracle_px is not None and (estimator != "rop" or not np.isfinite(oracle_px) or oracle_px < 0):
         raise SimError(f"consistency oracle_px: needs estimator 'rop' and a finite pixel sigma >= 0, "
                        f"got estimator {estimator!r}, oracle_px {oracle_px!r}")

@@ -13,7 +13,7 @@ from sim.montecarlo import NoisyDataset
 from vo.dataset.image_noise import MC_TAG, ImageNoiseDataset
 from vo.dataset.types import StereoFrame
 from vo.errors import VoError
-from vo.errorprop.renoise import renoise_covariance, replicate_cov
+from vo.errorprop.renoise import renoise_covariance
 from vo.estimators.base import Estimator, FrameResult
 from vo.estimators.synthetic import random_texture
 from vo.geometry import make_T
@@ -107,8 +107,15 @@ def test_replicate_cov_about_the_mean():
     T_hat = np.tile(np.eye(4), (2, 1, 1))
     T_reps = np.tile(np.eye(4), (3, 2, 1, 1))
     T_reps[:, :, 2, 3] = np.array([1.0, 2.0, 3.0])[:, None] + 10.0              # offset: the mean is removed
-    C = replicate_cov(T_reps, T_hat)
+    from vo.geometry import pose_error_cov
+    C = pose_error_cov(T_reps, T_hat)
     assert C.shape == (2, 6, 6) and np.allclose(C[:, 5, 5], 1.0) and np.allclose(C[:, :5, :5], 0.0)
+
+
+def test_renoise_rejects_external_commands():
+    """An external command would read the clean dataset folder, not the re-noised images."""
+    with pytest.raises(VoError, match="external commands"):
+        renoise_covariance(TexturedDataset(), "cmd:my_vo {dataset} {out}", replicates=3, sigma=1.0)
 
 
 def test_renoise_rejects_too_few_replicates():

@@ -25,7 +25,8 @@ import numpy as np
 
 from vo.dataset.image_noise import ImageNoiseDataset
 from vo.errors import VoError
-from vo.geometry import pose_error_left
+from vo.estimators.pnp_core import to_gray
+from vo.geometry import pose_error_cov
 
 RENOISE_TAG = 0x5E1F              # separates the replicates' noise streams from the Monte-Carlo runs'
 MIN_REPLICATES = 3
@@ -86,14 +87,6 @@ class RenoiseResult:
         plt.close(fig)
 
 
-def replicate_cov(T_reps: np.ndarray, T_hat: np.ndarray) -> np.ndarray:
-    """(R,N,4,4) replicate poses, (N,4,4) reference -> (N,6,6) covariance of the left perturbations
-    ``pose_error_left(T_reps, T_hat)`` over the replicates (about their mean, ddof 1)."""
-    e = pose_error_left(T_reps, np.broadcast_to(T_hat, T_reps.shape))          # (R, N, 6)
-    d = e - e.mean(axis=0)
-    return np.einsum("rni,rnj->nij", d, d) / (len(e) - 1)
-
-
 def renoise_covariance(dataset, estimator: str, options: dict | None = None, replicates: int = 10,
                        sigma: float | None = None, seed: int = 0, T_hat: np.ndarray | None = None,
                        max_frames: int | None = None) -> RenoiseResult:
@@ -101,12 +94,16 @@ def renoise_covariance(dataset, estimator: str, options: dict | None = None, rep
 
     ``seed`` names the replicates' noise streams (replicate ``r``: key ``(seed, r)``); ``T_hat``
     (N,4,4) the estimate from the recording if already computed (else it is run once more)."""
+    from vo.estimators.registry import is_external
     from vo.estimators.runner import run_estimator
     from vo.frontend.noise_level import estimate_noise_sigma
+    if is_external(estimator):
+        raise VoError(f"renoise estimator {estimator!r}: external commands read the dataset folder, not the "
+                      f"re-noised images; use a registered name or 'package.module:Class'")
     if isinstance(replicates, bool) or not isinstance(replicates, (int, np.integer)) or replicates < MIN_REPLICATES:
         raise VoError(f"renoise replicates: {replicates!r}; must be an integer >= {MIN_REPLICATES}")
     if sigma is None:
-        sigma = estimate_noise_sigma(_gray(dataset.frame(0).left))
+        sigma = estimate_noise_sigma(to_gray(dataset.frame(0).left))
     run = dict(options=options, progress=False, max_frames=max_frames)
     if T_hat is None:
         T_hat = run_estimator(estimator, dataset, **run).trajectory.T
@@ -115,9 +112,4 @@ def renoise_covariance(dataset, estimator: str, options: dict | None = None, rep
     n = min([len(T_hat)] + [len(r.trajectory) for r in reps])
     T_reps = np.array([r.trajectory.T[:n] for r in reps])
     t_ns = reps[0].trajectory.t_ns[:n]
-    return RenoiseResult(t_ns, np.asarray(T_hat)[:n], T_reps, replicate_cov(T_reps, np.asarray(T_hat)[:n]), float(sigma))
-
-
-def _gray(img: np.ndarray) -> np.ndarray:
-    import cv2
-    return cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
+    return RenoiseResult(t_ns, np.asarray(T_hat)[:n], T_reps, pose_error_cov(T_reps, np.asarray(T_hat)[:n]), float(sigma))

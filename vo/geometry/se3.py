@@ -116,3 +116,12 @@ def pose_error_left(T_a: np.ndarray, T_b: np.ndarray) -> np.ndarray:
     dR = np.einsum("...ij,...kj->...ik", T_a[..., :3, :3], T_b[..., :3, :3])
     rot = np.array([so3_log(R) for R in dR.reshape(-1, 3, 3)]).reshape(dR.shape[:-2] + (3,))
     return np.concatenate([rot, T_a[..., :3, 3] - T_b[..., :3, 3]], axis=-1)
+
+
+def pose_error_cov(T_samples: np.ndarray, T_ref: np.ndarray) -> np.ndarray:
+    """(R,...,4,4) samples, (...,4,4) reference -> (...,6,6) sample covariance (about the samples'
+    mean, ddof 1) of their left-perturbation errors ``pose_error_left(T_samples, T_ref)``."""
+    T_samples = np.asarray(T_samples, float)
+    e = pose_error_left(T_samples, np.broadcast_to(T_ref, T_samples.shape))      # (R, ..., 6)
+    d = e - e.mean(axis=0)
+    return np.einsum("r...i,r...j->...ij", d, d) / (len(e) - 1)

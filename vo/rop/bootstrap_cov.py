@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vo.geometry import pose_error_left
+from vo.geometry import pose_error_cov
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.initial import initial_eops
 from vo.rop.relative import estimate_rop_normalized
@@ -111,7 +111,7 @@ def bootstrap_step_replicates(ropset: RopSet, tracks: dict, ok4, counts, config:
 def replicate_cov(replicates: list, T_ref: np.ndarray):
     """(6,6) covariance (ddof 1, about the replicates' mean) of ``pose_error_left(T_b, T_ref)`` over the
     replicates that are not None, or None when fewer than :data:`MIN_REPLICATES`."""
-    errors = [pose_error_left(T, T_ref) for T in replicates if T is not None]
-    if len(errors) < MIN_REPLICATES:
+    valid = [T for T in replicates if T is not None]
+    if len(valid) < MIN_REPLICATES:
         return None
-    return np.cov(np.array(errors), rowvar=False, ddof=1)
+    return pose_error_cov(np.array(valid), T_ref)

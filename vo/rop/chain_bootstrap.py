@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from vo.errors import EstimatorError
-from vo.geometry import pose_error_left, so3_exp
+from vo.geometry import pose_error_cov, so3_exp
 from vo.rop.bootstrap_cov import MIN_REPLICATES
 
 
@@ -76,7 +76,7 @@ class ReplicateChain:
     @staticmethod
     def cov(T_reps: np.ndarray, T_hat: np.ndarray) -> np.ndarray:
         """(6,6) covariance of ``pose_error_left(T_reps[b], T_hat)`` over the replicates (ddof 1)."""
-        return np.cov(pose_error_left(T_reps, np.broadcast_to(T_hat, T_reps.shape)), rowvar=False, ddof=1)
+        return pose_error_cov(T_reps, T_hat)
 
     def reset(self, T_hat: np.ndarray, cov: np.ndarray) -> None:
         """Restart the replicates as Gaussian draws about ``T_hat`` (after a failed frame: the tracks

@@ -186,15 +186,19 @@ def refine_essential(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndar
             lam *= 10.0
             if lam > 1e6:
                 break
-    return R, t, float(r @ r) / max(len(r) - 5, 1) * np.linalg.pinv(J.T @ J)
+    return R, t, _ls_cov5(r, J)
+
+
+def _ls_cov5(r: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """``s^2 (J^T J)^-1`` with ``s^2 = sum r^2 / (n - 5)``: residuals (n,), Jacobian (n,5)."""
+    return float(r @ r) / max(len(r) - 5, 1) * np.linalg.pinv(J.T @ J)
 
 
 def sampson_cov(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:
     """(5,5) least-squares covariance ``s^2 (J^T J)^-1`` of ``[rotvec, tangent]`` at a fixed ``(R, t)``
     over the matches given, ``s^2 = sum r^2 / (n - 5)`` (as :func:`refine_essential` returns it)."""
     t = t.ravel() / np.linalg.norm(t)
-    r, J = sampson_jacobian(R, t, tangent_basis(t), x_i, x_j)
-    return float(r @ r) / max(len(r) - 5, 1) * np.linalg.pinv(J.T @ J)
+    return _ls_cov5(*sampson_jacobian(R, t, tangent_basis(t), x_i, x_j))
 
 
 def chirality(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:
