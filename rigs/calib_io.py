@@ -26,7 +26,7 @@ from rigs.imu_models import get_imu_model
 from rigs.io_yaml import (check_keys, dump_yaml, field_error, field_floats, field_int, field_number,
                           read_yaml_file, write_text_atomic)
 from rigs.model import Camera, Imu, Rig, as_matrix4
-from vo.geometry.se3 import inv_T
+from rigs.geometry.se3 import inv_T
 
 ORTHO_TOL = 1e-4   # calibration files print ~9-12 digits; re-orthonormalise rotations within this
 

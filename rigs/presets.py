@@ -19,7 +19,7 @@ import numpy as np
 from rigs.errors import RigError
 from rigs.imu_models import get_imu_model
 from rigs.model import Camera, Rig
-from vo.geometry.se3 import R_from_opk_deg, make_T, rot_x
+from rigs.geometry.se3 import R_from_opk_deg, make_T, rot_x
 
 PRESET_DIR = Path(__file__).with_name("presets")
 R_B_C_FORWARD = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])

@@ -16,7 +16,7 @@ import numpy as np
 
 from rigs.errors import RigError
 from rigs.model import Camera, Rig
-from vo.geometry.se3 import inv_T, make_T
+from rigs.geometry.se3 import inv_T, make_T
 
 
 def opencv_stereo_RT(rig: Rig) -> tuple[np.ndarray, np.ndarray]:

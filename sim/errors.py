@@ -1,5 +1,6 @@
-"""Exception root of the ``sim`` package."""
+"""Exception of the ``sim`` package."""
+from rigs.errors import TestbedError
 
 
-class SimError(Exception):
+class SimError(TestbedError):
     """A simulation, rendering or dataset-writing error; the message names the bad value or path."""

@@ -41,7 +41,7 @@ class Setup:
     frame_t_ns: np.ndarray
     imu_t_ns: np.ndarray
     image_noise: float
-    motion: object = None        # the resolved sim.trajectory.MotionConfig
+    motion: object = None        # the resolved sim.motion.MotionConfig
     supersample: int = 1         # render.supersample override (sim.render)
 
 
@@ -52,7 +52,7 @@ def resolve(config: GenerateConfig) -> Setup:
     from scenes.base import SceneConfig
     from scenes.registry import make_scene
     from sim.imu import imu_times_ns
-    from sim.trajectory import MotionConfig, VehicleTrajectory
+    from sim.motion import MotionConfig, VehicleTrajectory
 
     ov = config.split_overrides()
     rig = apply_overrides(get_rig(config.rig), ov["rig"])
@@ -145,7 +145,7 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     import cv2
     from tqdm import tqdm
     from sim.image_noise import add_image_noise
-    from sim.model import build_world
+    from sim.world import build_world
     from sim.render import StereoRenderer
 
     c, rig = setup.config, setup.rig

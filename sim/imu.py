@@ -15,7 +15,7 @@ from functools import lru_cache
 import numpy as np
 
 from sim.errors import SimError
-from vo.geometry.se3 import R_from_quat_wxyz, quat_wxyz_from_R
+from rigs.geometry.se3 import R_from_quat_wxyz, quat_wxyz_from_R
 
 G_W = np.array([0.0, 0.0, -9.81])
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from rigs.model import Camera
-from vo.geometry import R_from_quat_wxyz, quat_wxyz_from_R
+from rigs.geometry import R_from_quat_wxyz, quat_wxyz_from_R
 
 R_MJCAM_CV = np.diag([1.0, -1.0, -1.0])   # R_mjcam_cv == R_cv_mjcam (its own inverse)
 T_CV_MJCAM = np.diag([1.0, -1.0, -1.0, 1.0])

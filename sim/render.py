@@ -4,7 +4,7 @@ One off-screen GL context, ``MjrContext`` and ``MjvScene`` serve every camera of
 off-screen buffer is ``offwidth x offheight``, at least the largest camera; each camera renders
 into a viewport of its own size), so no context is duplicated per camera or per size. No
 ``mj_forward``: the world
-pose is set by :meth:`sim.model.World.set_vehicle_pose` (kinematics + camlight only).
+pose is set by :meth:`sim.world.World.set_vehicle_pose` (kinematics + camlight only).
 Per camera and frame: one ``mjv_updateScene`` and one colour ``mjr_render``; if depth or
 segmentation is requested, one more ``mjr_render`` in segmentation mode that yields both (it
 draws no skybox, so sky pixels keep the far-plane depth and become ``inf``).
@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 from rigs.model import Rig  # noqa: E402
 from sim.config import check_supersample  # noqa: E402
 from sim.errors import SimError  # noqa: E402
-from sim.model import World  # noqa: E402
+from sim.world import World  # noqa: E402
 from sim.vehicle import VEHICLE_GROUP  # noqa: E402
 
 

@@ -5,7 +5,7 @@ import sys
 import pytest
 from click.testing import CliRunner
 
-from sim.cli import cli
+from sim.app.cli import cli
 
 
 @pytest.fixture

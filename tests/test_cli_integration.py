@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-EXE = [sys.executable, "-c", "import sys; from sim.cli import main; sys.argv[0] = 'vo-testbed'; main()"]
+EXE = [sys.executable, "-c", "import sys; from sim.app.cli import main; sys.argv[0] = 'vo-testbed'; main()"]
 ENV = {**os.environ, "MUJOCO_GL": "egl"}
 
 

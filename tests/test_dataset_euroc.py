@@ -8,7 +8,7 @@ from sim.dataset import EurocWriter
 from test_dataset_synth import Synth, folder_hashes
 from vo.dataset import open_dataset
 from vo.dataset.interp import interpolate_poses
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import pytest
 from sim.dataset import DatasetWriters, KittiWriter
 from test_dataset_synth import Synth, folder_hashes, make_rig
 from vo.dataset import open_dataset
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 
 
 @pytest.fixture(scope="module")
@@ -74,7 +74,7 @@ def test_times_without_exact_file_use_seconds(written, tmp_path):
 
 def test_rotated_rig_poses_are_of_rectified_camera(tmp_path):
     from rigs.rectify import stereo_rectify
-    from vo.geometry import make_T
+    from rigs.geometry import make_T
     s = Synth()
     s.rig = make_rig(parallel=False)
     s.write(KittiWriter(tmp_path / "k", s.rig, s.metadata))

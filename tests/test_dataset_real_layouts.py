@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from vo.dataset import open_dataset
-from vo.geometry import R_from_quat_wxyz, make_T
+from rigs.geometry import R_from_quat_wxyz, make_T
 
 # Values copied from EuRoC MH_01_easy mav0/cam0/sensor.yaml (T_BS of cam0 in the IMU body frame).
 CAM0_T_BS = [0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975,

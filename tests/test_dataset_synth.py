@@ -9,7 +9,7 @@ import numpy as np
 
 from rigs.model import Camera, Imu, Rig
 from vo.dataset.types import Gcp
-from vo.geometry import make_T, rot_x, rot_z
+from rigs.geometry import make_T, rot_x, rot_z
 
 R_B_C_FORWARD = np.array([[0.0, 0, 1], [-1, 0, 0], [0, -1, 0]])
 W, H = 64, 48

@@ -4,7 +4,7 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from sim.cli import cli
+from sim.app.cli import cli
 from vo.errorprop import range_sigma
 from vo.errorprop.predict import parse_ranges
 from vo.errors import VoError

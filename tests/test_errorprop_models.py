@@ -7,7 +7,7 @@ from vo.errorprop import (CROSS_SITE_PRESETS, chi2_interval, cross_site_accuracy
                           triangulation_covariance)
 from vo.errorprop.crosssite import CrossSiteConfig, design_matrix
 from vo.errors import VoError
-from vo.geometry import make_T, R_from_opk_deg
+from rigs.geometry import make_T, R_from_opk_deg
 
 
 def test_range_sigma_hand_value():

@@ -9,14 +9,14 @@ variance ``(sigma^2 + 1/12) / P``.
 import numpy as np
 import pytest
 
-from sim.montecarlo import NoisyDataset
+from sim.app.consistency import NoisyDataset
 from vo.dataset.image_noise import MC_TAG, ImageNoiseDataset
 from vo.dataset.types import StereoFrame
 from vo.errors import VoError
 from vo.errorprop.renoise import renoise_covariance
 from vo.estimators.base import Estimator, FrameResult
 from vo.estimators.synthetic import random_texture
-from vo.geometry import make_T
+from rigs.geometry import make_T
 
 from test_estimators_pnp import make_rig  # noqa: E402  (tests/ is on sys.path under pytest's rootdir)
 
@@ -66,7 +66,7 @@ def test_image_noise_is_seeded_per_frame_and_key():
 
 
 def test_monte_carlo_runs_keep_their_bytes():
-    """sim.montecarlo.NoisyDataset is the image-noise reader with the runs' stream: the documented
+    """sim.app.consistency.NoisyDataset is the image-noise reader with the runs' stream: the documented
     draw ``default_rng([seed, frame index, 0xC0FFEE])``, unchanged by the move to vo/."""
     base = TexturedDataset()
     f = base.frame(3)
@@ -107,7 +107,7 @@ def test_replicate_cov_about_the_mean():
     T_hat = np.tile(np.eye(4), (2, 1, 1))
     T_reps = np.tile(np.eye(4), (3, 2, 1, 1))
     T_reps[:, :, 2, 3] = np.array([1.0, 2.0, 3.0])[:, None] + 10.0              # offset: the mean is removed
-    from vo.geometry import pose_error_cov
+    from rigs.geometry import pose_error_cov
     C = pose_error_cov(T_reps, T_hat)
     assert C.shape == (2, 6, 6) and np.allclose(C[:, 5, 5], 1.0) and np.allclose(C[:, :5, :5], 0.0)
 
@@ -136,7 +136,7 @@ def test_renoise_runs_rop_on_a_rendered_recording(campus_depth_ideal):
 
 def test_consistency_rejects_bad_renoise():
     from sim.errors import SimError
-    from sim.montecarlo import consistency
+    from sim.app.consistency import consistency
     with pytest.raises(SimError, match="renoise: 2; must be 0"):
         consistency("smoke", "rop", runs=2, renoise=2)
     with pytest.raises(SimError, match="renoise"):
@@ -147,7 +147,7 @@ def test_predict_renoise_cli(campus_depth_ideal, tmp_path):
     """`vo-testbed predict renoise` on a noise-free recording with --sigma given: JSON figures and a plot."""
     import json
     from click.testing import CliRunner
-    from sim.cli import cli
+    from sim.app.cli import cli
     png = tmp_path / "rn.png"
     r = CliRunner().invoke(cli, ["predict", "renoise", "--dataset", str(campus_depth_ideal), "--replicates", "3",
                                  "--sigma", "1", "--max-frames", "12", "--opt", "klt_config={win: 11}",

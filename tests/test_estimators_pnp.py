@@ -8,7 +8,7 @@ from vo.errors import EstimatorError
 from vo.estimators.pnp import KltPnpEstimator, OrbPnpEstimator
 from vo.estimators.pnp_core import PnpConfig
 from vo.estimators.synthetic import box_scene, render
-from vo.geometry import inv_T, make_T, rot_y, rotation_angle
+from rigs.geometry import inv_T, make_T, rot_y, rotation_angle
 
 R_B_C = np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])
 N_FRAMES = 8

@@ -13,7 +13,7 @@ from vo.errors import EstimatorError
 from vo.estimators.base import Estimator, FrameResult
 from vo.estimators.registry import ESTIMATORS, ExternalCommand, estimator_names, make_estimator
 from vo.estimators.runner import run_estimator
-from vo.geometry import make_T, rot_z
+from rigs.geometry import make_T, rot_z
 from vo.trajfile import read_kitti, read_tum
 
 from test_estimators_pnp import make_rig  # noqa: E402  (tests/ is on sys.path under pytest's rootdir)
@@ -133,7 +133,7 @@ def test_external_command_failure_reports_exit_code(tmp_path):
 
 
 def test_cli_run_external_and_registered(tmp_path, monkeypatch):
-    from sim.cli.cmd_run import run
+    from sim.app.cli.cmd_run import run
     spec = write_script(tmp_path, "open(args['--traj'], 'w').write('1.0 0 0 0 0 0 0 1\\n2.0 0 0 3 0 0 0 1\\n')\n")
     out = tmp_path / "out"
     r = CliRunner().invoke(run, ["--dataset", str(tmp_path), "--estimator", spec, "--out", str(out), "--json"])

@@ -4,7 +4,7 @@ import pytest
 
 from vo.errors import VoError
 from vo.eval import align, umeyama
-from vo.geometry import make_T, so3_exp
+from rigs.geometry import make_T, so3_exp
 from vo.trajectory import Trajectory
 
 

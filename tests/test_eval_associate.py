@@ -4,7 +4,7 @@ import pytest
 
 from vo.errors import VoError
 from vo.eval import associate, interpolate
-from vo.geometry import make_T, rot_z
+from rigs.geometry import make_T, rot_z
 from vo.eval.rotation import angle_rad
 from vo.trajectory import Trajectory
 

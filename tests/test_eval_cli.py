@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sim.cli import cli, main
+from sim.app.cli import cli, main
 from vo.eval import evaluate
-from vo.geometry import make_T, so3_exp
+from rigs.geometry import make_T, so3_exp
 from vo.trajectory import Trajectory
 from vo.trajfile import read_tum, write_tum
 
@@ -86,6 +86,6 @@ def test_eval_cli_kitti_files_and_short_route_strict_json(tmp_path):
 
 def test_eval_cli_does_not_import_mujoco():
     import subprocess
-    code = ("import sys; from sim.cli import cmd_eval; import vo.eval.plots; "
+    code = ("import sys; from sim.app.cli import cmd_eval; import vo.eval.plots; "
             "sys.exit(1 if 'mujoco' in sys.modules else 0)")
     assert subprocess.run([sys.executable, "-c", code], timeout=120).returncode == 0

@@ -7,7 +7,7 @@ from evo.core import sync  # noqa: E402
 from evo.tools import file_interface  # noqa: E402
 
 from vo.eval import align, associate, ate, rpe  # noqa: E402
-from vo.geometry import make_T, so3_exp  # noqa: E402
+from rigs.geometry import make_T, so3_exp  # noqa: E402
 from vo.trajectory import Trajectory  # noqa: E402
 from vo.trajfile import read_tum, write_tum  # noqa: E402
 

@@ -4,7 +4,7 @@ import pytest
 
 from vo.dataset.types import Gcp
 from vo.eval import align, ate, drift, gcp_errors, kitti_errors, route_lengths, rpe
-from vo.geometry import make_T, rot_z, so3_exp
+from rigs.geometry import make_T, rot_z, so3_exp
 from vo.trajectory import Trajectory
 
 S = 1_000_000_000

@@ -5,7 +5,7 @@ import pytest
 
 from rigs.model import Camera, Rig
 from vo.errors import VoError
-from vo.geometry import make_T
+from rigs.geometry import make_T
 from vo.frontend.correspondences import correspondences
 from vo.frontend.descriptors import match_stereo
 

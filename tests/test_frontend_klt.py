@@ -8,7 +8,7 @@ from vo.frontend.correspondences import correspondences
 from vo.frontend.klt import KltConfig, KltTracker, lk, track_fb
 from vo.frontend.lk_invariant import lk_illumination_invariant
 from vo.frontend.stereo import epipolar_mask, triangulate
-from vo.geometry import make_T
+from rigs.geometry import make_T
 
 R_B_C = np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])
 

@@ -12,8 +12,8 @@ from sim.errors import SimError
 from sim.imu import (G_W, analytic_imu, imu_pose_velocity, imu_times_ns, integrate_imu, measure_imu,
                      measure_states)
 from sim.rng import stream
-from sim.trajectory import MotionConfig, VehicleTrajectory
-from vo.geometry.se3 import R_from_opk_deg, make_T, so3_log
+from sim.motion import MotionConfig, VehicleTrajectory
+from rigs.geometry.se3 import R_from_opk_deg, make_T, so3_log
 
 LOOP = Route(((0, 0), (6, -1), (10, 0), (11, 4), (6, 6), (0, 5), (-2, 2)), closed=True,
              cruise_speed_mps=0.5, accel_mps2=0.4)          # ~33 m, ~70 s per lap

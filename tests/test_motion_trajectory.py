@@ -5,7 +5,7 @@ import pytest
 from scenes.base import Route
 from sim.errors import SimError
 from sim.rng import stream
-from sim.trajectory import MotionConfig, VehicleTrajectory
+from sim.motion import MotionConfig, VehicleTrajectory
 
 STILL = MotionConfig(vibration_pitch_deg=0, vibration_roll_deg=0, vibration_yaw_deg=0, vibration_heave_m=0)
 LOOP = Route(((0, 0), (6, -1), (10, 0), (11, 4), (6, 6), (0, 5), (-2, 2)), closed=True,

@@ -5,7 +5,7 @@ import pytest
 from rigs.model import Wheels
 from scenes.base import Route
 from sim.rng import stream
-from sim.trajectory import MotionConfig, VehicleTrajectory
+from sim.motion import MotionConfig, VehicleTrajectory
 from sim.wheels import measure_wheels
 
 STILL = MotionConfig(vibration_pitch_deg=0, vibration_roll_deg=0, vibration_yaw_deg=0, vibration_heave_m=0)

@@ -5,9 +5,9 @@ import cv2
 import numpy as np
 
 from test_render_support import RenderTestScene, stereo_rig, vehicle_pose
-from sim.model import build_world
+from sim.world import build_world
 from sim.render import StereoRenderer
-from vo.geometry import inv_T, make_T, rot_z, transform_points
+from rigs.geometry import inv_T, make_T, rot_z, transform_points
 
 W, H = 320, 240
 
@@ -125,7 +125,7 @@ def test_vehicle_hiding_is_not_vacuous():
     """A camera looking down and backwards at the cart does see it (so the test above can fail)."""
     rig = stereo_rig()
     from dataclasses import replace
-    from vo.geometry import rot_x
+    from rigs.geometry import rot_x
     cams = tuple(replace(c, T_b_c=make_T(c.T_b_c_array[:3, :3] @ rot_x(np.deg2rad(-110.0)),
                                          c.T_b_c_array[:3, 3])) for c in rig.cameras)
     down = replace(rig, cameras=cams)

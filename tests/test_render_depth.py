@@ -5,7 +5,7 @@ import cv2
 import numpy as np
 
 from test_render_support import RenderTestScene, stereo_rig, vehicle_pose
-from sim.model import build_world
+from sim.world import build_world
 from sim.render import StereoRenderer
 
 

@@ -11,9 +11,9 @@ import pytest
 
 from test_render_support import RenderTestScene, stereo_rig
 from sim import mjcam
-from sim.model import build_world
+from sim.world import build_world
 from sim.render import StereoRenderer
-from vo.geometry import inv_T, make_T, rot_x, rot_y, rot_z, transform_points
+from rigs.geometry import inv_T, make_T, rot_x, rot_y, rot_z, transform_points
 
 T_W_B = make_T(rot_z(0.6) @ rot_y(0.03) @ rot_x(-0.02), [2.0, -1.0, 0.2])
 RADIUS = 0.2     # 5-9 px disc: centroid quantisation (no MSAA) measured <= 0.14 px

@@ -7,11 +7,11 @@ import pytest
 from test_render_support import RenderTestScene, stereo_rig
 from rigs.model import Camera
 from scenes.base import SceneConfig
-from sim.bench import bench_render, route_poses
+from sim.app.bench_render import bench_render, route_poses
 from sim.distortion import DistortionMap, reprojection_error_px, undistort_exact
 from sim.errors import SimError
 from sim.image_noise import add_image_noise
-from sim.model import build_world
+from sim.world import build_world
 
 EUROC_CAM = Camera("cam0", 752, 480, 458.654, 457.296, 367.215, 248.375,
                    dist=(-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.0))

@@ -8,9 +8,9 @@ from test_render_intrinsics import P_C0, RADIUS, T_W_B, _centroid, _hi_res_spher
 from test_render_support import RenderTestScene, stereo_rig, vehicle_pose
 from sim.config import GenerateConfig, check_supersample
 from sim.errors import SimError
-from sim.model import build_world
+from sim.world import build_world
 from sim.render import StereoRenderer
-from vo.geometry import inv_T, transform_points
+from rigs.geometry import inv_T, transform_points
 
 
 def _render(scene, rig, ss):
@@ -66,14 +66,14 @@ def test_supersample_override_is_validated_on_the_config():
 
 def test_supersampled_ground_texture_moves_with_the_ground():
     """campus-short (scenario seed 2, 8 frame pairs): rendered frame k+1 against the exact geometric
-    warp of frame k over ~1300 ground corners (sim.validation.render_fidelity). At 3x the texture's
+    warp of frame k over ~1300 ground corners (sim.app.validation.render_fidelity). At 3x the texture's
     motion against the geometry is +0.006 px per frame in u (standard error 0.0025), bound 0.015 px;
     the same check at 1x measures +0.022 +- 0.006 px (mipmapped texture filtering, docs/consistency.md)
     and would fail it. The scatter (std) bound, 0.12 px (measured 0.09), keeps the alignment honest."""
     from dataclasses import replace
     from sim.generate import resolve
     from sim.scenarios import get_scenario
-    from sim.validation.render_fidelity import texture_motion
+    from sim.app.validation.render_fidelity import texture_motion
     setup = resolve(replace(get_scenario("campus-short"), ideal=True, seed=2))
     T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
     with StereoRenderer(build_world(setup.scene, setup.rig), depth=True, gray=True, supersample=3) as r:

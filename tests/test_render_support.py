@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 
 from rigs.model import Camera, Rig  # noqa: E402
 from scenes.base import Route, Scene, SceneConfig  # noqa: E402
-from vo.geometry import make_T, rot_x, rot_y, rot_z  # noqa: E402
+from rigs.geometry import make_T, rot_x, rot_y, rot_z  # noqa: E402
 
 R_B_C_FORWARD = np.array([[0.0, 0, 1], [-1, 0, 0], [0, -1, 0]])
 
@@ -108,7 +108,7 @@ def vehicle_pose(x=0.0, y=0.0, yaw=0.0) -> np.ndarray:
 
 def test_world_places_cameras_exactly():
     """MuJoCo's camera pose (via mjcam) equals T_w_b @ T_b_c to float precision."""
-    from sim.model import build_world
+    from sim.world import build_world
     rig = stereo_rig()
     world = build_world(RenderTestScene(), rig)
     T_w_b = make_T(rot_z(0.7) @ rot_y(0.05), [1.0, -2.0, 0.3])

@@ -11,7 +11,7 @@ from rigs.calib_io import (kalibr_camchain_dict, read_euroc_camera_yaml, read_eu
                            write_kitti_calib)
 from rigs.presets import get_rig
 from rigs.rectify import stereo_rectify
-from vo.geometry.se3 import inv_T
+from rigs.geometry.se3 import inv_T
 
 # Real EuRoC MAV file mav0/cam0/sensor.yaml (OpenCV '%YAML:1.0' header, comments, 4 coefficients).
 EUROC_CAM0_SENSOR_YAML = """%YAML:1.0

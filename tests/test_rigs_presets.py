@@ -5,7 +5,7 @@ import pytest
 from rigs import RigError
 from rigs.io_yaml import load_rig
 from rigs.presets import PRESET_DIR, R_B_C_FORWARD, get_rig, rig_names
-from vo.geometry.se3 import opk_deg_from_R
+from rigs.geometry.se3 import opk_deg_from_R
 
 
 @pytest.mark.parametrize("name", rig_names())

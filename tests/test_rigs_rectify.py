@@ -5,7 +5,7 @@ import pytest
 
 from rigs.presets import get_rig
 from rigs.rectify import stereo_rectify
-from vo.geometry.se3 import inv_T, transform_points
+from rigs.geometry.se3 import inv_T, transform_points
 
 
 def test_parallel_rig_rectification_is_identity():

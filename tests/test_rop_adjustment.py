@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from vo.geometry import R_from_opk_deg, inv_T, make_T, so3_exp, so3_log
+from rigs.geometry import R_from_opk_deg, inv_T, make_T, so3_exp, so3_log
 from vo.rop import adjust_rops, initial_eops
 from vo.rop.adjustment import AdjustmentConfig
 from vo.rop.relative import RopMeasurement

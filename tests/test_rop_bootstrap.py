@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from vo.geometry import R_from_opk_deg, make_T, so3_exp, so3_log
+from rigs.geometry import R_from_opk_deg, make_T, so3_exp, so3_log
 from vo.rop import adjust_rops
 from vo.rop.adjustment import AdjustmentConfig
 from vo.rop.bootstrap_cov import bootstrap_step_cov

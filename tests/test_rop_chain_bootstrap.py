@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vo.errors import EstimatorError
-from vo.geometry import make_T, pose_error_left, so3_exp
+from rigs.geometry import make_T, pose_error_left, so3_exp
 from vo.rop import adjust_rops
 from vo.rop.adjustment import AdjustmentConfig
 from vo.rop.bootstrap_cov import bootstrap_step_replicates, replicate_cov

@@ -7,7 +7,7 @@ from rigs.presets import get_rig
 from vo.dataset.types import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import STATUSES
-from vo.geometry import make_T, rot_y, rotation_angle, skew
+from rigs.geometry import make_T, rot_y, rotation_angle, skew
 from vo.rop.estimator import RopEstimator, propagate_cov
 
 RIG = get_rig("cart27")                    # 720x480, 0.2857 m baseline, seed 000 distortion
@@ -115,7 +115,7 @@ def test_options_are_validated():
 
 def test_propagate_cov_matches_monte_carlo_linearisation():
     """First-order chaining formula against finite differences of the composition."""
-    from vo.geometry import so3_exp, so3_log
+    from rigs.geometry import so3_exp, so3_log
     rng = np.random.default_rng(0)
     T1 = make_T(so3_exp(rng.normal(0, 0.3, 3)), rng.normal(0, 2, 3))
     T2 = make_T(so3_exp(rng.normal(0, 0.1, 3)), rng.normal(0, 1, 3))

@@ -1,7 +1,7 @@
 """Joint covariance of the four ROPs from shared four-view tracks (vo.rop.joint_cov) vs Monte-Carlo."""
 import numpy as np
 
-from vo.geometry import R_from_opk_deg, make_T, so3_exp, so3_log
+from rigs.geometry import R_from_opk_deg, make_T, so3_exp, so3_log
 from vo.rop import adjust_rops
 from vo.rop.joint_cov import with_pixel_factors
 from vo.rop.relative import estimate_rop_normalized

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vo.errors import EstimatorError
-from vo.geometry import make_T, pose_error_left, so3_exp
+from rigs.geometry import make_T, pose_error_left, so3_exp
 from vo.rop import adjust_rops
 from vo.rop.adjustment import AdjustmentConfig
 from vo.rop.noise_chain import NoiseChain, draw_footprints, noise_step_replicates

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from vo.geometry import R_from_opk_deg, make_T, so3_exp, so3_log
+from rigs.geometry import R_from_opk_deg, make_T, so3_exp, so3_log
 from vo.rop import adjust_rops
 from vo.rop.relative import RopMeasurement, project_cov, rop_from_opencv
 from vo.rop.ropset import RopSet, exact_ropset

@@ -2,7 +2,7 @@
 import cv2
 import numpy as np
 
-from vo.geometry import inv_T, make_T, rotation_angle, so3_exp, transform_points
+from rigs.geometry import inv_T, make_T, rotation_angle, so3_exp, transform_points
 from vo.rop.relative import estimate_rop, rop_from_opencv
 
 K = np.array([[504.3, 0, 360.6], [0, 504.3, 239.8], [0, 0, 1.0]])

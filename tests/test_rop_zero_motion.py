@@ -8,7 +8,7 @@ from vo.dataset.types import StereoFrame
 from vo.estimators.synthetic import box_scene, render
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, detect_in_empty_cells
-from vo.geometry import make_T, rot_y, rotation_angle, so3_exp, skew
+from rigs.geometry import make_T, rot_y, rotation_angle, so3_exp, skew
 from vo.rop.estimator import RopEstimator
 from vo.rop.griddetect import detect_grid
 from vo.rop.relative import chirality, sampson_jacobian

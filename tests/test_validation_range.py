@@ -9,9 +9,9 @@ import pytest
 from rigs.overrides import apply_overrides
 from rigs.presets import get_rig
 from sim.errors import SimError
-from sim.validation.range_check import (board_mask, disparity_from_depth, measure_range_errors,
+from sim.app.validation.range_check import (board_mask, disparity_from_depth, measure_range_errors,
                                         render_board_frames)
-from sim.validation.targets import board_layout
+from sim.app.validation.targets import board_layout
 
 
 def _project(rig, T_w_b, p_w, k):
@@ -79,7 +79,7 @@ def test_bad_arguments_raise_one_line_sim_errors():
 def test_cli_validate_range_writes_json_and_plot(tmp_path):
     import json
     from click.testing import CliRunner
-    from sim.cli.cmd_validate import validate
+    from sim.app.cli.cmd_validate import validate
     out = tmp_path / "val"
     r = CliRunner().invoke(validate, ["range", "--baselines", "0.27", "--ranges", "4", "--matchers", "klt",
                                       "--phases", "1", "--out", str(out), "--json"])

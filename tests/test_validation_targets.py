@@ -5,7 +5,7 @@ import pytest
 from rigs.presets import get_rig
 from scenes.base import SceneConfig
 from scenes.errors import SceneError
-from sim.validation.targets import Board, TargetScene, board_layout, board_texture
+from sim.app.validation.targets import Board, TargetScene, board_layout, board_texture
 
 
 def test_board_texture_is_seeded_and_not_self_similar():

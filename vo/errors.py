@@ -1,7 +1,8 @@
-"""Exception root of the ``vo`` package."""
+"""Exceptions of the ``vo`` package (under the project root :class:`rigs.errors.TestbedError`)."""
+from rigs.errors import TestbedError
 
 
-class VoError(Exception):
+class VoError(TestbedError):
     """Base of every error raised by ``vo``; messages name the file, field or bad value."""
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from rigs.io_yaml import write_text_atomic as _atomic_write
 from vo.errors import DatasetError
-from vo.geometry import R_from_quat_wxyz, R_from_quat_xyzw, quat_xyzw_from_R, make_T
+from rigs.geometry import R_from_quat_wxyz, R_from_quat_xyzw, quat_xyzw_from_R, make_T
 from vo.trajectory import Trajectory
 
 

@@ -5,11 +5,11 @@ supersampled. Usage: .venv/bin/python docs/scripts/ground_flow_check.py RIG YAW 
 import os, sys; sys.path.insert(0, "tests"); os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np, cv2
 from test_render_support import RenderTestScene, vehicle_pose
-from sim.validation.exact_points import exact_positions
-from sim.model import build_world
+from sim.app.validation.exact_points import exact_positions
+from sim.world import build_world
 from sim.render import StereoRenderer
 from rigs.presets import get_rig
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 np.set_printoptions(precision=4, suppress=True, linewidth=200)
 rig = get_rig(sys.argv[1] if len(sys.argv) > 1 else "cart27")
 SS = int(sys.argv[3]) if len(sys.argv) > 3 else 1

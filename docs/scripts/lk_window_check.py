@@ -16,11 +16,11 @@ sys.path.insert(0, "tests")
 from test_render_support import RenderTestScene, vehicle_pose  # noqa: E402
 
 from rigs.presets import get_rig  # noqa: E402
-from sim.model import build_world  # noqa: E402
+from sim.world import build_world  # noqa: E402
 from sim.render import StereoRenderer  # noqa: E402
-from sim.validation.exact_points import exact_positions  # noqa: E402
+from sim.app.validation.exact_points import exact_positions  # noqa: E402
 from vo.frontend.affine_lk import refine_affine  # noqa: E402
-from vo.geometry import inv_T  # noqa: E402
+from rigs.geometry import inv_T  # noqa: E402
 
 rig = get_rig("cart27")
 cam = rig.cameras[0]

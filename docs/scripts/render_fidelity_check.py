@@ -2,7 +2,7 @@
 
 Renders campus-short (cart27, ideal) frame pairs k, k+1 (k = 30, 33, .., 99) at the true poses with
 ``render.supersample`` S and measures the rendered frame k+1 against an exact geometric warp of frame
-k over the ground corners (v > 330 px): sim.validation.render_fidelity.texture_motion.
+k over the ground corners (v > 330 px): sim.app.validation.render_fidelity.texture_motion.
 
 Usage: .venv/bin/python docs/scripts/render_fidelity_check.py [SUPERSAMPLE] [SCENARIO_SEED]   (defaults 1, 2)
 """
@@ -12,10 +12,10 @@ from dataclasses import replace
 import numpy as np
 
 from sim.generate import resolve
-from sim.model import build_world
+from sim.world import build_world
 from sim.render import StereoRenderer
 from sim.scenarios import get_scenario
-from sim.validation.render_fidelity import texture_motion
+from sim.app.validation.render_fidelity import texture_motion
 
 np.set_printoptions(precision=4, suppress=True)
 ss = int(sys.argv[1]) if len(sys.argv) > 1 else 1

@@ -4,12 +4,12 @@ Usage: .venv/bin/python docs/scripts/render_variant_check.py base|nolight|nohead
 import os, sys; os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np, cv2, mujoco
 from dataclasses import replace
-from sim.validation.exact_points import backproject, local_depth
+from sim.app.validation.exact_points import backproject, local_depth
 from sim.scenarios import get_scenario
 from sim.generate import resolve
-from sim.model import build_world
+from sim.world import build_world
 from sim.render import StereoRenderer
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 np.set_printoptions(precision=4, suppress=True, linewidth=200)
 variant = sys.argv[1]; rigname = sys.argv[2] if len(sys.argv) > 2 else "stereo27"
 

@@ -27,11 +27,11 @@ def one_run(k: int, options: dict):
     """-> (steps, 6) errors and (steps, 6, 6) bootstrap covariances of run k's keyframe steps."""
     import cv2
     cv2.setNumThreads(1)
-    from sim.montecarlo import NoisyDataset
+    from sim.app.consistency import NoisyDataset
     from sim.scenarios import cached_dataset, get_scenario
     from vo.dataset import open_dataset
     from vo.estimators.registry import make_estimator
-    from vo.geometry import pose_error_left
+    from rigs.geometry import pose_error_left
     cfg = replace(get_scenario("campus-short", overrides=("render.supersample=3",)), ideal=True)
     base = open_dataset(cached_dataset(replace(cfg, seed=cfg.seed + 1 + k), progress=False))
     gt = base.groundtruth_cam0().T

@@ -6,7 +6,7 @@ import numpy as np, cv2
 from dataclasses import replace
 from sim.scenarios import cached_dataset, get_scenario
 from vo.dataset import open_dataset
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 np.set_printoptions(precision=3, suppress=True)
 cfg = replace(get_scenario("campus-short"), ideal=True, depth=True)
 ds = open_dataset(cached_dataset(cfg, progress=False))

@@ -7,9 +7,9 @@ import numpy as np, cv2, sys
 from dataclasses import replace
 from sim.scenarios import cached_dataset, get_scenario
 from vo.dataset import open_dataset
-from vo.geometry import inv_T
-from sim.validation.exact_points import backproject, local_depth
-from sim.validation.render_fidelity import exact_warp
+from rigs.geometry import inv_T
+from sim.app.validation.exact_points import backproject, local_depth
+from sim.app.validation.render_fidelity import exact_warp
 np.set_printoptions(precision=4, suppress=True, linewidth=200)
 cfg = replace(get_scenario("campus-short"), ideal=True, depth=True)
 res_real, res_syn, pos = [], [], []

@@ -1,9 +1,9 @@
 """Dataset writers (EuRoC ASL, KITTI odometry); they take numpy arrays and never import mujoco."""
 from pathlib import Path
 
-from sim.dataset.euroc import EurocWriter, euroc_resume_state  # noqa: F401
+from sim.dataset.euroc_writer import EurocWriter, euroc_resume_state  # noqa: F401
 from sim.dataset.fanout import DatasetWriters, write_tum_groundtruth  # noqa: F401
-from sim.dataset.kitti import KittiWriter, kitti_resume_state  # noqa: F401
+from sim.dataset.kitti_writer import KittiWriter, kitti_resume_state  # noqa: F401
 
 
 def resume_state(out_dir) -> int:

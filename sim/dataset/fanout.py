@@ -22,8 +22,8 @@ class DatasetWriters:
 
     def __init__(self, out_dir, rig, metadata: dict, fmt: str = "euroc", depth: bool = False,
                  segmentation: bool = False, overwrite: bool = False):
-        from sim.dataset.euroc import EurocWriter
-        from sim.dataset.kitti import KittiWriter
+        from sim.dataset.euroc_writer import EurocWriter
+        from sim.dataset.kitti_writer import KittiWriter
         if fmt not in FORMATS:
             raise SimError(f"dataset format {fmt!r} unknown; valid: {', '.join(FORMATS)}")
         out_dir = Path(out_dir)

@@ -1,6 +1,6 @@
 """The ``Dataset`` every estimator reads: stereo frames (lazy), IMU, ground truth, GCPs, rig.
 
-Subclasses (:mod:`vo.dataset.euroc`, :mod:`vo.dataset.kitti`) fill in the frame list and the
+Subclasses (:mod:`vo.dataset.euroc_reader`, :mod:`vo.dataset.kitti_reader`) fill in the frame list and the
 loaders; images are read from disk only when a frame is asked for.
 """
 from __future__ import annotations

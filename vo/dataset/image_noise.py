@@ -1,6 +1,6 @@
 """A reader-API dataset whose stereo images get seeded i.i.d. Gaussian grey-level noise on the fly.
 
-Used by the Monte-Carlo runs (:class:`sim.montecarlo.NoisyDataset`, which adds IMU noise) and by the
+Used by the Monte-Carlo runs (:class:`sim.app.consistency.NoisyDataset`, which adds IMU noise) and by the
 re-noising propagation (:mod:`vo.errorprop.renoise`). Frame ``k`` of stream ``key`` draws from
 ``default_rng([*key, k, tag])`` alone, so frames may be read in any order and give the same bytes;
 the noisy image is ``clip(rint(img + sigma n), 0, 255)`` as uint8, the rounding included (as a
@@ -13,7 +13,7 @@ import numpy as np
 from vo.dataset.types import StereoFrame
 from vo.errors import VoError
 
-MC_TAG = 0xC0FFEE           # the Monte-Carlo runs' stream tag (sim.montecarlo)
+MC_TAG = 0xC0FFEE           # the Monte-Carlo runs' stream tag (sim.app.consistency)
 
 
 class ImageNoiseDataset:

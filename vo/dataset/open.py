@@ -49,12 +49,12 @@ def open_dataset(path):
     if path.name == "mav0" and (path / "cam0").is_dir():
         path = path.parent
     if (path / "mav0").is_dir():
-        from vo.dataset.euroc import EurocDataset
+        from vo.dataset.euroc_reader import EurocDataset
         _refuse_incomplete(path)
         return EurocDataset(path / "mav0", path, ours=_is_ours(path))
     seq = _kitti_sequence(path)
     if seq is not None:
-        from vo.dataset.kitti import KittiDataset
+        from vo.dataset.kitti_reader import KittiDataset
         root = seq.parent.parent
         _refuse_incomplete(path, root)
         return KittiDataset(seq, root, ours=_is_ours(root))

@@ -26,7 +26,7 @@ import numpy as np
 from vo.dataset.image_noise import ImageNoiseDataset
 from vo.errors import VoError
 from vo.estimators.pnp_core import to_gray
-from vo.geometry import pose_error_cov
+from rigs.geometry import pose_error_cov
 
 RENOISE_TAG = 0x5E1F              # separates the replicates' noise streams from the Monte-Carlo runs'
 MIN_REPLICATES = 3

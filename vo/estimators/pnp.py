@@ -29,7 +29,7 @@ from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
 from vo.frontend.stereo import epipolar_mask, triangulate, undistort_px
-from vo.geometry import inv_T, transform_points
+from rigs.geometry import inv_T, transform_points
 
 MAX_COAST_FRAMES = 10
 

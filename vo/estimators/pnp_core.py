@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 
 from vo.errors import EstimatorError
-from vo.geometry import inv_T, make_T
+from rigs.geometry import inv_T, make_T
 
 PNP_METHODS = {"iterative": cv2.SOLVEPNP_ITERATIVE, "epnp": cv2.SOLVEPNP_EPNP}
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 
 
 def random_texture(rng: np.random.Generator, width: int, height: int, blur_texels: float = 2.0) -> np.ndarray:

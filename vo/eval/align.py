@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vo.errors import VoError
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 from vo.trajectory import Trajectory
 
 ALIGN_METHODS = ("se3", "sim3", "none", "first", "posyaw")

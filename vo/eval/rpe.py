@@ -8,7 +8,7 @@ import numpy as np
 from vo.errors import VoError
 from vo.eval.rotation import angle_rad
 from vo.eval.stats import ErrorStats
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 from vo.trajectory import Trajectory
 
 RPE_UNITS = ("frames", "m")

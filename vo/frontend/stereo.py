@@ -8,7 +8,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from vo.geometry import inv_T, skew
+from rigs.geometry import inv_T, skew
 
 
 def undistort_px(pts: np.ndarray, camera) -> np.ndarray:

@@ -43,7 +43,7 @@ from typing import Optional
 import numpy as np
 
 from vo.errors import EstimatorError
-from vo.geometry import make_T, rotation_angle, skew
+from rigs.geometry import make_T, rotation_angle, skew
 from vo.rop.initial import InitialEops, initial_eops, project_to_so3
 from vo.rop.propagation import propagated_cov
 from vo.rop.ropset import RopSet

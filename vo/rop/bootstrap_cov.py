@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vo.geometry import pose_error_cov
+from rigs.geometry import pose_error_cov
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.initial import initial_eops
 from vo.rop.relative import estimate_rop_normalized

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from vo.errors import EstimatorError
-from vo.geometry import pose_error_cov, so3_exp
+from rigs.geometry import pose_error_cov, so3_exp
 from vo.rop.bootstrap_cov import MIN_REPLICATES
 
 

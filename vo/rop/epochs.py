@@ -12,7 +12,7 @@ from typing import Optional
 
 import numpy as np
 
-from vo.geometry import inv_T, rotation_angle
+from rigs.geometry import inv_T, rotation_angle
 
 
 @dataclass(frozen=True)

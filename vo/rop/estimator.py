@@ -72,7 +72,7 @@ from vo.estimators.base import Estimator, FrameResult
 from vo.frontend.klt import KltConfig
 from vo.frontend.lk_noise import lk_noise_cov
 from vo.frontend.noise_level import estimate_noise_sigma
-from vo.geometry import inv_T, make_T, rotation_angle, skew
+from rigs.geometry import inv_T, make_T, rotation_angle, skew
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.bootstrap_cov import MIN_REPLICATES, bootstrap_step_replicates, replicate_cov

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vo.errors import EstimatorError
-from vo.geometry import make_T
+from rigs.geometry import make_T
 from vo.rop.ropset import RopSet
 
 MODES = ("network", "minimal")

@@ -28,7 +28,7 @@ import dataclasses
 
 import numpy as np
 
-from vo.geometry import skew
+from rigs.geometry import skew
 from vo.rop.relative import project_jacobian, sampson_jacobian, sampson_residuals, tangent_basis
 
 FD_STEP = 1e-6     # normalized coordinates (~1e-3 px at f = 500): central-difference error ~h^2

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vo.geometry import skew
+from rigs.geometry import skew
 from vo.rop.joint_cov import joint_rop_cov
 
 

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from vo.errors import VoError
-from vo.geometry import skew
+from rigs.geometry import skew
 
 MIN_INLIERS = 8
 METHODS = {"ransac": cv2.RANSAC, "magsac": cv2.USAC_MAGSAC}

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vo.errors import EstimatorError
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 from vo.rop.relative import RopMeasurement
 
 PAIRS = ("13", "14", "23", "24")

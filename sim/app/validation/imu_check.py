@@ -34,7 +34,7 @@ def dead_reckoning(scene: str = "campus", rig: str = "cart27", duration_s: float
     from sim.config import GenerateConfig
     from sim.generate import resolve
     from sim.imu import imu_pose_velocity, integrate_imu, measure_imu
-    from vo.geometry import so3_log
+    from rigs.geometry import so3_log
 
     setup = resolve(GenerateConfig(scene=scene, rig=rig, duration_s=duration_s, seed=seed, ideal=True,
                                    images=False, overrides=tuple(overrides)))

@@ -1,7 +1,7 @@
 """Validate seed 001 eq. 7 (``sigma_r = r^2 sigma_p / (b f)``) on rendered stereo images.
 
 Procedure, per baseline ``b`` (the ``stereo27`` rig with ``baseline=b``, c0 fixed) and per range
-``r``: render one frame of :mod:`sim.validation.targets` (a fronto-parallel textured board at depth
+``r``: render one frame of :mod:`sim.app.validation.targets` (a fronto-parallel textured board at depth
 exactly ``r`` on c0's optical axis), add seeded Gaussian image noise to both grey images, match
 left -> right with each matcher, and compare with the exact disparity from the rendered depth,
 ``d_true = f b / Z`` at the left pixel (parallel rectified rig: ``d = u0 - u1``).
@@ -216,9 +216,9 @@ def sgbm_disparities(left, right, mask, max_disparity_px: float, block: int = 5,
 def render_board_frames(rig, ranges_m, seed: int = 0, half_angles_deg=(10.0, 7.0)) -> list:
     """Render one stereo frame per range -> ``[(left grey uint8, right grey uint8, depth_c0 float32 m)]``."""
     from scenes.base import SceneConfig
-    from sim.model import build_world
+    from sim.world import build_world
     from sim.render import StereoRenderer
-    from sim.validation.targets import TargetScene, board_layout
+    from sim.app.validation.targets import TargetScene, board_layout
     boards, poses = board_layout(rig, ranges_m, half_angles_deg=half_angles_deg, seed=seed)
     world = build_world(TargetScene(SceneConfig(name="targets", seed=seed), boards), rig)
     out = []

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from sim.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
+from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
 
 
 @click.command("consistency")
@@ -33,7 +33,7 @@ from sim.cli.options import echo_json, json_option, opt_option, parse_opts, set_
 def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, oracle_px, renoise,
                 no_progress, overrides, estimator_opts, as_json):
     """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
-    from sim.montecarlo import consistency as run_mc, plot_consistency, save_npz_atomic
+    from sim.app.consistency import consistency as run_mc, plot_consistency, save_npz_atomic
     from vo.pipeline import _write_json
     if runs < 2:
         raise click.BadParameter("need at least 2 runs", param_hint="--runs")

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from sim.cli.options import echo_json, json_option
+from sim.app.cli.options import echo_json, json_option
 
 
 def _floats(text: str, option: str) -> tuple:
@@ -39,7 +39,7 @@ def validate():
 def range_cmd(rig_name, baselines, ranges, matchers, image_noise, phases, tolerance, min_samples, seed,
               out_dir, strict, as_json):
     """Measured vs predicted (seed 001 eq. 7) stereo range error per baseline, matcher and range."""
-    from sim.validation.range_check import measure_range_errors
+    from sim.app.validation.range_check import measure_range_errors
     res = measure_range_errors(baselines=_floats(baselines, "--baselines"), ranges=_floats(ranges, "--ranges"),
                                matchers=tuple(m.strip() for m in matchers.split(",") if m.strip()),
                                image_noise=image_noise, seed=seed, rig=rig_name, min_samples=min_samples,
@@ -63,7 +63,7 @@ def range_cmd(rig_name, baselines, ranges, matchers, image_noise, phases, tolera
 @json_option
 def imu_cmd(scene, rig_name, duration, seed, as_json):
     """Dead-reckon the ideal IMU from the true initial state and print the error against the truth."""
-    from sim.validation.imu_check import dead_reckoning
+    from sim.app.validation.imu_check import dead_reckoning
     res = dead_reckoning(scene, rig_name, duration, seed)
     echo_json(res.to_dict()) if as_json else click.echo(res.text())
 
@@ -75,6 +75,6 @@ def imu_cmd(scene, rig_name, duration, seed, as_json):
 @json_option
 def allan_cmd(imu_name, hours, seed, as_json):
     """Allan deviation of a long static noisy IMU against the model's densities."""
-    from sim.validation.imu_check import allan_check
+    from sim.app.validation.imu_check import allan_check
     res = allan_check(imu_name, hours, seed)
     echo_json(res.to_dict()) if as_json else click.echo(res.text())

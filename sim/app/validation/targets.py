@@ -28,7 +28,7 @@ import numpy as np
 from scenes.base import Route, Scene, SceneConfig
 from scenes.errors import SceneError
 from scenes.textures import make_texture
-from vo.geometry import quat_wxyz_from_R
+from rigs.geometry import quat_wxyz_from_R
 
 BOARD_PREFIX = "static/board/"
 

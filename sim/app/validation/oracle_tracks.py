@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from sim.errors import SimError
-from sim.validation.exact_points import backproject, local_depth, project
-from vo.geometry import inv_T
+from sim.app.validation.exact_points import backproject, local_depth, project
+from rigs.geometry import inv_T
 from vo.frontend.klt import KltConfig
 from vo.rop.tracks import FourView, KltFourView
 

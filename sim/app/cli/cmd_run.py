@@ -5,7 +5,7 @@ import json
 
 import click
 
-from sim.cli.options import opt_option, parse_opts
+from sim.app.cli.options import opt_option, parse_opts
 
 
 @click.command("run")

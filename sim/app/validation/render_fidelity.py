@@ -13,9 +13,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from sim.validation.exact_points import backproject, project
+from sim.app.validation.exact_points import backproject, project
 from vo.frontend.affine_lk import refine_affine
-from vo.geometry import inv_T
+from rigs.geometry import inv_T
 
 
 def exact_warp(img_k: np.ndarray, depth_k1: np.ndarray, T_k_k1: np.ndarray, camera) -> np.ndarray:

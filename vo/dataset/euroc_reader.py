@@ -80,7 +80,7 @@ class EurocDataset(Dataset):
     @functools.cached_property
     def groundtruth(self):
         """``T_w_i`` (frame "i") from state_groundtruth_estimate0 (or None when absent)."""
-        from vo.geometry import R_from_quat_wxyz
+        from rigs.geometry import R_from_quat_wxyz
         path = self.mav0 / "state_groundtruth_estimate0" / "data.csv"
         if not path.is_file():
             return None
@@ -102,7 +102,7 @@ class EurocDataset(Dataset):
         gt = self.groundtruth
         if gt is None:
             raise DatasetError(f"{self.mav0}: no state_groundtruth_estimate0/data.csv; no ground truth")
-        from vo.geometry import inv_T
+        from rigs.geometry import inv_T
         T_i_c0 = inv_T(self.rig.imu.T_b_i_array) @ self.rig.cameras[0].T_b_c_array
         at_frames, _ = interpolate_poses(gt, self.frame_times_ns)
         return at_frames.transformed(np.eye(4), T_i_c0, ref="w", frame="c0")

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from sim.cli.options import echo_json, json_option
+from sim.app.cli.options import echo_json, json_option
 
 
 @click.command("demo")
@@ -15,7 +15,7 @@ from sim.cli.options import echo_json, json_option
 @json_option
 def demo(scenario, estimators, out_dir, max_frames, no_progress, as_json):
     """Generate SCENARIO (cached), run the estimators, print seed 000's Table 4 for each, write plots."""
-    from sim.demo import run_demo
+    from sim.app.demo import run_demo
     res = run_demo(scenario, tuple(e.strip() for e in estimators.split(",") if e.strip()), out_dir,
                    progress=not (no_progress or as_json), max_frames=max_frames)
     echo_json(res.to_dict()) if as_json else click.echo(res.text())

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from sim.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
+from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
 
 
 @click.group("predict")

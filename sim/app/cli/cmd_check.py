@@ -5,7 +5,7 @@ import sys
 
 import click
 
-from sim.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
+from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
 
 
 @click.command("check")
@@ -28,7 +28,7 @@ def check(estimator, scenario, max_drift, max_ate, max_rpe, frontend, seed, out_
           overrides, as_json):
     """Generate (or reuse, cached by configuration hash) SCENARIO, run ESTIMATOR, print the metrics and
     exit 1 when any given bound is exceeded (2 on a usage or input error)."""
-    from sim.check import check as run_check
+    from sim.app.check import check as run_check
     options = parse_opts(estimator_opts, frontend)
     res = run_check(estimator, scenario, {"max_drift": max_drift, "max_ate": max_ate, "max_rpe": max_rpe},
                     overrides=overrides, seed=seed, out_dir=out_dir, options=options,

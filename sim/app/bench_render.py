@@ -1,6 +1,6 @@
 """Rendering throughput benchmark: stereo pairs per second along each scene's route.
 
-``python -m sim.bench [scene ...]`` prints one line per (scene, shadows) setting.
+``python -m sim.app.bench_render [scene ...]`` prints one line per (scene, shadows) setting.
 Poses: ``n_pairs`` points evenly spaced in arc length along ``scene.route.xy``, body on the
 ground (``scene.ground_height``), yaw along the path; the default rig's cameras are 1.2 m high.
 Only RGB rendering is timed (what dataset generation needs per frame), after 2 warm-up frames.
@@ -16,7 +16,7 @@ import numpy as np
 from rigs.model import Camera, Rig
 from scenes.base import Scene, SceneConfig
 from sim.errors import SimError
-from vo.geometry import make_T, rot_z
+from rigs.geometry import make_T, rot_z
 
 R_B_C_FORWARD = np.array([[0.0, 0, 1], [-1, 0, 0], [0, -1, 0]])
 
@@ -71,7 +71,7 @@ def _make_scene(name: str, shadows: bool) -> Scene:
 
 def bench_scene(scene: Scene, rig: Rig, n_pairs: int = 40) -> BenchResult:
     """Time ``n_pairs`` RGB stereo renders of ``scene`` along its route."""
-    from sim.model import build_world
+    from sim.world import build_world
     from sim.render import StereoRenderer
     world = build_world(scene, rig)
     poses = route_poses(scene, n_pairs)

@@ -13,16 +13,16 @@ import click
 
 # name -> "module:attribute" of a click command
 COMMANDS = {
-    "generate": "sim.cli.cmd_generate:generate",
-    "list": "sim.cli.cmd_list:list_cmd",
-    "bench": "sim.cli.cmd_bench:bench",
-    "run": "sim.cli.cmd_run:run",
-    "eval": "sim.cli.cmd_eval:eval_cmd",
-    "check": "sim.cli.cmd_check:check",
-    "demo": "sim.cli.cmd_demo:demo",
-    "predict": "sim.cli.cmd_predict:predict",
-    "consistency": "sim.cli.cmd_consistency:consistency",
-    "validate": "sim.cli.cmd_validate:validate",
+    "generate": "sim.app.cli.cmd_generate:generate",
+    "list": "sim.app.cli.cmd_list:list_cmd",
+    "bench": "sim.app.cli.cmd_bench:bench",
+    "run": "sim.app.cli.cmd_run:run",
+    "eval": "sim.app.cli.cmd_eval:eval_cmd",
+    "check": "sim.app.cli.cmd_check:check",
+    "demo": "sim.app.cli.cmd_demo:demo",
+    "predict": "sim.app.cli.cmd_predict:predict",
+    "consistency": "sim.app.cli.cmd_consistency:consistency",
+    "validate": "sim.app.cli.cmd_validate:validate",
 }
 
 
@@ -49,23 +49,16 @@ def cli():
     os.environ.setdefault("MUJOCO_GL", "egl")
 
 
-def main():
-    """Console entry point: library errors become a one-line message and exit code 2."""
-    from rigs.errors import RigError
-    from vo.errors import VoError
-    errors = (RigError, VoError)
+def main(argv=None):
+    """Console entry point. Exit codes (CONVENTIONS.md): 0 success, 1 an accuracy bound exceeded,
+    2 bad input (one line: every error of ours derives from :class:`rigs.errors.TestbedError`),
+    3 an unexpected internal error (one line; the traceback only with ``--debug``)."""
+    from rigs.errors import TestbedError
+    args = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in args
+    args = [a for a in args if a != "--debug"]
     try:
-        from sim.errors import SimError
-        errors = errors + (SimError,)
-    except ImportError:
-        pass
-    try:
-        from scenes.errors import SceneError
-        errors = errors + (SceneError,)
-    except ImportError:
-        pass
-    try:
-        cli.main(standalone_mode=False)
+        cli.main(args=args, prog_name="vo-testbed", standalone_mode=False)
     except click.exceptions.Exit as e:
         sys.exit(e.exit_code)
     except click.ClickException as e:
@@ -74,6 +67,12 @@ def main():
     except click.exceptions.Abort:
         click.echo("Aborted.", err=True)
         sys.exit(130)
-    except errors as e:
+    except TestbedError as e:
         click.echo(f"error: {e}", err=True)
         sys.exit(2)
+    except Exception as e:      # noqa: BLE001 - the one place that turns a crash into exit code 3
+        if debug:
+            import traceback
+            traceback.print_exc()
+        click.echo(f"internal error: {type(e).__name__}: {e} (run with --debug for the traceback)", err=True)
+        sys.exit(3)

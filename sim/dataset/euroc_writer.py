@@ -56,7 +56,7 @@ def calib_io():
 
 def T_i_c(rig, k: int) -> np.ndarray:
     """(4,4) pose of camera ``k`` in the IMU frame: ``inv(T_b_i) @ T_b_c``."""
-    from vo.geometry import inv_T
+    from rigs.geometry import inv_T
     return inv_T(rig.imu.T_b_i_array) @ rig.cameras[k].T_b_c_array
 
 
@@ -190,7 +190,7 @@ class EurocWriter:
     def add_groundtruth(self, t_ns, T_w_i, v_w, b_g=None, b_a=None) -> None:
         """Append ground-truth states of the IMU frame: ``T_w_i`` (N,4,4), ``v_w`` (N,3),
         biases ``b_g``/``b_a`` (N,3) (zeros when None). Quaternion written Hamilton w, x, y, z."""
-        from vo.geometry import quat_wxyz_from_R
+        from rigs.geometry import quat_wxyz_from_R
         t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
         T = np.asarray(T_w_i, dtype=float).reshape(-1, 4, 4)
         n = len(t)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from sim.cli.options import echo_json, json_option, opt_option, parse_opts
+from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts
 
 
 @click.group("bench")
@@ -19,7 +19,7 @@ def bench():
 def render(scenes, pairs, shadows, as_json):
     """Stereo pairs per second at 752x480 for each scene (stereo27 rig)."""
     from scenes.registry import scene_names
-    from sim.bench import bench_render
+    from sim.app.bench_render import bench_render
     names = tuple(scenes) or tuple(scene_names())
     results = list(bench_render(names, n_pairs=pairs, shadows=False))
     if shadows:
@@ -42,7 +42,7 @@ def render(scenes, pairs, shadows, as_json):
 @json_option
 def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, estimator_opts, as_json):
     """Drift ratio, GCP RMSD, ATE and ms per frame per stage of each estimator on each scenario."""
-    from sim.bench_vo import bench_estimators, format_rows
+    from sim.app.bench_vo import bench_estimators, format_rows
     rows = bench_estimators(tuple(scenarios) or ("campus", "indoor"),
                             tuple(estimators) or ("rop", "klt-pnp", "orb-pnp"), one_core=not all_cores,
                             progress=not (no_progress or as_json), max_frames=max_frames,

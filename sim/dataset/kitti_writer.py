@@ -111,7 +111,7 @@ class KittiWriter:
 
     def finalize(self) -> Path:
         """Write times.txt, times_ns.txt, poses/NN.txt, gcps.csv, metadata.yaml; remove INCOMPLETE."""
-        from sim.dataset.euroc import write_gcps_csv
+        from sim.dataset.euroc_writer import write_gcps_csv
         from rigs.io_yaml import write_text_atomic
         self._frames.close()
         self._truth.close()
@@ -131,7 +131,7 @@ class KittiWriter:
 
     def _write_poses(self, t_frames: np.ndarray) -> int:
         """poses/NN.txt with one pose per frame (all frames need a cam0 truth at the same time)."""
-        from vo.geometry import inv_T, make_T
+        from rigs.geometry import inv_T, make_T
         from vo.trajfile import write_kitti
         from vo.trajectory import Trajectory
         rows = [ln.split(",") for ln in self._truth.path.read_text().splitlines()[1:] if ln.strip()]

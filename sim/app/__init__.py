@@ -1,0 +1,1 @@
+"""The app layer: command line, CI gate, demo, benchmarks, consistency (Monte Carlo), validation tools."""
