@@ -21,12 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs.atomic_io import atomic_write_text
+from rigs.config_io import (check_keys, dump_yaml, field_error, field_floats, field_int, field_number,
+                            read_yaml_file)
 from rigs.errors import RigError
+from rigs.geometry import inv_T
 from rigs.imu_models import get_imu_model
-from rigs.io_yaml import (check_keys, dump_yaml, field_error, field_floats, field_int, field_number,
-                          read_yaml_file, write_text_atomic)
 from rigs.model import Camera, Imu, Rig, as_matrix4
-from rigs.geometry.se3 import inv_T
 
 ORTHO_TOL = 1e-4   # calibration files print ~9-12 digits; re-orthonormalise rotations within this
 
@@ -99,9 +100,9 @@ def kalibr_imu_dict(imu: Imu) -> dict:
 
 def write_kalibr(rig: Rig, camchain_path, imu_path=None) -> None:
     """Write Kalibr ``camchain.yaml`` (and ``imu.yaml`` if ``imu_path``), atomically."""
-    write_text_atomic(camchain_path, dump_yaml(kalibr_camchain_dict(rig), header=f"Kalibr camchain of rig {rig.name}"))
+    atomic_write_text(camchain_path, dump_yaml(kalibr_camchain_dict(rig), header=f"Kalibr camchain of rig {rig.name}"))
     if imu_path is not None:
-        write_text_atomic(imu_path, dump_yaml(kalibr_imu_dict(rig.imu), header=f"Kalibr imu of rig {rig.name}"))
+        atomic_write_text(imu_path, dump_yaml(kalibr_imu_dict(rig.imu), header=f"Kalibr imu of rig {rig.name}"))
 
 
 _KALIBR_CAM_REQ = ("camera_model", "intrinsics", "distortion_model", "distortion_coeffs", "resolution")
@@ -183,7 +184,7 @@ def write_euroc_camera_yaml(path, camera: Camera, T_B_S, rate_hz: float) -> None
          "rate_hz": float(rate_hz), "resolution": [camera.width, camera.height], "camera_model": "pinhole",
          "intrinsics": [camera.fx, camera.fy, camera.cx, camera.cy],
          "distortion_model": "radial-tangential", "distortion_coefficients": _file_dist(camera.dist)}
-    write_text_atomic(path, "%YAML:1.0\n" + dump_yaml(d, header="General sensor definitions (EuRoC layout)."))
+    atomic_write_text(path, "%YAML:1.0\n" + dump_yaml(d, header="General sensor definitions (EuRoC layout)."))
 
 
 def write_euroc_imu_yaml(path, imu: Imu, T_B_S) -> None:
@@ -192,7 +193,7 @@ def write_euroc_imu_yaml(path, imu: Imu, T_B_S) -> None:
          "rate_hz": float(imu.rate_hz), "gyroscope_noise_density": imu.gyro_noise_density,
          "gyroscope_random_walk": imu.gyro_random_walk, "accelerometer_noise_density": imu.accel_noise_density,
          "accelerometer_random_walk": imu.accel_random_walk}
-    write_text_atomic(path, "%YAML:1.0\n" + dump_yaml(d, header="Default imu sensor yaml file (EuRoC layout)."))
+    atomic_write_text(path, "%YAML:1.0\n" + dump_yaml(d, header="Default imu sensor yaml file (EuRoC layout)."))
 
 
 def _read_T_BS(d, source) -> tuple:
@@ -251,7 +252,7 @@ def write_kitti_calib(path, P0, P1, Tr=None) -> None:
     lines = [f"P{k}: {_fmt_row(P)}" for k, P in enumerate((P0, P1, P0, P1))]
     if Tr is not None:
         lines.append(f"Tr: {_fmt_row(np.asarray(Tr, dtype=float)[:3])}")
-    write_text_atomic(path, "\n".join(lines) + "\n")
+    atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 def parse_kitti_calib(path) -> dict:

@@ -1,44 +1,75 @@
-"""``key=value`` overrides on a Rig (CLI ``--rig-set``-style); each returns a new validated Rig.
+"""``key=value`` overrides on a Rig (``--set``); each returns a new validated Rig.
 
-Keys (values parsed as YAML, with ``1e-4`` read as a float):
+Keys are the field names of the rig dataclasses (:mod:`rigs.model`), resolved through
+``dataclasses.fields`` and typed by their annotations (values parsed as YAML, ``1e-4`` a float):
 
-- ``baseline=B``: move camera 1 along its current baseline direction so ``|t_c0_c1| = B`` (c0 fixed).
-- ``camera_rate_hz=F``, ``name=S``, ``mount=S``.
-- ``imu=NAME``: swap in a named model of :mod:`rigs.imu_models`, keeping the mounting ``T_b_i``.
-- ``imu.<field>``: rate_hz, accel_noise_density, gyro_noise_density, accel_random_walk, gyro_random_walk, name.
-- ``cam<k>.<field>`` (one camera) or ``cameras.<field>`` (all cameras): width, height, fx, fy, cx, cy,
-  dist (list of 4 or 5), or one coefficient k1, k2, p1, p2, k3.
-- ``wheels=none`` / ``wheels=default``; ``wheels.<field>``: rate_hz, wheel_radius, track_width,
-  ticks_per_rev, slip_std (a rig without wheels gets default ``Wheels()`` first).
+- a plain :class:`~rigs.model.Rig` field: ``camera_rate_hz=F``, ``name=S``, ``mount=S``;
+- ``imu.<field>`` (any :class:`~rigs.model.Imu` field), ``wheels.<field>`` (any
+  :class:`~rigs.model.Wheels` field; a rig without wheels gets default ``Wheels()`` first);
+- ``cam<k>.<field>`` (one camera) or ``cameras.<field>`` (all cameras): any
+  :class:`~rigs.model.Camera` field, or one OpenCV coefficient ``k1, k2, p1, p2, k3`` of ``dist``;
+- and three shorthands: ``baseline=B`` (move camera 1 along its current baseline direction so
+  ``|t_c0_c1| = B``, c0 fixed), ``imu=NAME`` (a named model of :mod:`rigs.imu_models`, keeping the
+  mounting ``T_b_i``), ``wheels=none`` / ``wheels=default``.
 
 Errors are one line: ``override 'baseline=-1': baseline: must be a positive finite number, got -1``.
 """
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 
 from rigs.errors import RigError
 from rigs.imu_models import get_imu_model
-from rigs.io_yaml import field_floats, field_int, field_number, field_str, parse_yaml_text
-from rigs.model import Rig, Wheels
+from rigs.model import Camera, Imu, Rig, Wheels
+from rigs.typed_config import coerce, field_types, init_fields, split_item
 
-IMU_NUMBER_FIELDS = ("rate_hz", "accel_noise_density", "gyro_noise_density", "accel_random_walk",
-                     "gyro_random_walk")
-CAMERA_FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "dist", "k1", "k2", "p1", "p2", "k3")
-WHEELS_FIELDS = ("rate_hz", "wheel_radius", "track_width", "ticks_per_rev", "slip_std")
-DIST_INDEX = {"k1": 0, "k2": 1, "p1": 2, "p2": 3, "k3": 4}
+DIST_INDEX = {"k1": 0, "k2": 1, "p1": 2, "p2": 3, "k3": 4}     # OpenCV order of Camera.dist
+SHORTHANDS = ("baseline", "imu", "wheels")
+_PLAIN = (str, int, float, bool)
+_CAM_RE = re.compile(r"cam(\d+)$")
+
+
+def _names(cls) -> tuple:
+    return tuple(f.name for f in init_fields(cls))
+
+
+def plain_rig_fields() -> tuple:
+    """Rig fields with a scalar type (settable directly as ``name=value``)."""
+    types = field_types(Rig)
+    return tuple(n for n in _names(Rig) if types[n] in _PLAIN)
+
+
+def camera_keys() -> tuple:
+    return _names(Camera) + tuple(DIST_INDEX)
 
 
 def valid_keys(rig: Rig) -> list[str]:
     """All override keys valid for ``rig`` (camera keys depend on its number of cameras)."""
-    keys = ["baseline", "camera_rate_hz", "name", "mount", "imu", "wheels"]
-    keys += [f"imu.{f}" for f in IMU_NUMBER_FIELDS + ("name",)]
-    keys += [f"{c}.<{'|'.join(CAMERA_FIELDS)}>" for c in
-             ["cameras"] + [f"cam{k}" for k in range(len(rig.cameras))]]
-    keys += [f"wheels.<{'|'.join(WHEELS_FIELDS)}>"]
-    return keys
+    cams = ["cameras"] + [f"cam{k}" for k in range(len(rig.cameras))]
+    return (list(SHORTHANDS) + list(plain_rig_fields()) + [f"imu.<{'|'.join(_names(Imu))}>"]
+            + [f"{c}.<{'|'.join(camera_keys())}>" for c in cams] + [f"wheels.<{'|'.join(_names(Wheels))}>"])
+
+
+def is_key(rig: Rig, key: str) -> bool:
+    """Whether ``key`` is an override key of ``rig``."""
+    group, dot, name = key.partition(".")
+    if not dot:
+        return key in SHORTHANDS + plain_rig_fields()
+    if group == "imu":
+        return name in _names(Imu)
+    if group == "wheels":
+        return name in _names(Wheels)
+    return name in camera_keys() and _camera_indices(rig, group) is not None
+
+
+def _camera_indices(rig: Rig, group: str):
+    if group == "cameras":
+        return range(len(rig.cameras))
+    m = _CAM_RE.match(group)
+    return [int(m.group(1))] if m and int(m.group(1)) < len(rig.cameras) else None
 
 
 def with_baseline(rig: Rig, B: float) -> Rig:
@@ -51,97 +82,73 @@ def with_baseline(rig: Rig, B: float) -> Rig:
     return dataclasses.replace(rig, cameras=tuple(cams))
 
 
-def _camera_value(field, value, src, key, cam):
-    if field in ("width", "height"):
-        return field_int(value, src, key)
-    if field in ("fx", "fy"):
-        return field_number(value, src, key, positive=True)
-    if field in ("cx", "cy"):
-        return field_number(value, src, key)
-    if field == "dist":
-        return field_floats(value, src, key, (4, 5))
-    dist = list(cam.dist)
-    dist[DIST_INDEX[field]] = field_number(value, src, key)
-    return tuple(dist)
+def _replace_typed(obj, name: str, value, key: str):
+    """``obj`` with field ``name`` set to ``value`` coerced by its annotation (the model checks ranges)."""
+    return dataclasses.replace(obj, **{name: coerce(value, field_types(type(obj))[name], key, RigError)})
 
 
-def _set_camera(rig, indices, field, value, src, key):
+def _set_camera(rig, indices, name, value, key):
     cams = list(rig.cameras)
     for k in indices:
-        target = "dist" if field in DIST_INDEX else field
-        cams[k] = dataclasses.replace(cams[k], **{target: _camera_value(field, value, src, key, cams[k])})
+        if name in DIST_INDEX:
+            dist = list(cams[k].dist)
+            dist[DIST_INDEX[name]] = coerce(value, float, key, RigError)
+            cams[k] = dataclasses.replace(cams[k], dist=tuple(dist))
+        elif name == "dist":                  # annotated a bare tuple in the model: numbers here
+            cams[k] = dataclasses.replace(cams[k], dist=coerce(value, tuple[float, ...], key, RigError))
+        else:
+            cams[k] = _replace_typed(cams[k], name, value, key)
     return dataclasses.replace(rig, cameras=tuple(cams))
 
 
-def _set_imu(rig, field, value, src, key):
-    v = field_str(value, src, key) if field == "name" else \
-        field_number(value, src, key, positive=(field == "rate_hz"), nonneg=(field != "rate_hz"))
-    return dataclasses.replace(rig, imu=dataclasses.replace(rig.imu, **{field: v}))
-
-
-def _set_wheels(rig, field, value, src, key):
-    v = field_int(value, src, key) if field == "ticks_per_rev" else \
-        field_number(value, src, key, positive=(field != "slip_std"), nonneg=(field == "slip_std"))
-    return dataclasses.replace(rig, wheels=dataclasses.replace(rig.wheels or Wheels(), **{field: v}))
-
-
-def _unknown(rig, src, key):
-    return RigError(f"{src}: {key}: unknown key; valid keys: {', '.join(valid_keys(rig))}")
-
-
-def _apply_top(rig, key, value, src):
+def _set_shorthand(rig, key, value):
     if key == "baseline":
         if not rig.is_stereo:
-            raise RigError(f"{src}: baseline: rig {rig.name!r} has one camera")
-        return with_baseline(rig, field_number(value, src, key, positive=True))
-    if key == "camera_rate_hz":
-        return dataclasses.replace(rig, camera_rate_hz=field_number(value, src, key, positive=True))
-    if key in ("name", "mount"):
-        return dataclasses.replace(rig, **{key: field_str(value, src, key)})
+            raise RigError(f"baseline: rig {rig.name!r} has one camera")
+        B = coerce(value, float, key, RigError)
+        if B <= 0:
+            raise RigError(f"baseline: must be a positive finite number, got {value!r}")
+        return with_baseline(rig, B)
     if key == "imu":
-        model = get_imu_model(field_str(value, src, key))
+        model = get_imu_model(coerce(value, str, key, RigError))
         return dataclasses.replace(rig, imu=dataclasses.replace(model, T_b_i=rig.imu.T_b_i))
-    if key == "wheels" and value in (None, "none", "None", "null"):
+    if value in (None, "none", "None", "null"):
         return dataclasses.replace(rig, wheels=None)
-    if key == "wheels" and value == "default":
+    if value == "default":
         return dataclasses.replace(rig, wheels=Wheels())
-    if key == "wheels":
-        raise RigError(f"{src}: wheels: expected none or default, got {value!r}")
-    raise _unknown(rig, src, key)
+    raise RigError(f"wheels: expected none or default, got {value!r}")
 
 
-def _apply_dotted(rig, key, value, src):
-    group, field = key.split(".", 1)
-    if group == "imu" and field in IMU_NUMBER_FIELDS + ("name",):
-        return _set_imu(rig, field, value, src, key)
-    if group == "wheels" and field in WHEELS_FIELDS:
-        return _set_wheels(rig, field, value, src, key)
-    if field in CAMERA_FIELDS and group == "cameras":
-        return _set_camera(rig, range(len(rig.cameras)), field, value, src, key)
-    if field in CAMERA_FIELDS and group.startswith("cam") and group[3:].isdigit() \
-            and int(group[3:]) < len(rig.cameras):
-        return _set_camera(rig, [int(group[3:])], field, value, src, key)
-    raise _unknown(rig, src, key)
+def set_key(rig: Rig, key: str, value) -> Rig:
+    """``rig`` with override ``key`` set to the (already parsed) ``value``; errors name the key."""
+    if not is_key(rig, key):
+        raise RigError(f"{key}: unknown key; valid keys: {', '.join(valid_keys(rig))}")
+    group, dot, name = key.partition(".")
+    if not dot:
+        return _set_shorthand(rig, key, value) if key in SHORTHANDS else _replace_typed(rig, key, value, key)
+    if group == "imu":
+        return dataclasses.replace(rig, imu=_replace_typed(rig.imu, name, value, key))
+    if group == "wheels":
+        return dataclasses.replace(rig, wheels=_replace_typed(rig.wheels or Wheels(), name, value, key))
+    return _set_camera(rig, _camera_indices(rig, group), name, value, key)
 
 
-def apply_override(rig: Rig, item: str) -> Rig:
-    """One ``key=value`` string -> new Rig."""
-    src = f"override {item!r}"
+def apply_override(rig: Rig, item: str, source: str = "override") -> Rig:
+    """One ``key=value`` string -> new Rig; errors start with ``<source> '<item>': ``."""
+    src = f"{source} {item!r}"
     if not isinstance(item, str) or "=" not in item:
         raise RigError(f"{src}: expected key=value; valid keys: {', '.join(valid_keys(rig))}")
-    key, text = (s.strip() for s in item.split("=", 1))
-    value = parse_yaml_text(text, src)
+    key, value = split_item(item, source, RigError)
     try:
-        return (_apply_dotted if "." in key else _apply_top)(rig, key, value, src)
+        return set_key(rig, key, value)
     except RigError as exc:
-        msg = str(exc)
-        raise RigError(msg if msg.startswith(src) else f"{src}: {msg}") from None
+        raise RigError(f"{src}: {exc}") from None
 
 
-def apply_overrides(rig: Rig, overrides=()) -> Rig:
+def apply_overrides(rig: Rig, overrides=(), source: str = "override") -> Rig:
     """Apply ``key=value`` strings in order; returns a new validated Rig (``rig`` is unchanged)."""
     if isinstance(overrides, str):
         overrides = [overrides]
     for item in overrides:
-        rig = apply_override(rig, item)
+        rig = apply_override(rig, item, source)
     return rig

@@ -1,4 +1,5 @@
-"""Preset rigs: ``cart27`` (seed 000), ``stereo27`` (ideal 27 cm pair), ``yutu-navcam`` (seed 001).
+"""Preset rigs: ``cart27`` (seed 000), ``stereo27`` (ideal 27 cm pair), ``yutu-navcam`` (seed 001),
+``paper002`` (seed 002, car roof) and ``kitti-like`` (KITTI odometry geometry, car roof).
 
 Body frame ``b``: x forward, y left, z up, origin on the ground at the vehicle centre.
 A forward-looking OpenCV camera has ``R_b_c = R_B_C_FORWARD``. The left camera c0 sits half a
@@ -19,7 +20,7 @@ import numpy as np
 from rigs.errors import RigError
 from rigs.imu_models import get_imu_model
 from rigs.model import Camera, Rig
-from rigs.geometry.se3 import R_from_opk_deg, make_T, rot_x
+from rigs.geometry import R_from_opk_deg, make_T, rot_x
 
 PRESET_DIR = Path(__file__).with_name("presets")
 R_B_C_FORWARD = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -106,13 +107,52 @@ def build_yutu_navcam() -> Rig:
                        (0.3, 0.0, 1.5), 1.0, "euroc-adis16448", "pan-tilt mast")
 
 
-_BUILDERS = {"cart27": build_cart27, "stereo27": build_stereo27, "yutu-navcam": build_yutu_navcam}
+MAST_XYZ_CAR = (0.8, 0.0, 1.65)      # m: roof rack above the windscreen top (sim.vehicles.car)
+PAPER002_SIZE = (640, 400)           # 1920x1200 (BFLY-U3-23S6C) binned by 3
+PAPER002_F = 460.0                   # seed 002 eq. 27's virtual focal length
+PAPER002_BASELINE_M = 0.5
+KITTI_SIZE = (1241, 376)             # KITTI odometry sequences 00-02, camera P0
+KITTI_INTR = dict(fx=718.856, fy=718.856, cx=607.1928, cy=185.2157, dist=(0.0,) * 5)
+KITTI_BASELINE_M = 0.537
+
+
+def build_paper002() -> Rig:
+    """Seed 002's sensors (Section 5.1) on a car roof: the monocular 10 Hz camera is ``cam0``; a parallel
+    ``cam1`` 0.5 m to its right (not in the paper) lets the stereo estimators run on the same data.
+
+    The paper gives the camera model (BFLY-U3-23S6C-C, 1920x1200) but no lens: the images are
+    binned by 3 to 640x400 with f = 460 px (the virtual focal length of eq. 27), 69.6 deg x 47.0 deg
+    field of view, principal point at the image centre, no distortion. IMU: ``paper002`` (Table 1),
+    200 Hz. Mount point 1.65 m above ground, 0.8 m forward of the car's centre.
+    """
+    w, h = PAPER002_SIZE
+    intr = dict(fx=PAPER002_F, fy=PAPER002_F, cx=(w - 1) / 2, cy=(h - 1) / 2, dist=(0.0,) * 5)
+    T_c0_c1 = make_T(np.eye(3), (PAPER002_BASELINE_M, 0.0, 0.0))
+    return _stereo_rig("paper002", intr, intr, PAPER002_SIZE, T_c0_c1, R_B_C_FORWARD,
+                       MAST_XYZ_CAR, 10.0, "paper002", "car roof")
+
+
+def build_kitti_like() -> Rig:
+    """KITTI odometry geometry: 1241x376, fx = fy = 718.856, (cx, cy) = (607.1928, 185.2157) (sequence 00
+    P0), parallel pair, baseline 0.537 m, 10 Hz, 1.65 m above ground. KITTI's OXTS IMU is not part of the
+    odometry benchmark; the rig carries the ``euroc-adis16448`` model so IMU data exist."""
+    T_c0_c1 = make_T(np.eye(3), (KITTI_BASELINE_M, 0.0, 0.0))
+    return _stereo_rig("kitti-like", KITTI_INTR, KITTI_INTR, KITTI_SIZE, T_c0_c1, R_B_C_FORWARD,
+                       MAST_XYZ_CAR, 10.0, "euroc-adis16448", "car roof")
+
+
+_BUILDERS = {"cart27": build_cart27, "stereo27": build_stereo27, "yutu-navcam": build_yutu_navcam,
+             "paper002": build_paper002, "kitti-like": build_kitti_like}
 _HEADERS = {
     "cart27": "Seed 000 camping-cart rig (Tables 2-3), images scaled by s = 0.15: 4800x3200 -> 720x480,\n"
               "f' = s f, c' = s (c + 0.5) - 0.5 (same field of view). Written by rigs.presets; do not edit.",
     "stereo27": "Ideal parallel 0.27 m stereo pair, 752x480, f = 458 px. Written by rigs.presets; do not edit.",
     "yutu-navcam": "Seed 001 Yutu Navcam, f = 1189 px, 1024x1024, B = 0.27 m, mast 1.5 m tilted down 20 deg.\n"
                    "Written by rigs.presets; do not edit.",
+    "paper002": "Seed 002 monocular 10 Hz camera (640x400, f = 460 px) as cam0 of a parallel 0.5 m pair, IMU of\n"
+                "Table 1 at 200 Hz, car roof 1.65 m. Written by rigs.presets; do not edit.",
+    "kitti-like": "KITTI odometry geometry: 1241x376, f = 718.856 px, baseline 0.537 m, 10 Hz, car roof 1.65 m.\n"
+                  "Written by rigs.presets; do not edit.",
 }
 
 
@@ -123,7 +163,7 @@ def rig_names() -> list[str]:
 
 def get_rig(name: str, overrides=()) -> Rig:
     """Preset ``name`` (or a path to a rig ``.yaml`` file), with ``key=value`` overrides applied."""
-    from rigs.io_yaml import load_rig
+    from rigs.rig_yaml import load_rig
     from rigs.overrides import apply_overrides
 
     if name in _BUILDERS:
@@ -138,7 +178,7 @@ def get_rig(name: str, overrides=()) -> Rig:
 
 def write_preset_yamls(folder=PRESET_DIR) -> list[Path]:
     """Write every preset to ``folder/<name>.yaml``; returns the paths."""
-    from rigs.io_yaml import save_rig
+    from rigs.rig_yaml import save_rig
 
     paths = []
     for name in rig_names():

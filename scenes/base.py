@@ -6,27 +6,32 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass
+from typing import Literal, Optional
 
 import numpy as np
 
+from rigs.typed_config import check_fields, knob
 from scenes.errors import SceneError
 
 
 @dataclass(frozen=True)
 class SceneConfig:
-    """Knobs common to every scene; every field can be overridden from the CLI."""
+    """Knobs common to every scene; YAML and ``--set scene.<field>`` keys are the field names, each
+    value type- and range-checked on construction (:mod:`rigs.typed_config`). A new knob is one field."""
 
     name: str = "campus"
-    seed: int = 0
-    texture_richness: float = 0.8   # 0 = flat colours, 1 = rich texture
-    lighting: float = 1.0           # overall light intensity scale (0.2 .. 2)
-    shadows: bool = False           # shadow casting (costly on CPU rendering)
+    seed: Optional[int] = knob(0, ge=0, doc="scene randomness; None inside a GenerateConfig: its seed")
+    texture_richness: float = knob(0.8, ge=0.0, le=1.0, doc="0 = flat colours, 1 = rich texture")
+    lighting: float = knob(1.0, gt=0.0, le=4.0, doc="overall light intensity scale")
+    shadows: Optional[bool] = knob(None, doc="shadow casting (costly on CPU rendering); None: the scene's "
+                                   "default (on for lunar, off elsewhere)")
+    dynamic_density: float = knob(0.5, ge=0.0, le=1.0, doc="fraction of the scene's actors that move (0 = none)")
+    time_of_day: Literal["day", "dusk"] = knob("day", doc="dusk: low warm sun, dim ambient (scenes that support it)")
+    sun_elevation_deg: float = knob(12.0, gt=0.0, le=90.0, doc="sun elevation (lunar): low sun, long shadows")
+    sun_azimuth_deg: float = knob(135.0, ge=-360.0, le=360.0, doc="sun azimuth (lunar), deg counter-clockwise from east")
 
     def __post_init__(self):
-        if not 0.0 <= float(self.texture_richness) <= 1.0:
-            raise SceneError(f"scene.texture_richness: must be in [0, 1], got {self.texture_richness!r}")
-        if not 0.0 < float(self.lighting) <= 4.0:
-            raise SceneError(f"scene.lighting: must be in (0, 4], got {self.lighting!r}")
+        check_fields(self, SceneError, "scene.")
 
 
 @dataclass(frozen=True)
@@ -37,6 +42,8 @@ class Route:
     closed: bool = False         # loop back to the first waypoint
     cruise_speed_mps: float = 1.2
     accel_mps2: float = 0.4      # start/stop acceleration magnitude
+    stops_m: tuple = ()          # arc lengths (m) where the vehicle comes to rest on the way
+    stop_dwell_s: float = 0.0    # time at rest at each of ``stops_m``
 
     def __post_init__(self):
         wp = np.asarray(self.waypoints_xy, dtype=float)
@@ -44,6 +51,10 @@ class Route:
             raise SceneError(f"route.waypoints_xy: expected at least two (x, y) points, got shape {wp.shape}")
         if self.cruise_speed_mps <= 0 or self.accel_mps2 <= 0:
             raise SceneError("route.cruise_speed_mps and route.accel_mps2 must be positive")
+        if any(not 0 < float(s) for s in self.stops_m) or list(self.stops_m) != sorted(self.stops_m) \
+                or self.stop_dwell_s < 0 or (self.stops_m and self.closed):
+            raise SceneError(f"route.stops_m: need increasing positive arc lengths on an open route and "
+                             f"stop_dwell_s >= 0, got {self.stops_m!r}, {self.stop_dwell_s!r}")
 
     @property
     def xy(self) -> np.ndarray:
@@ -76,6 +87,20 @@ class Scene(abc.ABC):
     @abc.abstractmethod
     def gcp_sites(self) -> tuple:
         """``GcpSite`` tuple along the route."""
+
+    def actor_states(self, t_ns: int) -> dict:
+        """Poses ``{mocap body name: (4,4) T_w_x}`` of the scene's moving actors at ``t_ns``; none by default."""
+        return {}
+
+    def actor_truth(self, t_ns) -> list:
+        """``[(actor_id, kind, moving, T_w_x (N,4,4))]`` of every actor at ``t_ns`` (N,); none by default."""
+        return []
+
+    def segmentation_rows(self, geom_names) -> list:
+        """``(seg_id, geom_name, actor_id, kind, moving)`` per geom ``g`` (``seg_id = g + 1``, as the segmentation
+        PNGs store it); without actors every geom is ``static`` (or ``dynamic`` for a ``dyn/`` geom), actor -1."""
+        return [(g + 1, n or "", -1, "dynamic" if (n or "").startswith("dyn/") else "static", 0)
+                for g, n in enumerate(geom_names)]
 
     def ground_height(self, x, y) -> np.ndarray:
         """Terrain height z (m) at world (x, y); vectorised. Flat by default."""

@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 import abc
-import zlib
+from typing import Callable
 
 import numpy as np
 
 from scenes.base import Scene, SceneConfig
+from scenes.errors import SceneError
 from scenes.routes import polyline_length
 
 
@@ -15,21 +16,27 @@ class BuiltScene(Scene):
 
     Subclasses set ``corridor_half_width_m`` / ``corridor_height_m`` (free space around the route
     that no geom enters) and implement ``route``, ``gcp_sites``, ``path_xy`` and ``_build``.
+    ``streams`` is the random-stream factory the scene receives (key -> ``np.random.Generator``;
+    the simulator passes ``sim.rng.scene_streams(seed)``): layout draws from ``<scene>/<purpose>``,
+    textures from ``texture/<kind>/<variant>``.
     """
 
     corridor_half_width_m: float = 1.5
     corridor_height_m: float = 3.0
 
-    def __init__(self, config: SceneConfig):
+    def __init__(self, config: SceneConfig, streams: Callable[[str], np.random.Generator]):
         super().__init__(config)
+        if not callable(streams):
+            raise SceneError(f"scene {self.name!r}: streams must be a callable key -> numpy Generator, "
+                             f"got {type(streams).__name__}")
+        self.streams = streams
         self._footprints = None
         self._object_ids = None
         self.texture_bytes = 0
 
     def rng(self, purpose: str) -> np.random.Generator:
-        """Seeded generator for one purpose: ``default_rng(SeedSequence([seed, crc32(purpose)]))``."""
-        key = zlib.crc32(f"{self.name}/{purpose}".encode())
-        return np.random.default_rng(np.random.SeedSequence([int(self.config.seed), key]))
+        """The generator of one layout purpose: stream key ``<scene>/<purpose>``."""
+        return self.streams(f"{self.name}/{purpose}")
 
     @property
     @abc.abstractmethod
@@ -46,7 +53,7 @@ class BuiltScene(Scene):
     def add_to_spec(self, spec) -> None:
         from scenes.spec_helpers import SceneBuilder   # mujoco only when building
         c = self.config
-        b = SceneBuilder(spec, c.seed, c.texture_richness, c.lighting, c.shadows)
+        b = SceneBuilder(spec, self.streams, c.texture_richness, c.lighting, c.shadows)
         self._build(b)
         self._footprints = list(b.footprints)
         self._object_ids = b.object_ids()

@@ -35,8 +35,8 @@ class CampusScene(BuiltScene):
     corridor_half_width_m = 1.5
     corridor_height_m = 3.0
 
-    def __init__(self, config):
-        super().__init__(config)
+    def __init__(self, config, streams):
+        super().__init__(config, streams)
         self._path = rounded_polyline(_loop_corners(), PATH_OFFSET, step=0.1, closed=True)
 
     @property

@@ -35,8 +35,8 @@ class IndoorScene(BuiltScene):
     corridor_half_width_m = 1.0
     corridor_height_m = 2.1
 
-    def __init__(self, config):
-        super().__init__(config)
+    def __init__(self, config, streams):
+        super().__init__(config, streams)
         self._path = rounded_polyline(ROUTE_CORNERS, 1.0, step=0.05, closed=False)
 
     @property

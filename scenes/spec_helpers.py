@@ -70,13 +70,15 @@ def _yaw_R(yaw):
 class SceneBuilder:
     """Adds named, textured static geoms, materials and lights to one ``MjSpec``.
 
-    ``seed`` and ``richness`` come from the ``SceneConfig``; textures are made once per
-    (kind, variant) and shared.  ``footprints`` collects the top-down outline of every geom.
+    ``streams`` is the scene's random-stream factory (key -> ``np.random.Generator``, the simulator's
+    ``scene`` stream); texture ``(kind, variant)`` draws from key ``texture/<kind>/<variant>``, is made
+    once and shared. ``richness`` comes from the ``SceneConfig``. ``footprints`` collects the top-down
+    outline of every geom.
     """
 
-    def __init__(self, spec, seed: int, richness: float, lighting: float = 1.0,
+    def __init__(self, spec, streams, richness: float, lighting: float = 1.0,
                  shadows: bool = False, tex_size: int = 256):
-        self.spec, self.seed, self.richness = spec, int(seed), float(richness)
+        self.spec, self.streams, self.richness = spec, streams, float(richness)
         self.lighting, self.shadows, self.tex_size = float(lighting), bool(shadows), int(tex_size)
         self.footprints: list[Footprint] = []
         self._names: set[str] = set()
@@ -85,10 +87,13 @@ class SceneBuilder:
         self.texture_bytes = 0
 
     # ------------------------------------------------------------------ assets
+    def _texture_rng(self, kind: str, variant: int) -> np.random.Generator:
+        return self.streams(f"texture/{kind}/{int(variant)}")
+
     def texture(self, kind: str, variant: int = 0, size: int | None = None) -> str:
         key = (kind, int(variant))
         if key not in self._textures:
-            img = make_texture(kind, self.seed, self.richness, size or self.tex_size, variant)
+            img = make_texture(kind, self._texture_rng(kind, variant), self.richness, size or self.tex_size)
             name = f"tex/{kind}/{variant}"
             tex = self.spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D,
                                         width=img.shape[1], height=img.shape[0], nchannel=3)
@@ -119,7 +124,7 @@ class SceneBuilder:
         corners, but not the perfectly blank surface no visual method could ever track."""
         name = f"mat/poor/{name}"
         if name not in self._materials:
-            img = make_texture(kind, self.seed, contrast, self.tex_size, variant).astype(float)
+            img = make_texture(kind, self._texture_rng(kind, variant), contrast, self.tex_size).astype(float)
             img = np.clip(img - img.mean() + white, 0, 255).astype(np.uint8)
             tex_name = f"tex/poor/{name}"
             tex = self.spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_2D,

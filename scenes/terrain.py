@@ -44,15 +44,15 @@ def grid_xy(extent, res):
 
 def heightfield(extent, res, craters=(), rocks=(), roughness=0.0, rng=None) -> np.ndarray:
     """(H, W) height grid (m): sum of crater profiles, rock bumps ``(x, y, radius, height)`` and,
-    if ``roughness`` > 0, seeded smooth noise of that standard deviation (needs ``rng``)."""
+    if ``roughness`` > 0, seeded smooth noise of that standard deviation (needs ``rng``).
+    Each crater is evaluated within :data:`CRATER_REACH` radii of its centre (the ejecta blanket
+    there is ``(1 / CRATER_REACH)^3`` = 1.6 % of the rim height; beyond, it is dropped)."""
     x, y = grid_xy(extent, res)
-    X, Y = np.meshgrid(x, y)
-    z = np.zeros_like(X)
+    z = np.zeros((y.size, x.size))
     for c in craters:
-        z += crater_profile(np.hypot(X - c.x, Y - c.y), c)
+        _add_local(z, x, y, c.x, c.y, CRATER_REACH * c.radius, lambda r, c=c: crater_profile(r, c))
     for (rx, ry, ra, rh) in rocks:
-        q = np.clip(1 - ((X - rx) ** 2 + (Y - ry) ** 2) / ra ** 2, 0, None)
-        z += rh * q ** 2
+        _add_local(z, x, y, rx, ry, ra, lambda r, ra=ra, rh=rh: rh * np.clip(1 - (r / ra) ** 2, 0, None) ** 2)
     if roughness > 0:
         if rng is None:
             raise SceneError("terrain roughness > 0 needs an explicit numpy Generator rng")
@@ -63,14 +63,77 @@ def heightfield(extent, res, craters=(), rocks=(), roughness=0.0, rng=None) -> n
     return z
 
 
-def random_craters(rng: np.random.Generator, extent, n, r_min=0.5, r_max=8.0, slope=2.0) -> tuple:
-    """``n`` craters, uniform positions, power-law radii (density ~ r^-slope) in [r_min, r_max]."""
+CRATER_REACH = 4.0
+
+
+def _add_local(z, x, y, cx, cy, reach, profile) -> None:
+    """``z += profile(r)`` on the grid cells within ``reach`` of (cx, cy) (r = distance to it)."""
+    j0, j1 = np.searchsorted(x, [cx - reach, cx + reach])
+    i0, i1 = np.searchsorted(y, [cy - reach, cy + reach])
+    if j1 <= j0 or i1 <= i0:
+        return
+    X, Y = np.meshgrid(x[j0:j1], y[i0:i1])
+    z[i0:i1, j0:j1] += profile(np.hypot(X - cx, Y - cy))
+
+
+def mesh_height(z, extent, res, px, py) -> np.ndarray:
+    """Exact height of the triangulated grid ``z`` at world (px, py) (vectorised): cell (i, j) is
+    split along its diagonal from (i, j) to (i+1, j+1) into the triangles
+    {(i,j), (i,j+1), (i+1,j+1)} (where fx >= fy) and {(i,j), (i+1,j+1), (i+1,j)}, as
+    :func:`grid_triangles` builds them. Points outside the grid take the nearest border cell's plane."""
+    xmin, _, ymin, _ = map(float, extent)
+    H, W = z.shape
+    u = (np.asarray(px, float) - xmin) / res
+    v = (np.asarray(py, float) - ymin) / res
+    j = np.clip(np.floor(u).astype(int), 0, W - 2)
+    i = np.clip(np.floor(v).astype(int), 0, H - 2)
+    fx, fy = u - j, v - i
+    z00, z01, z10, z11 = z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]
+    upper = z00 + fx * (z01 - z00) + fy * (z11 - z01)       # fx >= fy
+    lower = z00 + fy * (z10 - z00) + fx * (z11 - z10)       # fx < fy
+    return np.where(fx >= fy, upper, lower)
+
+
+def grid_triangles(n_rows: int, n_cols: int) -> np.ndarray:
+    """(2 (n_rows-1)(n_cols-1), 3) vertex indices (row-major, index = i * n_cols + j) of the
+    counter-clockwise (seen from +z) triangles that :func:`mesh_height` interpolates."""
+    i, j = np.meshgrid(np.arange(n_rows - 1), np.arange(n_cols - 1), indexing="ij")
+    a = (i * n_cols + j).ravel()
+    b, c, d = a + 1, a + n_cols + 1, a + n_cols             # (i,j+1), (i+1,j+1), (i+1,j)
+    return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+
+
+def random_craters(rng: np.random.Generator, extent, n, r_min=0.5, r_max=8.0, slope=2.0,
+                   depth_ratio=(0.2, 0.2)) -> tuple:
+    """``n`` craters, uniform positions, power-law radii (differential density ~ r^-slope, so the
+    cumulative count N(>r) ~ r^(1 - slope)) in [r_min, r_max]; depth/diameter uniform in ``depth_ratio``."""
+    if not (0 < r_min < r_max) or slope <= 1:
+        raise SceneError(f"craters: need 0 < r_min < r_max and slope > 1, got {r_min}, {r_max}, {slope}")
     xmin, xmax, ymin, ymax = extent
     u = rng.random(n)
     a = 1 - slope
     r = (r_min ** a + u * (r_max ** a - r_min ** a)) ** (1 / a)
     xs, ys = rng.uniform(xmin, xmax, n), rng.uniform(ymin, ymax, n)
-    return tuple(Crater(float(px), float(py), float(pr)) for px, py, pr in zip(xs, ys, r))
+    dr = rng.uniform(depth_ratio[0], depth_ratio[1], n)
+    return tuple(Crater(float(px), float(py), float(pr), float(q)) for px, py, pr, q in zip(xs, ys, r, dr))
+
+
+def power_law_slope(radii, r_min: float, r_max: float) -> float:
+    """Maximum-likelihood differential exponent of radii drawn from ``~ r^-slope`` truncated to
+    [r_min, r_max] (bisection on the score equation); the check of :func:`random_craters`."""
+    r = np.asarray(radii, float)
+    mean_log = np.log(r / r_min).mean()
+
+    def expected_log(s):                         # E[log(r / r_min)] under the truncated power law
+        a = 1 - s
+        lo, hi = r_min ** a, r_max ** a
+        return (hi * np.log(r_max / r_min)) / (hi - lo) - 1 / a
+
+    lo, hi = 1.0 + 1e-6, 10.0
+    for _ in range(80):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if expected_log(mid) > mean_log else (lo, mid)
+    return (lo + hi) / 2
 
 
 def random_rocks(rng: np.random.Generator, extent, n, a_min=0.1, a_max=0.6) -> tuple:

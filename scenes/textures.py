@@ -1,4 +1,5 @@
-"""Seeded procedural RGB textures (numpy only), tileable, as ``(H, W, 3) uint8`` arrays.
+"""Procedural RGB textures (numpy only), tileable, as ``(H, W, 3) uint8`` arrays, drawn from a
+generator the caller passes in (the simulator's ``scene`` stream, key ``texture/<kind>/<variant>``).
 
 Every generator draws a full-contrast image ``full`` in [0, 1]; :func:`make_texture` then blends it
 towards its own mean colour: ``out = mean + richness * (full - mean)``.  So ``richness = 0`` gives
@@ -12,19 +13,12 @@ Texture row 0 is the top of the image (MuJoCo's 2-D texture convention, ``v`` do
 """
 from __future__ import annotations
 
-import zlib
-
 import numpy as np
 
 from scenes.errors import SceneError
 
 
 # ---------------------------------------------------------------------------- primitives
-def _rng(seed: int, kind: str, variant: int) -> np.random.Generator:
-    key = zlib.crc32(f"texture/{kind}/{int(variant)}".encode())
-    return np.random.default_rng(np.random.SeedSequence([int(seed), key]))
-
-
 def periodic_noise(rng: np.random.Generator, size: int, cells_yx) -> np.ndarray:
     """Tileable value noise in [0, 1], shape (size, size), ``cells_yx=(cy, cx)`` lattice cells.
 
@@ -339,8 +333,9 @@ def texture_kinds() -> tuple:
     return tuple(sorted(GENERATORS))
 
 
-def make_texture(kind: str, seed: int, richness: float, size: int = 256, variant: int = 0) -> np.ndarray:
-    """A seeded ``(size, size, 3) uint8`` RGB texture of ``kind``; same arguments -> same bytes.
+def make_texture(kind: str, rng: np.random.Generator, richness: float, size: int = 256) -> np.ndarray:
+    """A ``(size, size, 3) uint8`` RGB texture of ``kind`` drawn from ``rng``; a generator in the same
+    state gives the same bytes.
 
     ``richness`` in [0, 1] scales the contrast of all detail around the mean colour
     (0 = one flat colour).
@@ -351,7 +346,9 @@ def make_texture(kind: str, seed: int, richness: float, size: int = 256, variant
         raise SceneError(f"texture richness: must be in [0, 1], got {richness!r}")
     if int(size) < 16 or int(size) & (int(size) - 1):
         raise SceneError(f"texture size: must be a power of two >= 16, got {size!r}")
-    full = np.clip(GENERATORS[kind](_rng(seed, kind, variant), int(size)), 0.0, 1.0)
+    if not isinstance(rng, np.random.Generator):
+        raise SceneError(f"texture rng: expected a numpy Generator, got {type(rng).__name__}")
+    full = np.clip(GENERATORS[kind](rng, int(size)), 0.0, 1.0)
     mean = full.reshape(-1, 3).mean(axis=0)
     out = mean + float(richness) * (full - mean)
     return np.clip(np.round(out * 255.0), 0, 255).astype(np.uint8)

@@ -1,92 +1,245 @@
-"""Generation configuration: one frozen dataclass, loadable from YAML, overridable with ``key=value``."""
+"""Generation configuration: frozen, typed dataclasses whose YAML keys and ``--set`` keys are the field names.
+
+:class:`GenerateConfig` holds the rig (a :class:`rigs.model.Rig`), the scene
+(:class:`scenes.base.SceneConfig`), the vehicle motion (:class:`sim.motion.MotionConfig`), the
+rendering (:class:`RenderConfig`) and the image noise (:class:`NoiseConfig`), plus the output
+switches. Every value is type- and range-checked on construction (:mod:`rigs.typed_config`), so a
+YAML file (:func:`load_generate_config`) and ``--set a.b=v`` (:meth:`GenerateConfig.with_overrides`)
+get the same checks, and :meth:`GenerateConfig.to_dict` is the resolved whole that ``metadata.yaml``
+records and :meth:`GenerateConfig.config_hash` is computed from.
+
+``--set`` keys: a field path (``seed=3``, ``scene.texture_richness=0.3``, ``motion.vibration_pitch_deg=0.5``,
+``render.supersample=3``, ``noise.image_sigma=2``, the sensor effects ``camera.exposure_ms=4``,
+``calib_error.focal_ppm=500``, ``imu.time_offset_ms=5`` (short for ``imu_clock.time_offset_ms``)), ``image_noise=2`` (short for ``noise.image_sigma``),
+``rig=NAME`` (a preset), or a rig override key of :mod:`rigs.overrides` with or without ``rig.``
+(``baseline=0.063``, ``imu=paper002``, ``imu.rate_hz=400``, ``cam0.fx=500``, ``wheels=none``).
+"""
 from __future__ import annotations
 
 import dataclasses
 import hashlib
 import json
-from dataclasses import dataclass, field
-from typing import Optional
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Literal, Optional, get_args
 
-import yaml
-
+from rigs.errors import TestbedError
+from rigs.model import Rig
+from rigs.typed_config import (check_fields, from_mapping, has_path, knob, load_dataclass, replace_path,
+                               split_item, to_mapping, valid_keys)
+from scenes.base import SceneConfig
+from scenes.errors import SceneError
 from sim.errors import SimError
+from sim.motion import MotionConfig
 
 MAX_SUPERSAMPLE = 7
+Format = Literal["euroc", "kitti", "both", "rosbag1", "rosbag2"]
+DepthFormat = Literal["npy", "png16"]
+FORMATS = get_args(Format)
+DEPTH_FORMATS = get_args(DepthFormat)
+ALIASES = {"image_noise": "noise.image_sigma", "imu.time_offset_ms": "imu_clock.time_offset_ms"}
+EFFECT_PIECES = ("camera", "imu_clock", "calib_error")   # left out of to_dict() (and the hash) while all off
+
+
+@dataclass(frozen=True)
+class RenderConfig:
+    """Rendering knobs (``render.<field>``). ``supersample``: odd, so every output pixel centre is the
+    centre of one rendered sub-pixel and depth and segmentation stay exact (:mod:`sim.render`)."""
+
+    supersample: int = knob(1, ge=1, le=MAX_SUPERSAMPLE, odd=True)
+
+    def __post_init__(self):
+        check_fields(self, SimError, "render.")
+
+
+@dataclass(frozen=True)
+class NoiseConfig:
+    """Image noise (``noise.<field>``): iid Gaussian per pixel, sigma in grey levels (0 = none)."""
+
+    image_sigma: float = knob(1.0, ge=0.0)
+
+    def __post_init__(self):
+        check_fields(self, SimError, "noise.")
+
+
+@dataclass(frozen=True)
+class CameraEffects:
+    """Sensor effects of the cameras (``camera.<field>``), all off by default (:mod:`sim.sensors.effects_timing`,
+    :mod:`sim.sensors.photometric`, docs/sensor_effects.md). A frame's timestamp is the mid-exposure time of
+    its centre row; ``read_noise_dn`` / ``shot_noise_gain`` > 0 replace ``noise.image_sigma``."""
+
+    exposure_ms: float = knob(0.0, ge=0.0, le=100.0, doc="exposure time (motion blur); 0: instantaneous")
+    blur_subframes: int = knob(5, ge=2, le=33, doc="renders integrated over the exposure")
+    line_delay_us: float = knob(0.0, ge=0.0, le=200.0, doc="rolling shutter: row r starts (r-(h-1)/2)*delay later")
+    rs_poses: int = knob(5, ge=2, le=33, doc="renders across the rolling-shutter readout")
+    timestamp_jitter_us: float = knob(0.0, ge=0.0, le=10000.0, doc="std of the stamp error (seeded stream)")
+    vignetting: float = knob(0.0, ge=0.0, le=1.0, doc="strength of the cos^4 fall-off (1 = full cos^4)")
+    auto_exposure: bool = False
+    ae_target: float = knob(0.45, gt=0.0, lt=1.0, doc="auto exposure: mean brightness aimed at (fraction of 255)")
+    ae_time_constant_s: float = knob(0.3, gt=0.0, le=10.0, doc="auto exposure: gain time constant")
+    read_noise_dn: float = knob(0.0, ge=0.0, le=50.0, doc="read noise std (grey levels)")
+    shot_noise_gain: float = knob(0.0, ge=0.0, le=10.0, doc="grey levels per electron (shot noise)")
+
+    def __post_init__(self):
+        check_fields(self, SimError, "camera.")
+
+    @property
+    def sensor_noise(self) -> bool:
+        """True when the shot + read noise model replaces the Gaussian ``noise.image_sigma``."""
+        return self.read_noise_dn > 0 or self.shot_noise_gain > 0
+
+    @property
+    def multi_render(self) -> bool:
+        """True when a frame is assembled from several renders (blur and/or rolling shutter)."""
+        return self.exposure_ms > 0 or self.line_delay_us > 0
+
+    @property
+    def image_effects(self) -> bool:
+        """True when any effect changes the images (frames then go through :class:`sim.sensors.camera.FrameExposer`)."""
+        return self.multi_render or self.vignetting > 0 or self.auto_exposure or self.sensor_noise
+
+
+@dataclass(frozen=True)
+class ImuClock:
+    """IMU clock (``imu_clock.<field>``; ``--set imu.time_offset_ms=V`` is short for it): Kalibr's / VINS-Mono's
+    ``td``, ``t_imu = t_cam + td``: every IMU stamp is the true (camera-clock) time plus the offset."""
+
+    time_offset_ms: float = knob(0.0, ge=-1000.0, le=1000.0)
+
+    def __post_init__(self):
+        check_fields(self, SimError, "imu_clock.")
+
+
+@dataclass(frozen=True)
+class CalibError:
+    """Calibration error (``calib_error.<field>``, std of each drawn perturbation, stream ``calib_error``):
+    images are rendered with the true rig, the calibration written for estimators is perturbed
+    (:mod:`sim.sensors.calib_error`)."""
+
+    focal_ppm: float = knob(0.0, ge=0.0, le=1e5, doc="fx, fy relative error (parts per million)")
+    principal_px: float = knob(0.0, ge=0.0, le=50.0, doc="cx, cy error (pixels)")
+    dist_rel: float = knob(0.0, ge=0.0, le=1.0, doc="relative error of each distortion coefficient")
+    extrinsic_rot_deg: float = knob(0.0, ge=0.0, le=10.0, doc="per-axis rotation error of each T_b_c")
+    extrinsic_trans_mm: float = knob(0.0, ge=0.0, le=100.0, doc="per-axis translation error of each T_b_c")
+
+    def __post_init__(self):
+        check_fields(self, SimError, "calib_error.")
+
+    @property
+    def active(self) -> bool:
+        return any(getattr(self, f.name) > 0 for f in dataclasses.fields(self))
 
 
 def check_supersample(value) -> int:
-    """Validated supersampling factor (``render.supersample``): an odd integer 1..MAX_SUPERSAMPLE (odd, so
-    every output pixel centre is the centre of one rendered sub-pixel: depth and segmentation stay exact)."""
-    ok = isinstance(value, int) and not isinstance(value, bool)
-    if not ok or not 1 <= value <= MAX_SUPERSAMPLE or value % 2 == 0:
-        raise SimError(f"render.supersample: {value!r}; must be an odd integer in 1..{MAX_SUPERSAMPLE}")
-    return int(value)
+    """Validated supersampling factor (``render.supersample``): an odd integer 1..MAX_SUPERSAMPLE."""
+    return RenderConfig(supersample=value).supersample
 
-FORMATS = ("euroc", "kitti", "both")
+
+def rig_of(value) -> Rig:
+    """The ``rig`` field from a preset name or ``.yaml`` path, a mapping of Rig field names (as
+    ``metadata.yaml`` records it) or ``{preset: NAME, set: [key=value, ...]}``."""
+    from rigs.presets import get_rig
+    from rigs.rig_yaml import rig_from_dict
+    if isinstance(value, str):
+        return get_rig(value)
+    if isinstance(value, Mapping) and "preset" in value and set(value) <= {"preset", "set"}:
+        return get_rig(value["preset"], value.get("set") or ())
+    if isinstance(value, Mapping):
+        return rig_from_dict(dict(value), source="rig")
+    raise SimError(f"rig: expected a preset name, a rig mapping or {{preset, set}}, got {value!r}")
+
+
+def scene_of(value) -> SceneConfig:
+    """The ``scene`` field from a scene name or a mapping of SceneConfig field names; its ``seed``
+    defaults to None (= the config's ``seed``)."""
+    if isinstance(value, str):
+        return SceneConfig(name=value, seed=None)
+    if isinstance(value, Mapping):
+        return from_mapping(SceneConfig, {"seed": None, **value}, SceneError, "scene")
+    raise SceneError(f"scene: expected a scene name or a mapping of scene fields, got {value!r}")
 
 
 @dataclass(frozen=True)
 class GenerateConfig:
-    """Everything that determines a generated dataset (together with the package version).
+    """Everything that determines a generated dataset (together with the package version)."""
 
-    ``overrides`` are ``key=value`` strings: ``scene.*`` keys go to the scene
-    (``scene.texture_richness=0.3``), ``motion.*`` keys to the vehicle motion, ``image_noise=2``
-    sets the image noise sigma (grey levels); anything else is a rig override
-    (``baseline=0.063``, ``imu.rate_hz=400``, ``imu=paper002``).
-    """
-
-    scene: str = "campus"
-    rig: str = "cart27"
-    duration_s: Optional[float] = None
-    seed: int = 0
-    format: str = "euroc"
+    scene: SceneConfig = knob(default_factory=lambda: SceneConfig(seed=None), parse=scene_of)
+    rig: Rig = knob(default_factory=lambda: rig_of("cart27"), parse=rig_of)
+    duration_s: Optional[float] = knob(None, gt=0.0, doc="seconds to simulate; None: the whole route")
+    seed: int = knob(0, ge=0)
+    format: Format = "euroc"
     depth: bool = False
+    depth_format: DepthFormat = "npy"
     segmentation: bool = False
     ideal: bool = False
     images: bool = True
     vehicle: str = "cart"
-    image_noise: float = 1.0
     rgb: bool = False
-    overrides: tuple = field(default_factory=tuple)
+    motion: MotionConfig = knob(default_factory=MotionConfig)
+    render: RenderConfig = knob(default_factory=RenderConfig)
+    noise: NoiseConfig = knob(default_factory=NoiseConfig)
+    camera: CameraEffects = knob(default_factory=CameraEffects)
+    imu_clock: ImuClock = knob(default_factory=ImuClock)
+    calib_error: CalibError = knob(default_factory=CalibError)
 
     def __post_init__(self):
-        if self.format not in FORMATS:
-            raise SimError(f"format: unknown {self.format!r}; valid: {', '.join(FORMATS)}")
-        if self.duration_s is not None and not float(self.duration_s) > 0:
-            raise SimError(f"duration_s: must be positive, got {self.duration_s!r}")
-        if float(self.image_noise) < 0:
-            raise SimError(f"image_noise: must be >= 0, got {self.image_noise!r}")
-        if isinstance(self.seed, bool) or int(self.seed) != self.seed or self.seed < 0:
-            raise SimError(f"seed: must be a non-negative integer, got {self.seed!r}")
-        object.__setattr__(self, "overrides", tuple(str(o) for o in self.overrides))
-        for o in self.overrides:
-            if "=" not in o:
-                raise SimError(f"overrides: expected key=value, got {o!r}")
-        self.split_overrides()          # validates the values it interprets (render.supersample)
+        from scenes.registry import scene_class
+        from sim.vehicles import vehicle_class
+        check_fields(self, SimError)
+        try:
+            scene_class(self.scene.name)          # a registered name or a plug-in "package.module:SceneClass"
+        except SceneError as e:
+            raise SceneError(f"scene.name: {e}") from None
+        vehicle_class(self.vehicle)
+        if not self.images and self.format in ("kitti", "both"):
+            raise SimError(f"images: false (--no-images) with format {self.format!r}: KITTI odometry holds "
+                           f"images only, nothing written; use format euroc for IMU and ground truth alone")
 
-    def split_overrides(self) -> dict:
-        """-> {"scene": {key: value}, "motion": {...}, "rig": [k=v, ...], "image_noise": float|None,
-        "supersample": int} (``render.supersample=S``: see :mod:`sim.render`)."""
-        out = {"scene": {}, "motion": {}, "rig": [], "image_noise": None, "supersample": 1}
-        for o in self.overrides:
-            key, _, raw = o.partition("=")
-            value = yaml.safe_load(raw)
-            if key.startswith("scene."):
-                out["scene"][key[6:]] = value
-            elif key.startswith("motion."):
-                out["motion"][key[7:]] = value
-            elif key == "image_noise":
-                out["image_noise"] = float(value)
-            elif key == "render.supersample":
-                out["supersample"] = check_supersample(value)
-            else:
-                out["rig"].append(o)
-        return out
+    @property
+    def scene_config(self) -> SceneConfig:
+        """The scene configuration with its seed resolved (None -> ``seed``)."""
+        return self.scene if self.scene.seed is not None else dataclasses.replace(self.scene, seed=self.seed)
+
+    def with_value(self, key: str, value) -> "GenerateConfig":
+        """A copy with dotted ``key`` set to the parsed ``value`` (see the module docstring)."""
+        from rigs.overrides import is_key, set_key
+        key = ALIASES.get(key, key)
+        head, _, rest = key.partition(".")
+        if head == "rig" and rest:
+            return dataclasses.replace(self, rig=set_key(self.rig, rest, value))
+        if has_path(GenerateConfig, head):
+            return replace_path(self, key, value, SimError)
+        if is_key(self.rig, key):
+            return dataclasses.replace(self, rig=set_key(self.rig, key, value))
+        raise SimError(f"{key}: unknown key; valid keys: {', '.join(self.valid_keys())}")
+
+    def with_overrides(self, items, source: str = "override") -> "GenerateConfig":
+        """Apply ``key=value`` strings in order (values parsed as YAML); errors are one line
+        ``<source> '<item>': <field>: <problem>``."""
+        cfg = self
+        for item in [items] if isinstance(items, str) else items:
+            key, value = split_item(item, source, SimError)
+            try:
+                cfg = cfg.with_value(key, value)
+            except TestbedError as exc:
+                raise type(exc)(f"{source} {item!r}: {exc}") from None
+        return cfg
+
+    def valid_keys(self) -> list:
+        """Every ``--set`` key, the rig's override keys included."""
+        from rigs.overrides import valid_keys as rig_keys
+        own = [k for k in valid_keys(GenerateConfig) if not k.startswith("rig")]
+        return own + list(ALIASES) + ["rig"] + rig_keys(self.rig)
 
     def to_dict(self) -> dict:
-        d = dataclasses.asdict(self)
-        d["overrides"] = list(self.overrides)
-        return d
+        """The resolved whole as plain builtins (the rig in full); :func:`load_generate_config` reads it back.
+        A sensor-effect piece (``camera``, ``imu_clock``, ``calib_error``) left at its default (all off) is
+        omitted, so a configuration without effects keeps its dict, hash and dataset bytes."""
+        out = to_mapping(self)
+        for name in EFFECT_PIECES:
+            if getattr(self, name) == type(getattr(self, name))():
+                out.pop(name)
+        return out
 
     def config_hash(self) -> str:
         """Stable hash of the configuration (for caching generated scenarios)."""
@@ -96,6 +249,7 @@ class GenerateConfig:
 
 
 def load_generate_config(path) -> GenerateConfig:
-    """Load a :class:`GenerateConfig` from YAML whose keys are the field names."""
-    from rigs.io_yaml import load_dataclass
+    """Load a :class:`GenerateConfig` from YAML whose keys are the field names (nested mappings for
+    ``scene``, ``motion``, ``render``, ``noise``; ``rig`` as :func:`rig_of` accepts). The ``config``
+    block of a dataset's ``metadata.yaml`` is such a file's content."""
     return load_dataclass(GenerateConfig, path, SimError)

@@ -2,8 +2,8 @@
 
 For every pixel ``(u_d, v_d)`` of the distorted image we need the undistorted pixel it came from.
 OpenCV's model maps normalised undistorted ``x_n`` to distorted ``x_d = D(x_n)``
-(``k1, k2, p1, p2, k3``); we invert it per pixel with Newton's method on the analytic 2x2
-Jacobian (started from ``cv2.undistortPoints`` with tight criteria; OpenCV 5 has no ``undistortPointsIter``) and check the result by re-distorting with
+(``k1, k2, p1, p2, k3``); we invert it per pixel exactly (:func:`rigs.geometry.pinhole.undistort_exact`:
+Newton's method on the analytic 2x2 Jacobian) and check the result by re-distorting with
 ``cv2.projectPoints``: the maps are rejected (``SimError``) if any pixel is off by >= 1e-3 px.
 
 The canvas is the pinhole camera with the same ``fx, fy`` and a shifted principal point
@@ -18,6 +18,7 @@ import math
 import cv2
 import numpy as np
 
+from rigs.geometry import pinhole
 from rigs.model import Camera
 from sim.errors import SimError
 
@@ -25,44 +26,16 @@ MAX_REPROJ_PX = 1e-3
 _BORDER_PX = 2
 
 
-def _distort(xy: np.ndarray, dist) -> tuple:
-    """Distort normalised (N,2) ``xy``; returns (xd (N,2), J (N,2,2) = d xd / d xy)."""
-    k1, k2, p1, p2, k3 = dist
-    x, y = xy[:, 0], xy[:, 1]
-    r2 = x * x + y * y
-    rad = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    drad = k1 + r2 * (2 * k2 + 3 * k3 * r2)          # d rad / d r2
-    xd = x * rad + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-    yd = y * rad + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
-    J = np.empty((len(x), 2, 2))
-    J[:, 0, 0] = rad + 2 * x * x * drad + 2 * p1 * y + 6 * p2 * x
-    J[:, 0, 1] = 2 * x * y * drad + 2 * p1 * x + 2 * p2 * y
-    J[:, 1, 0] = 2 * x * y * drad + 2 * p1 * x + 2 * p2 * y
-    J[:, 1, 1] = rad + 2 * y * y * drad + 6 * p1 * y + 2 * p2 * x
-    return np.stack([xd, yd], axis=1), J
-
-
 def undistort_exact(uv_d: np.ndarray, camera: Camera, iters: int = 30) -> np.ndarray:
-    """(N,2) distorted pixels -> (N,2) normalised undistorted coordinates (exact inverse)."""
-    uv_d = np.asarray(uv_d, dtype=np.float64).reshape(-1, 2)
-    K, dist = camera.K, np.asarray(camera.dist, dtype=np.float64)
-    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
-    xy = cv2.undistortPoints(uv_d[:, None, :], K, dist, None, None, criteria=crit).reshape(-1, 2)
-    target = np.stack([(uv_d[:, 0] - camera.cx) / camera.fx, (uv_d[:, 1] - camera.cy) / camera.fy], 1)
-    for _ in range(iters):
-        xd, J = _distort(xy, camera.dist)
-        step = np.linalg.solve(J, (xd - target)[:, :, None])[:, :, 0]
-        xy = xy - step
-        if np.max(np.abs(step)) < 1e-14:
-            break
-    return xy
+    """(N,2) distorted pixels -> (N,2) normalised undistorted coordinates (exact inverse,
+    :func:`rigs.geometry.pinhole.undistort_exact`)."""
+    return pinhole.undistort_exact(uv_d, camera.K, camera.dist_coeffs, iters=iters)
 
 
 def reprojection_error_px(xy: np.ndarray, uv_d: np.ndarray, camera: Camera) -> np.ndarray:
     """(N,) pixel distance between ``cv2.projectPoints`` of normalised ``xy`` and ``uv_d``."""
     pts = np.concatenate([xy, np.ones((len(xy), 1))], axis=1)
-    uv, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), camera.K, np.asarray(camera.dist))
-    return np.linalg.norm(uv.reshape(-1, 2) - uv_d, axis=1)
+    return np.linalg.norm(pinhole.project(pts, camera.K, camera.dist_coeffs) - uv_d, axis=1)
 
 
 class DistortionMap:
@@ -80,9 +53,8 @@ class DistortionMap:
                 raise SimError(f"distortion: camera {camera.name!r} dist={camera.dist}: inverse not exact "
                                f"(max re-distortion error {np.nanmax(err):.2e} px >= {MAX_REPROJ_PX} px)")
         else:
-            xy = np.stack([(uv_d[:, 0] - camera.cx) / camera.fx, (uv_d[:, 1] - camera.cy) / camera.fy], 1)
-        u_s = camera.fx * xy[:, 0] + camera.cx            # source pixel in the full pinhole plane
-        v_s = camera.fy * xy[:, 1] + camera.cy
+            xy = pinhole.to_normalized(uv_d, camera.K)
+        u_s, v_s = pinhole.to_pixels(xy, camera.K).T      # source pixel in the full pinhole plane
         self.u0 = math.floor(u_s.min()) - _BORDER_PX
         self.v0 = math.floor(v_s.min()) - _BORDER_PX
         cw = math.ceil(u_s.max()) + _BORDER_PX + 1 - self.u0

@@ -12,8 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.config import GenerateConfig
-from sim.errors import SimError
-from sim.rng import indexed_stream, stream
+from sim.rng import indexed_stream, scene_streams, stream
 
 
 @dataclass(frozen=True)
@@ -40,45 +39,39 @@ class Setup:
     trajectory: object
     frame_t_ns: np.ndarray
     imu_t_ns: np.ndarray
-    image_noise: float
-    motion: object = None        # the resolved sim.motion.MotionConfig
-    supersample: int = 1         # render.supersample override (sim.render)
+    image_noise: float           # sigma actually applied (grey levels; 0 when ideal)
+    motion: object = None        # config.motion (sim.motion.MotionConfig)
+    supersample: int = 1         # config.render.supersample (sim.render)
+    frame_stamp_ns: np.ndarray = None   # written frame stamps: frame_t_ns + jitter (camera.timestamp_jitter_us)
 
 
 def resolve(config: GenerateConfig) -> Setup:
-    """Build rig, scene and trajectory; compute frame and IMU times."""
-    from rigs.overrides import apply_overrides
-    from rigs.presets import get_rig
-    from scenes.base import SceneConfig
+    """Build scene and trajectory from the typed config; compute frame and IMU times."""
     from scenes.registry import make_scene
-    from sim.imu import imu_times_ns
-    from sim.motion import MotionConfig, VehicleTrajectory
+    from sim.sensors.imu import imu_times_ns
+    from sim.motion import VehicleTrajectory
 
-    ov = config.split_overrides()
-    rig = apply_overrides(get_rig(config.rig), ov["rig"])
-    try:
-        scene_cfg = SceneConfig(name=config.scene, seed=config.seed, **ov["scene"])
-        motion_cfg = MotionConfig(**ov["motion"])
-    except TypeError as e:
-        raise SimError(f"overrides: {e}") from None
-    scene = make_scene(scene_cfg)
-    traj = VehicleTrajectory.from_route(scene.route, scene.ground_height, motion_cfg,
+    rig, scene_cfg = config.rig, config.scene_config
+    scene = make_scene(scene_cfg, scene_streams(scene_cfg.seed), stream(config.seed, "dynamic"))
+    traj = VehicleTrajectory.from_route(scene.route, scene.ground_height, config.motion,
                                         stream(config.seed, "motion"), duration_s=config.duration_s)
     period_ns = int(round(1e9 / rig.camera_rate_hz))
     frame_t = np.arange(traj.t0_ns, traj.t1_ns + 1, period_ns, dtype=np.int64)
     imu_t = imu_times_ns(traj.t0_ns, traj.t1_ns, rig.imu.rate_hz)
-    noise = ov["image_noise"] if ov["image_noise"] is not None else config.image_noise
-    return Setup(config, rig, scene, traj, frame_t, imu_t, 0.0 if config.ideal else noise, motion_cfg,
-                 ov["supersample"])
+    noise = 0.0 if config.ideal else config.noise.image_sigma
+    from sim.sensors.effects_timing import frame_stamps_ns
+    stamps = frame_stamps_ns(frame_t, config.camera.timestamp_jitter_us, stream(config.seed, "timestamp_jitter"))
+    return Setup(config, rig, scene, traj, frame_t, imu_t, noise, config.motion, config.render.supersample, stamps)
 
 
 def imu_streams(setup: Setup):
-    """Exact IMU samples, the measured (noisy unless ideal) samples and the true biases."""
-    from sim.imu import measure_imu
-    from sim.imu_noise import add_imu_noise
+    """The measured (noisy unless ideal) IMU samples and the true biases: the IMU sensor's clean
+    measurement of the trajectory, then its noise step (streams ``imu_white``, ``imu_bias``)."""
+    from sim.sensors.imu import measure
+    from sim.sensors.imu_noise import add_imu_noise
 
     rig, seed = setup.rig, setup.config.seed
-    clean = measure_imu(setup.trajectory, rig.imu, setup.imu_t_ns)
+    clean = measure(setup.trajectory.states(setup.imu_t_ns), rig.imu)
     imu = rig.imu
     if setup.config.ideal:
         imu = dataclasses.replace(imu, accel_noise_density=0.0, gyro_noise_density=0.0,
@@ -115,60 +108,85 @@ def truth_records(setup: Setup, biases):
 
 
 def metadata(setup: Setup) -> dict:
-    from rigs.io_yaml import rig_to_dict
+    """``metadata.yaml`` content: ``config`` is the resolved configuration (its hash is ``config_hash``);
+    ``scene``, ``rig`` and ``image_noise_sigma`` are what the data were made with (scene seed resolved,
+    the rig's wheels those of the vehicle, sigma 0 when ideal)."""
+    from rigs.rig_yaml import rig_to_dict
+    from rigs.typed_config import to_mapping
     from sim import __version__
     import mujoco
     c = setup.config
     return {
         "generator": "vo-testbed", "version": __version__, "mujoco": mujoco.__version__,
         "config": c.to_dict(), "config_hash": c.config_hash(), "seed": c.seed,
-        "scene": dataclasses.asdict(setup.scene.config), "rig": rig_to_dict(setup.rig),
-        "motion": _plain(dataclasses.asdict(setup.motion)) if setup.motion is not None else {},
+        "scene": to_mapping(setup.scene.config), "rig": rig_to_dict(setup.rig),
         "image_noise_sigma": setup.image_noise,
         "n_frames": int(len(setup.frame_t_ns)) if c.images else 0, "n_imu": int(len(setup.imu_t_ns)),
         "path_length_m": float(setup.trajectory.path_length()),
     }
 
 
-def _plain(d: dict) -> dict:
-    """Tuples -> lists so the metadata YAML stays plain."""
-    return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
-
-
 def _formats(fmt: str) -> tuple:
     return ("euroc", "kitti") if fmt == "both" else (fmt,)
 
 
-def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, start: int = 0) -> None:
-    """Render every stereo frame at ``T_w_b_frames`` (N,4,4), add noise, convert to grey, stream to the writers
-    (lens distortion is already applied by the renderer)."""
-    import cv2
+def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, start: int = 0):
+    """Measure every stereo frame at ``T_w_b_frames`` (N,4,4) with the camera sensor, add frame ``k``'s
+    image noise (stream ``image_noise``, index k), stream to the writers from frame ``start`` on, stamped
+    ``setup.frame_stamp_ns``. With image effects (``camera.*``) frames go through
+    :class:`sim.sensors.camera.FrameExposer`; returns the auto exposure gains then (None otherwise)."""
     from tqdm import tqdm
-    from sim.image_noise import add_image_noise
-    from sim.world import build_world
-    from sim.render import StereoRenderer
+    from sim.sensors.camera import StereoCamera, add_noise
 
-    c, rig = setup.config, setup.rig
-    world = build_world(setup.scene, rig, vehicle=c.vehicle)
-    with StereoRenderer(world, rig, depth=c.depth, segmentation=c.segmentation,
-                        supersample=setup.supersample) as renderer:
+    if setup.config.camera.image_effects:
+        return _render_with_effects(setup, writers, progress, start)
+
+    c = setup.config
+    with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
+                      supersample=setup.supersample, rgb=c.rgb) as camera:
+        if c.segmentation:
+            writers.add_segmentation_ids(setup.scene.segmentation_rows(camera.geom_names()))
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
                    disable=not progress, dynamic_ncols=True)
-        for k, t_ns in enumerate(setup.frame_t_ns):
-            if k < start:
-                continue
-            rng = indexed_stream(c.seed, "image_noise", k)
-            fr = renderer.render(T_w_b_frames[k])
-            images = []      # the renderer already applied lens distortion (exact inverse map)
-            for img in fr.images[:2]:
-                if img.ndim == 3 and not c.rgb:
-                    img = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
-                if setup.image_noise > 0:
-                    img = add_image_noise(img, setup.image_noise, rng)
-                images.append(img)
-            writers.add_frame(int(t_ns), images, depth=fr.depth, seg=fr.seg)
+        for k in range(start, len(setup.frame_t_ns)):
+            images, depth, seg = camera.measure(T_w_b_frames[k], setup.scene.actor_states(int(setup.frame_t_ns[k])))
+            images = add_noise(images, setup.image_noise, indexed_stream(c.seed, "image_noise", k))
+            writers.add_frame(int(setup.frame_stamp_ns[k]), images, depth=depth, seg=seg)
             bar.update(1)
         bar.close()
+    return None
+
+
+def _render_with_effects(setup: Setup, writers, progress: bool, start: int) -> list:
+    """:func:`render_frames` through the :class:`sim.sensors.camera.FrameExposer`; with auto exposure every
+    frame from 0 is exposed (its gain depends on earlier frames; the writers skip those already on disk)."""
+    from tqdm import tqdm
+    from sim.sensors.camera import FrameExposer, StereoCamera
+
+    c = setup.config
+    start = 0 if c.camera.auto_exposure else start
+    pose_at = lambda t_ns: setup.trajectory.states(t_ns).T_w_b  # noqa: E731
+    gains = [1.0] * len(setup.frame_t_ns)
+    with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
+                      supersample=setup.supersample, rgb=c.rgb) as camera:
+        if c.segmentation:
+            writers.add_segmentation_ids(setup.scene.segmentation_rows(camera.geom_names()))
+        exposer = FrameExposer(camera, setup.rig, c.camera, 1.0 / setup.rig.camera_rate_hz, c.seed,
+                               setup.image_noise, noisy=not c.ideal)
+        for k in tqdm(range(start, len(setup.frame_t_ns)), total=len(setup.frame_t_ns), initial=start,
+                      desc="render", unit="pair", disable=not progress, dynamic_ncols=True):
+            images, depth, seg, gains[k] = exposer.expose(k, int(setup.frame_t_ns[k]), pose_at,
+                                                          setup.scene.actor_states)
+            writers.add_frame(int(setup.frame_stamp_ns[k]), images, depth=depth, seg=seg)
+    return gains
+
+
+def wheel_odometry(setup: Setup, dims):
+    """Encoder ticks of the rig's wheels on a vehicle with ``dims`` at ``rig.wheels.rate_hz`` (stream ``wheels``)."""
+    from sim.sensors.wheels import measure_wheels
+    enc = setup.rig.wheels
+    t_ns = np.arange(setup.trajectory.t0_ns, setup.trajectory.t1_ns + 1, int(round(1e9 / enc.rate_hz)), dtype=np.int64)
+    return measure_wheels(setup.trajectory, dims, enc, t_ns, stream(setup.config.seed, "wheels"))
 
 
 def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: bool = False) -> GenerateResult:
@@ -179,26 +197,38 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     are skipped; the result is byte-identical to an uninterrupted run).
     """
     from sim.dataset import DatasetWriters
+    from sim.sensors.calib_error import perturb_rig
+    from sim.sensors.effects_truth import time_offset_ns, write_calibration_truth, write_frame_effects
+    from sim.sensors.wheels import with_vehicle_geometry
+    from sim.vehicles import vehicle_class
 
     out_dir = Path(out_dir)
     setup = resolve(config)
+    dims = vehicle_class(config.vehicle).dims
+    if setup.rig.wheels is not None:     # the calibration written is the geometry the ticks are made with
+        setup = dataclasses.replace(setup, rig=dataclasses.replace(
+            setup.rig, wheels=with_vehicle_geometry(setup.rig.wheels, dims)))
     noisy, biases = imu_streams(setup)
     truth = truth_records(setup, biases)
-    writers = DatasetWriters(out_dir, setup.rig, metadata(setup), fmt=config.format, depth=config.depth,
-                             segmentation=config.segmentation, overwrite=overwrite)
+    # calib_error: the images use setup.rig, the files written for estimators the perturbed rig
+    written_rig, calib_draws = perturb_rig(setup.rig, config.calib_error, stream(config.seed, "calib_error"))
+    writers = DatasetWriters(out_dir, written_rig, metadata(setup), fmt=config.format, depth=config.depth,
+                             segmentation=config.segmentation, overwrite=overwrite, depth_format=config.depth_format)
     start = writers.resumed_frames      # > 0 when resuming an interrupted run of the same config
     # IMU and ground truth are replayed in full; the writers skip rows already on disk
-    writers.add_imu(noisy.t_ns, noisy.gyro, noisy.accel)
+    writers.add_imu(noisy.t_ns + time_offset_ns(config), noisy.gyro, noisy.accel)   # t_imu = t_cam + td
     writers.add_groundtruth(setup.imu_t_ns, truth["T_w_i"], truth["v_w_i"], biases.b_g, biases.b_a)
-    writers.add_cam0_truth(setup.frame_t_ns, truth["T_w_c0"])
+    writers.add_cam0_truth(setup.frame_stamp_ns, truth["T_w_c0"])
+    write_calibration_truth(out_dir, setup.rig, calib_draws, config)
     writers.add_gcps(truth["gcps"])
+    actors = setup.scene.actor_truth(setup.frame_t_ns)
+    if actors:
+        writers.add_actors(setup.frame_t_ns, actors)
     if setup.rig.wheels is not None:
-        from sim.wheels import measure_wheels
-        wheel_t = np.arange(setup.trajectory.t0_ns, setup.trajectory.t1_ns + 1,
-                            int(round(1e9 / setup.rig.wheels.rate_hz)), dtype=np.int64)
-        writers.add_wheels(measure_wheels(setup.trajectory, setup.rig.wheels, wheel_t, stream(config.seed, "wheels")))
+        writers.add_wheels(wheel_odometry(setup, dims))
     if config.images:
-        render_frames(setup, truth["T_w_b_frames"], writers, progress=progress, start=start)
+        gains = render_frames(setup, truth["T_w_b_frames"], writers, progress=progress, start=start)
+        write_frame_effects(out_dir, setup, gains)
     png = str(out_dir / "topdown.png")
     write_topdown(setup, truth, png)
     writers.finalize()
@@ -218,5 +248,5 @@ def write_topdown(setup: Setup, truth: dict, path: str) -> None:
     fig, ax = plt.subplots(figsize=(8, 7))
     xy = truth["T_w_c0"][:, :2, 3]
     plot_topdown(setup.scene, ax, route_xy=xy)
-    ax.set_title(f"{setup.config.scene} / {setup.config.rig} / seed {setup.config.seed}")
+    ax.set_title(f"{setup.config.scene.name} / {setup.config.rig.name} / seed {setup.config.seed}")
     save_figure(fig, path)

@@ -34,7 +34,10 @@ from typing import Callable, Optional
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
+from rigs.typed_config import check_fields, knob
 from sim.errors import SimError
+from sim.planar_path import arc_length_table, chord_spline, u_at_arclength
+from sim.vehicles.cart import CART
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
 _RAMP_PEAK = 35.0 / 16.0        # max of h'(tau) for the septic smoothstep h
@@ -42,38 +45,31 @@ _RAMP_PEAK = 35.0 / 16.0        # max of h'(tau) for the septic smoothstep h
 
 @dataclass(frozen=True)
 class MotionConfig:
-    """Knobs of the vehicle motion. Angles in degrees, lengths in metres, times in seconds."""
+    """Knobs of the vehicle motion. Angles in degrees, lengths in metres, times in seconds. YAML and
+    ``--set motion.<field>`` keys are the field names, type- and range-checked on construction."""
 
-    start_time_ns: int = 1_000_000_000
-    rest_before_s: float = 0.0
-    rest_after_s: float = 0.0
-    vibration_pitch_deg: float = 0.3
-    vibration_roll_deg: float = 0.3
-    vibration_yaw_deg: float = 0.1
-    vibration_heave_m: float = 0.003
-    vibration_freqs_hz: tuple = (0.7, 1.3, 2.1)
-    wheelbase_m: float = 0.8
-    track_m: float = 0.6
-    path_sample_m: float = 0.1
-    corner_smoothing_m: float = 0.0
+    start_time_ns: int = knob(1_000_000_000, ge=0)
+    start_speed_mps: float = knob(0.0, ge=0.0)
+    rest_before_s: float = knob(0.0, ge=0.0)
+    rest_after_s: float = knob(0.0, ge=0.0)
+    vibration_pitch_deg: float = knob(0.3, ge=0.0)
+    vibration_roll_deg: float = knob(0.3, ge=0.0)
+    vibration_yaw_deg: float = knob(0.1, ge=0.0)
+    vibration_heave_m: float = knob(0.003, ge=0.0)
+    vibration_freqs_hz: tuple[float, ...] = (0.7, 1.3, 2.1)
+    wheelbase_m: float = knob(CART.wheelbase_m, gt=0.0, doc="the cart's (sim.vehicles.cart); set for other vehicles")
+    track_m: float = knob(CART.track_m, gt=0.0)
+    path_sample_m: float = knob(0.1, gt=0.0)
+    corner_smoothing_m: float = knob(0.0, ge=0.0)
 
     def __post_init__(self):
-        if isinstance(self.start_time_ns, bool) or not isinstance(self.start_time_ns, (int, np.integer)) \
-                or self.start_time_ns < 0:
-            raise SimError(f"motion.start_time_ns: must be a non-negative integer, got {self.start_time_ns!r}")
-        for f in ("corner_smoothing_m", "rest_before_s", "rest_after_s", "vibration_pitch_deg", "vibration_roll_deg",
-                  "vibration_yaw_deg", "vibration_heave_m"):
-            v = getattr(self, f)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise SimError(f"motion.{f}: must be a non-negative finite number, got {v!r}")
-        for f in ("wheelbase_m", "track_m", "path_sample_m"):
-            v = getattr(self, f)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise SimError(f"motion.{f}: must be a positive finite number, got {v!r}")
-        fr = tuple(self.vibration_freqs_hz)
-        if not fr or not all(isinstance(f, (int, float)) and 0 < f < 50 for f in fr):
+        check_fields(self, SimError, "motion.")
+        if self.start_speed_mps > 0 and self.rest_before_s > 0:
+            raise SimError(f"motion.start_speed_mps: {self.start_speed_mps!r} with motion.rest_before_s "
+                           f"{self.rest_before_s!r}; a vehicle moving at the start cannot rest first (set one to 0)")
+        fr = self.vibration_freqs_hz
+        if not fr or not all(0 < f < 50 for f in fr):
             raise SimError(f"motion.vibration_freqs_hz: expected 1+ frequencies in (0, 50) Hz, got {fr!r}")
-        object.__setattr__(self, "vibration_freqs_hz", tuple(float(f) for f in fr))
 
 
 @dataclass(frozen=True)
@@ -105,7 +101,11 @@ def _smoothstep7(tau: np.ndarray):
 
 @dataclass(frozen=True)
 class SpeedProfile:
-    """Arc length ``s(t)`` (t in s from the start): rest, ramp up, cruise, ramp down, rest."""
+    """Arc length ``s(t)`` (t in s from the start): rest, ramp up (from ``v_start``), cruise, ramp down, rest.
+
+    ``t_ramp`` is the ramp down from ``v_peak`` to rest; the ramp up from ``v_start`` takes
+    ``t_ramp_up = t_ramp * (1 - v_start / v_peak)`` with the same peak acceleration.
+    """
 
     length_m: float
     v_peak: float
@@ -113,113 +113,56 @@ class SpeedProfile:
     t_cruise: float
     t_rest0: float
     t_rest1: float
+    v_start: float = 0.0
 
     @classmethod
-    def build(cls, length_m: float, cruise_mps: float, accel_mps2: float, rest0: float, rest1: float):
-        """Peak acceleration of the ramp is ``accel_mps2``; short routes lower the peak speed."""
+    def build(cls, length_m: float, cruise_mps: float, accel_mps2: float, rest0: float, rest1: float,
+              v_start: float = 0.0):
+        """Peak acceleration of the ramps is ``accel_mps2``; short routes lower the peak speed."""
         v = cruise_mps
-        if length_m < _RAMP_PEAK * v * v / accel_mps2:      # ramps alone cover v * t_ramp
-            v = math.sqrt(accel_mps2 * length_m / _RAMP_PEAK)
+        if v_start > v:
+            raise SimError(f"motion.start_speed_mps: {v_start!r} exceeds the route's cruise speed {v!r} m/s")
+        if length_m < _RAMP_PEAK * (2 * v * v - v_start**2) / (2 * accel_mps2):   # ramps alone cover it
+            v = math.sqrt(accel_mps2 * length_m / _RAMP_PEAK + v_start**2 / 2)
+            if v < v_start:
+                v_max = math.sqrt(2 * accel_mps2 * length_m / _RAMP_PEAK)
+                raise SimError(f"motion.start_speed_mps: {v_start!r} m/s is too fast to stop within the "
+                               f"{length_m:.1f} m route; at most {v_max:.2f}")
         t_ramp = _RAMP_PEAK * v / accel_mps2
-        t_cruise = max(0.0, length_m / v - t_ramp)
-        return cls(length_m, v, t_ramp, t_cruise, rest0, rest1)
+        s_ramps = (v + v_start) / 2 * t_ramp * (1 - v_start / v) + v * t_ramp / 2
+        t_cruise = max(0.0, (length_m - s_ramps) / v)
+        return cls(length_m, v, t_ramp, t_cruise, rest0, rest1, float(v_start))
+
+    @property
+    def t_ramp_up(self) -> float:
+        return self.t_ramp * (1.0 - self.v_start / self.v_peak)
 
     @property
     def duration(self) -> float:
-        return self.t_rest0 + 2 * self.t_ramp + self.t_cruise + self.t_rest1
+        return self.t_rest0 + self.t_ramp_up + self.t_ramp + self.t_cruise + self.t_rest1
 
     def __call__(self, t: np.ndarray):
         """(N,) seconds -> s, s', s'', s''' (N,) each."""
-        v, T = self.v_peak, self.t_ramp
+        v, v0, T, Tu = self.v_peak, self.v_start, self.t_ramp, self.t_ramp_up
         tt = np.asarray(t, dtype=float) - self.t_rest0
         s, sd, sdd, sddd = (np.zeros_like(tt) for _ in range(4))
-        up = (tt > 0) & (tt < T)
-        h, H, h1, h2 = _smoothstep7(tt[up] / T)
-        s[up], sd[up], sdd[up], sddd[up] = v * T * H, v * h, v / T * h1, v / T**2 * h2
-        cr = (tt >= T) & (tt <= T + self.t_cruise)
-        s[cr], sd[cr] = v * T / 2 + v * (tt[cr] - T), v
-        t_dn = T + self.t_cruise
+        up = (tt >= 0) & (tt < Tu)
+        dv = v - v0
+        h, H, h1, h2 = _smoothstep7(tt[up] / Tu) if Tu > 0 else (tt[up],) * 4
+        s[up], sd[up] = v0 * tt[up] + dv * Tu * H, v0 + dv * h
+        if Tu > 0:
+            sdd[up], sddd[up] = dv / Tu * h1, dv / Tu**2 * h2
+        s_up = (v + v0) / 2 * Tu                     # arc length covered by the ramp up
+        cr = (tt >= Tu) & (tt <= Tu + self.t_cruise)
+        s[cr], sd[cr] = s_up + v * (tt[cr] - Tu), v
+        t_dn = Tu + self.t_cruise
         dn = (tt > t_dn) & (tt < t_dn + T)
         tau = (tt[dn] - t_dn) / T
         h, H, h1, h2 = _smoothstep7(tau)
-        s[dn] = v * T / 2 + v * self.t_cruise + v * T * (tau - H)
+        s[dn] = s_up + v * self.t_cruise + v * T * (tau - H)
         sd[dn], sdd[dn], sddd[dn] = v * (1 - h), -v / T * h1, -v / T**2 * h2
         s[tt >= t_dn + T] = self.length_m
         return s, sd, sdd, sddd
-
-
-# ----------------------------------------------------------------------------- planar path
-def _smoothed_polyline(xy: np.ndarray, closed: bool, sigma_m: float) -> np.ndarray:
-    """Polyline (M,2) (closed: last == first) -> dense points every ~sigma/5 after a Gaussian of
-    std ``sigma_m`` (arc length). Straight runs stay straight; corners are rounded over ~2 sigma.
-    Open ends use point-reflection padding, so the end points stay fixed."""
-    from scipy.ndimage import gaussian_filter1d
-    seg = np.linalg.norm(np.diff(xy, axis=0), axis=1)
-    arc = np.r_[0.0, np.cumsum(seg)]
-    ds = sigma_m / 5
-    n = max(8, int(math.ceil(arc[-1] / ds)))
-    a = np.linspace(0, arc[-1], n + 1)
-    pts = np.column_stack([np.interp(a, arc, xy[:, 0]), np.interp(a, arc, xy[:, 1])])
-    sig = sigma_m / (arc[-1] / n)
-    if closed:
-        out = gaussian_filter1d(pts[:-1], sig, axis=0, mode="wrap")
-        return np.vstack([out, out[:1]])
-    pad = min(n, int(4 * sig) + 1)
-    padded = np.vstack([2 * pts[0] - pts[pad:0:-1], pts, 2 * pts[-1] - pts[-2:-pad - 2:-1]])
-    return gaussian_filter1d(padded, sig, axis=0, mode="nearest")[pad:pad + n + 1]
-
-
-def _chord_spline(route, smoothing_m: float = 0.0):
-    """Quintic spline c(u) (2-D) through the waypoints (or the smoothed polyline), u = chord length."""
-    xy = route.xy
-    if route.closed and not np.allclose(xy[0], xy[-1]):
-        xy = np.vstack([xy, xy[:1]])
-    keep = np.r_[True, np.linalg.norm(np.diff(xy, axis=0), axis=1) > 1e-9]
-    xy = xy[keep]
-    if xy.shape[0] < (4 if route.closed else 2):
-        raise SimError(f"route.waypoints_xy: need at least {3 if route.closed else 2} distinct points, got {xy.shape[0]}")
-    if smoothing_m > 0:
-        xy = _smoothed_polyline(xy, route.closed, smoothing_m)
-    u = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))]
-    if route.closed:
-        if xy.shape[0] < 7:                       # periodic quintic needs >= 6 intervals
-            u_f = np.linspace(0, u[-1], 7 * (xy.shape[0] - 1) + 1)
-            xy = make_interp_spline(u, xy, k=3, bc_type="periodic")(u_f)
-            u = u_f
-        return make_interp_spline(u, xy, k=5, bc_type="periodic"), u
-    if xy.shape[0] < 6:                           # natural quintic needs >= 6 points: densify
-        k = min(3, xy.shape[0] - 1)
-        u_f = np.linspace(0, u[-1], 5 * (xy.shape[0] - 1) + 1)
-        xy = make_interp_spline(u, xy, k=k, bc_type="natural" if k == 3 else None)(u_f)
-        u = u_f
-    nat = [(3, np.zeros(2)), (4, np.zeros(2))]
-    return make_interp_spline(u, xy, k=5, bc_type=(nat, nat)), u
-
-
-def _arc_length_table(c, u_knots: np.ndarray):
-    """Fine grid u_f and cumulative arc length S(u_f) by 16-point Gauss-Legendre per cell."""
-    per_span = 16 if u_knots.size < 200 else 2
-    u_f = np.unique(np.concatenate([np.linspace(a, b, per_span + 1) for a, b in zip(u_knots[:-1], u_knots[1:])]))
-    return u_f, np.r_[0.0, np.cumsum(_gl_length(c.derivative(), u_f[:-1], u_f[1:]))]
-
-
-def _gl_length(dc, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Arc length of c over [a, b] (arrays), Gauss-Legendre."""
-    half = (b - a)[:, None] / 2
-    uu = (a[:, None] + half * (_GL_X + 1)).ravel()
-    sp = np.linalg.norm(dc(uu), axis=1).reshape(half.shape[0], -1)
-    return (sp * _GL_W).sum(axis=1) * half[:, 0]
-
-
-def _u_at_arclength(c, u_f, S_f, s: np.ndarray) -> np.ndarray:
-    """Invert S(u) = s by Newton from the table bracket (converges to ~1e-13 m)."""
-    dc = c.derivative()
-    i = np.clip(np.searchsorted(S_f, s, side="right") - 1, 0, u_f.size - 2)
-    u = u_f[i] + (s - S_f[i]) / (S_f[i + 1] - S_f[i]) * (u_f[i + 1] - u_f[i])
-    for _ in range(6):
-        S = S_f[i] + _gl_length(dc, u_f[i], u)
-        u = np.clip(u - (S - s) / np.linalg.norm(dc(u), axis=1), u_f[i], u_f[i + 1])
-    return u
 
 
 # ----------------------------------------------------------------------------- rotations
@@ -321,18 +264,22 @@ class VehicleTrajectory:
     def from_route(cls, route, ground_height: Callable, config: MotionConfig, rng: np.random.Generator,
                    duration_s: Optional[float] = None) -> "VehicleTrajectory":
         """Build the motion along ``route`` (scenes.base.Route); ``duration_s`` only truncates ``t1_ns``."""
-        c, u_knots = _chord_spline(route, config.corner_smoothing_m)
-        u_f, S_f = _arc_length_table(c, u_knots)
+        c, u_knots = chord_spline(route, config.corner_smoothing_m)
+        u_f, S_f = arc_length_table(c, u_knots)
         length = float(S_f[-1])
         m = max(12, int(math.ceil(length / config.path_sample_m)))
         s = np.linspace(0.0, length, m + 1)
-        u = _u_at_arclength(c, u_f, S_f, s)
+        u = u_at_arclength(c, u_f, S_f, s)
         xy, dxy = c(u), c.derivative()(u)
         t_hat = dxy / np.linalg.norm(dxy, axis=1, keepdims=True)
         z, pitch, roll = _ground_attitude(xy, t_hat, ground_height, config.wheelbase_m, config.track_m)
         spline = _fit_s_spline(s, np.column_stack([xy, z, pitch, roll]), route.closed)
-        profile = SpeedProfile.build(length, route.cruise_speed_mps, route.accel_mps2,
-                                     config.rest_before_s, config.rest_after_s)
+        if getattr(route, "stops_m", ()):                             # stop-and-go legs (sim.speed_stops)
+            from sim.speed_stops import StopGoProfile
+            profile = StopGoProfile.build(length, route, config)
+        else:
+            profile = SpeedProfile.build(length, route.cruise_speed_mps, route.accel_mps2,
+                                         config.rest_before_s, config.rest_after_s, config.start_speed_mps)
         dur = profile.duration
         if duration_s is not None:
             if not (isinstance(duration_s, (int, float)) and duration_s > 0):
@@ -420,7 +367,7 @@ class VehicleTrajectory:
         """Seconds from t0 at which arc length ``s`` is first reached (bisection to < 1 ns)."""
         pr = self.profile
         lo = np.full(s.shape, pr.t_rest0)
-        hi = np.full(s.shape, pr.t_rest0 + 2 * pr.t_ramp + pr.t_cruise)
+        hi = np.full(s.shape, pr.duration - pr.t_rest1)
         for _ in range(60):
             mid = (lo + hi) / 2
             ahead = pr(mid)[0] >= s

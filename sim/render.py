@@ -28,7 +28,6 @@ from typing import Optional
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-import cv2  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -36,7 +35,8 @@ from rigs.model import Rig  # noqa: E402
 from sim.config import check_supersample  # noqa: E402
 from sim.errors import SimError  # noqa: E402
 from sim.world import World  # noqa: E402
-from sim.vehicle import VEHICLE_GROUP  # noqa: E402
+from vo.frontend.image import to_gray  # noqa: E402
+from sim.vehicles import VEHICLE_GROUP  # noqa: E402
 
 
 @dataclass
@@ -147,7 +147,7 @@ class StereoRenderer:
                 rgb = dmap.apply(rgb)
                 dep = dmap.apply_depth(dep) if dep is not None else None
                 seg = dmap.apply_seg(seg) if seg is not None else None
-            images.append(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY) if self.gray else rgb)
+            images.append(to_gray(rgb) if self.gray else rgb)
             depths.append(dep)
             segs.append(seg)
         return RenderedFrame(images, depths if self.depth else None, segs if self.segmentation else None)

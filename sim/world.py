@@ -23,7 +23,7 @@ from scenes.base import Scene
 from sim import mjcam
 from sim.distortion import DistortionMap
 from sim.errors import SimError
-from sim.vehicle import VehicleHandles, add_vehicle
+from sim.vehicles import VehicleHandles, add_vehicle
 
 ZNEAR_M = 0.05
 ZFAR_M = 200.0
@@ -103,6 +103,25 @@ class World:
             raise SimError(f"world: body {body_name!r} is not a mocap body")
         self.data.mocap_pos[mid], self.data.mocap_quat[mid] = mjcam.pos_quat_from_T(T_w_x)
 
+    def _set_mocap_poses(self, poses: dict) -> None:
+        """Set many mocap bodies ``{name: T_w_x}`` at once (one batched rotation conversion: scenes with
+        hundreds of actors pose them every frame)."""
+        from rigs.geometry import quat_wxyz_from_R
+        names = list(poses)
+        mids = np.array([self._mocap_index(n) for n in names])
+        T = np.asarray([poses[n] for n in names], dtype=float).reshape(-1, 4, 4)
+        self.data.mocap_pos[mids] = T[:, :3, 3]
+        self.data.mocap_quat[mids] = quat_wxyz_from_R(T[:, :3, :3])
+
+    def _mocap_index(self, body_name: str) -> int:
+        cache = self.__dict__.setdefault("_mocap_ids", {})
+        if body_name not in cache:
+            mid = int(self.model.body_mocapid[self._id(mujoco.mjtObj.mjOBJ_BODY, body_name)])
+            if mid < 0:
+                raise SimError(f"world: body {body_name!r} is not a mocap body")
+            cache[body_name] = mid
+        return cache[body_name]
+
     def set_vehicle_pose(self, T_w_b: np.ndarray, others: Optional[dict] = None) -> None:
         """Pose the vehicle (4,4 ``T_w_b``) and optional other mocap bodies ``{name: T_w_x}``,
         then update positions (``mj_kinematics``) and cameras/lights (``mj_camlight``); no step."""
@@ -111,8 +130,8 @@ class World:
             raise SimError(f"world.set_vehicle_pose: expected a finite (4,4) T_w_b, got shape {T_w_b.shape}")
         self.data.mocap_pos[self.mocap_id], self.data.mocap_quat[self.mocap_id] = \
             mjcam.pos_quat_from_T(T_w_b)
-        for name, T in (others or {}).items():
-            self.set_mocap_pose(name, T)
+        if others:
+            self._set_mocap_poses(others)
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)
 

@@ -85,7 +85,8 @@ def test_nees_with_a_sample_covariance_matches_hotelling():
     assert nees(e, S).mean() == pytest.approx(expected_nees_sample_cov(d, n), rel=0.02)
     assert abs(inside_fraction_sample_cov(3, 40, 30, np.random.default_rng(1)) - 0.86) < 0.03
     assert inside_fraction_sample_cov(3, 100, 30, np.random.default_rng(2)) >= 0.91
-    with pytest.raises(ValueError, match="n_samples 5 must exceed"):
+    from vo.errors import VoError
+    with pytest.raises(VoError, match="expected_nees_sample_cov.n_samples: 5; must exceed dof"):
         expected_nees_sample_cov(3, 5)
 
 

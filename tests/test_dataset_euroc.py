@@ -120,3 +120,63 @@ def test_imu_object_form_tum_helper_and_mav0_path(tmp_path, written):
     assert np.allclose(read_tum(tmp_path / "gt.txt").T, traj.T, atol=1e-8)   # %.9f text
     with pytest.raises(SimError, match="valid: euroc, kitti, both"):
         DatasetWriters(tmp_path / "z", s.rig, s.metadata, fmt="tum")
+
+
+def _rig_with_k3(rig, k3=0.0507):
+    import dataclasses
+    cams = tuple(dataclasses.replace(c, dist=(0.0176, -0.0356, -0.0006, -0.0005, k3 * (1 + k)))
+                 for k, c in enumerate(rig.cameras))
+    return dataclasses.replace(rig, cameras=cams)
+
+
+def test_sensor_yaml_has_four_coefficients_and_camchain_is_exact(tmp_path):
+    # As real EuRoC: 4 radtan coefficients in sensor.yaml. A rig with k3 != 0 also gets the Kalibr
+    # camchain (5 coefficients); without rig.yaml the reader takes the exact distortion from it.
+    from rigs.calib_io import read_euroc_camera_yaml
+    from rigs.config_io import read_yaml_file
+    s = Synth(n_frames=2)
+    rig = _rig_with_k3(s.rig)
+    s.write(EurocWriter(tmp_path / "k3", rig, s.metadata))
+    for k in (0, 1):
+        coeffs = read_yaml_file(tmp_path / f"k3/mav0/cam{k}/sensor.yaml")["distortion_coefficients"]
+        assert coeffs == list(rig.cameras[k].dist[:4])
+        assert read_euroc_camera_yaml(tmp_path / f"k3/mav0/cam{k}/sensor.yaml")[0].dist[4] == 0.0
+    assert (tmp_path / "k3/mav0/camchain.yaml").is_file()
+    assert "camchain.yaml are exact" in read_yaml_file(tmp_path / "k3/metadata.yaml")["calibration"]
+    (tmp_path / "k3/rig.yaml").unlink()
+    (tmp_path / "k3/metadata.yaml").unlink()                     # now read as a real EuRoC folder
+    ds = open_dataset(tmp_path / "k3")
+    assert [c.dist for c in ds.rig.cameras] == [c.dist for c in rig.cameras]
+    s.write(EurocWriter(tmp_path / "no_k3", s.rig, s.metadata))  # k3 = 0: sensor.yaml is exact, no camchain
+    assert not (tmp_path / "no_k3/mav0/camchain.yaml").exists()
+
+
+def test_depth_png16_millimetres_and_sky(tmp_path):
+    # png16 (TUM RGB-D style): uint16 mm, 0 = sky or beyond 65.535 m; read back as metres, inf there.
+    import cv2
+    s = Synth(n_frames=2)
+    depth = s.depth[1].copy()
+    depth[0, :5] = np.inf
+    depth[1, 0] = 70.0                                            # beyond the 16-bit mm range
+    s.depth[1] = depth
+    s.write(EurocWriter(tmp_path / "p", s.rig, s.metadata, depth=True, depth_format="png16"), with_depth=True)
+    raw = cv2.imread(str(tmp_path / f"p/mav0/cam0/depth/{s.t_frames[1]}.png"), cv2.IMREAD_UNCHANGED)
+    assert raw.dtype == np.uint16 and raw[0, 0] == 0 and raw[1, 0] == 0
+    got = open_dataset(tmp_path / "p").depth(1)
+    finite = np.isfinite(depth) & (depth < 65.535)
+    assert np.all(np.isinf(got[~finite]))
+    assert np.max(np.abs(got[finite] - depth[finite])) <= 0.0005 + 1e-6     # half a millimetre of rounding
+    with pytest.raises(Exception, match="depth_format: unknown"):
+        EurocWriter(tmp_path / "q", s.rig, s.metadata, depth=True, depth_format="exr")
+
+
+def test_no_gcp_file_without_gcps(tmp_path):
+    # An empty gcps.csv is rejected by `eval --gcps`, so none is written; metadata says why.
+    from rigs.config_io import read_yaml_file
+    s = Synth(n_frames=2)
+    w = EurocWriter(tmp_path / "g", s.rig, s.metadata)
+    s.write(w, finalize=False)
+    w.finalize()
+    assert not (tmp_path / "g/gcps.csv").exists()
+    assert "gcps.csv not written" in read_yaml_file(tmp_path / "g/metadata.yaml")["gcps"]
+    assert open_dataset(tmp_path / "g").gcps == []

@@ -91,3 +91,19 @@ def test_fanout_both_matches_single_writers(tmp_path):
     s.write(KittiWriter(tmp_path / "konly", s.rig, s.metadata))
     assert folder_hashes(tmp_path / "both" / "kitti") == folder_hashes(tmp_path / "konly")
     assert open_dataset(tmp_path / "both" / "euroc").kind == "euroc"
+
+
+def test_calib_tr_maps_body_into_rectified_cam0(tmp_path):
+    # Tr = T_r0_b: with it, the written poses are T_r0(0)_r0(k) = Tr inv(T_w_b(0)) T_w_b(k) inv(Tr).
+    from rigs.calib_io import parse_kitti_calib
+    s = Synth()
+    rig = make_rig(parallel=False)
+    s.rig = rig
+    s.T_w_c0 = s.T_w_c0 @ inv_T(Synth().rig.cameras[0].T_b_c_array) @ rig.cameras[0].T_b_c_array
+    s.write(KittiWriter(tmp_path / "tr", rig, s.metadata))
+    Tr = np.vstack([parse_kitti_calib(tmp_path / "tr/sequences/00/calib.txt")["Tr"], [0, 0, 0, 1]])
+    T_w_b = s.T_w_c0 @ inv_T(rig.cameras[0].T_b_c_array)
+    expected = np.einsum("ij,njk,kl->nil", Tr @ inv_T(T_w_b[0]), T_w_b, inv_T(Tr))
+    poses = np.loadtxt(tmp_path / "tr/poses/00.txt").reshape(-1, 3, 4)
+    assert np.allclose(poses, expected[:, :3, :4], atol=1e-9)            # calib.txt prints 13 digits
+    assert open_dataset(tmp_path / "tr").rig.baseline == pytest.approx(rig.baseline, abs=1e-9)

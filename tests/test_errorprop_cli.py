@@ -38,7 +38,9 @@ def test_predict_cross_site_cli(tmp_path):
 
 def test_cross_site_landmarks_file(tmp_path):
     f = tmp_path / "lm.yaml"
-    f.write_text("landmarks: [[13, 1.5], [13, -1.5], [16, 1.5], [16, -1.5]]\n")
+    f.write_text("f_px: 1189.0\nbaseline_m: 0.27\nsigma_p_px: 0.3333333333333333\nsigma_theta_px: 3.0\n"
+                 "previous_site: [0, 0]\ncurrent_site: [10, 0]\n"
+                 "landmarks: [[13, 1.5], [13, -1.5], [16, 1.5], [16, -1.5]]\n")
     r = CliRunner().invoke(cli, ["predict", "cross-site", "--landmarks", str(f), "--json"])
     assert json.loads(r.output)["analytic"]["accuracy_percent"] == pytest.approx(1.06, abs=0.005)
     f.write_text("landmarkz: []\n")
@@ -53,5 +55,5 @@ def test_parse_ranges(text, expected):
 
 @pytest.mark.parametrize("text", ["", "a,b", "5:1", "0,1", "1:2:3:4"])
 def test_parse_ranges_bad(text):
-    with pytest.raises(VoError, match="--ranges"):
+    with pytest.raises(VoError, match="ranges: "):
         parse_ranges(text)

@@ -15,7 +15,7 @@ from vo.dataset.types import StereoFrame
 from vo.errors import VoError
 from vo.errorprop.renoise import renoise_covariance
 from vo.estimators.base import Estimator, FrameResult
-from vo.estimators.synthetic import random_texture
+from helpers.synthetic import random_texture
 from rigs.geometry import make_T
 
 from test_estimators_pnp import make_rig  # noqa: E402  (tests/ is on sys.path under pytest's rootdir)

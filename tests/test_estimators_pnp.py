@@ -7,7 +7,7 @@ from vo.dataset.types import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.pnp import KltPnpEstimator, OrbPnpEstimator
 from vo.estimators.pnp_core import PnpConfig
-from vo.estimators.synthetic import box_scene, render
+from helpers.synthetic import box_scene, render
 from rigs.geometry import inv_T, make_T, rot_y, rotation_angle
 
 R_B_C = np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])

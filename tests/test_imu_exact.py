@@ -9,11 +9,11 @@ import pytest
 from rigs.model import Imu
 from scenes.base import Route
 from sim.errors import SimError
-from sim.imu import (G_W, analytic_imu, imu_pose_velocity, imu_times_ns, integrate_imu, measure_imu,
+from sim.sensors.imu import (G_W, analytic_imu, imu_pose_velocity, imu_times_ns, integrate_imu, measure, measure_imu,
                      measure_states)
 from sim.rng import stream
 from sim.motion import MotionConfig, VehicleTrajectory
-from rigs.geometry.se3 import R_from_opk_deg, make_T, so3_log
+from rigs.geometry import R_from_opk_deg, make_T, so3_log
 
 LOOP = Route(((0, 0), (6, -1), (10, 0), (11, 4), (6, 6), (0, 5), (-2, 2)), closed=True,
              cruise_speed_mps=0.5, accel_mps2=0.4)          # ~33 m, ~70 s per lap
@@ -44,7 +44,7 @@ def test_mujoco_sensors_match_analytic_formula(traj):
     Both are O(10) flops of float64 on O(10) m/s^2 values: agreement to 1e-9 (measured ~1e-14)."""
     t = np.linspace(traj.t0_ns, traj.t1_ns, 400).astype(np.int64)
     st = traj.states(t)
-    mj, an = measure_states(st, IMU.T_b_i_array), analytic_imu(st, IMU.T_b_i_array)
+    mj, an = measure(st, IMU), analytic_imu(st, IMU.T_b_i_array)      # the IMU sensor's clean step
     assert np.abs(mj.gyro - an.gyro).max() < 1e-9
     assert np.abs(mj.accel - an.accel).max() < 1e-9
     # the lever-arm terms matter: without them the accelerometers would differ by > 1e-4

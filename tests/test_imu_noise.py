@@ -5,8 +5,8 @@ import pytest
 from rigs.model import Imu
 from sim.allan import allan_deviation, density_at_1s, fit_white_and_walk, loglog_slope
 from sim.errors import SimError
-from sim.imu import ImuSamples
-from sim.imu_noise import add_imu_noise
+from sim.sensors.imu import ImuSamples
+from sim.sensors.imu_noise import add_imu_noise
 from sim.rng import stream
 
 ADIS = dict(gyro_noise_density=1.6968e-4, accel_noise_density=2.0e-3,

@@ -98,9 +98,10 @@ def test_same_inputs_give_identical_bytes():
 
 def test_vehicle_is_not_visible_to_its_cameras():
     """Cart and rover geometry stays outside forward cameras: hiding it changes no pixel."""
-    rig = stereo_rig()
+    from rigs.presets import get_rig
     T_w_b = make_T(rot_z(0.3), [1.0, 2.0, 0.0])
-    for kind in ("cart", "rover"):
+    # the rover's mast head needs a rig whose cam0 looks along the body x-z plane at pan 0 (its Navcam)
+    for kind, rig in (("cart", stereo_rig()), ("rover", get_rig("yutu-navcam"))):      # car: test_vehicles_car
         world = build_world(RenderTestScene(), rig, vehicle=kind)
         assert sum(world.model.geom(g).name.startswith("vehicle/") for g in range(world.model.ngeom)) >= 6
         with StereoRenderer(world, show_vehicle=True) as r:

@@ -58,10 +58,10 @@ def test_bad_supersample_is_one_line_error(bad):
 
 
 def test_supersample_override_is_validated_on_the_config():
-    assert GenerateConfig(overrides=("render.supersample=3",)).split_overrides()["supersample"] == 3
-    assert GenerateConfig().split_overrides()["supersample"] == 1
-    with pytest.raises(SimError, match="render.supersample: 4"):
-        GenerateConfig(overrides=("render.supersample=4",))
+    assert GenerateConfig().with_overrides(("render.supersample=3",)).render.supersample == 3
+    assert GenerateConfig().render.supersample == 1
+    with pytest.raises(SimError, match="render.supersample: must be odd, got 4"):
+        GenerateConfig().with_overrides(("render.supersample=4",))
 
 
 def test_supersampled_ground_texture_moves_with_the_ground():

@@ -44,10 +44,33 @@ def test_imu_model_swap_keeps_mounting():
     ("focal=3", "override 'focal=3': focal: unknown key; valid keys: baseline,"),
     ("cam2.fx=3", "override 'cam2.fx=3': cam2.fx: unknown key"),
     ("imu=adis", "override 'imu=adis': imu model 'adis': unknown; valid names: euroc-adis16448, ideal, paper002"),
-    ("cameras.width=7.5", "override 'cameras.width=7.5': cameras.width: must be a positive integer"),
+    ("cameras.width=7.5", "override 'cameras.width=7.5': cameras.width: must be an integer, got 7.5"),
+    ("cameras.width=-3", "override 'cameras.width=-3': camera 'cam0'.width: must be a positive integer"),
+    ("camera_rate_hz=.nan", "override 'camera_rate_hz=.nan': camera_rate_hz: must be a finite number, got nan"),
+    ("imu.rate_hz=true", "override 'imu.rate_hz=true': imu.rate_hz: must be a finite number, got True"),
+    ("wheels.ticks_per_rev=10.5", "override 'wheels.ticks_per_rev=10.5': wheels.ticks_per_rev: must be an integer"),
+    ("wheels=some", "override 'wheels=some': wheels: expected none or default, got 'some'"),
+    ("cam0.dist=[1, a]", "override 'cam0.dist=[1, a]': cam0.dist[1]: must be a finite number, got 'a'"),
+    ("cam0.dist=[1, 2]", "override 'cam0.dist=[1, 2]': camera 'cam0'.dist: expected 4 or 5 finite"),
     ("nonsense", "override 'nonsense': expected key=value"),
 ])
 def test_bad_overrides(item, expect):
     with pytest.raises(RigError) as e:
         apply_overrides(get_rig("stereo27"), [item])
     assert "\n" not in str(e.value) and str(e.value).startswith(expect), str(e.value)
+
+
+def test_keys_come_from_the_dataclass_fields():
+    """Every field of Camera, Imu and Wheels is a key (no hand-kept list), typed by its annotation."""
+    import dataclasses
+    from rigs.model import Camera, Imu, Wheels
+    from rigs.overrides import is_key, valid_keys
+    rig = get_rig("stereo27")
+    for group, cls in (("imu", Imu), ("wheels", Wheels), ("cameras", Camera), ("cam1", Camera)):
+        assert all(is_key(rig, f"{group}.{f.name}") for f in dataclasses.fields(cls))
+    assert not is_key(rig, "cam2.fx") and not is_key(rig, "imu.bias") and "cam1.<" in ", ".join(valid_keys(rig))
+    new = apply_overrides(rig, ["wheels.ticks_per_rev=2048", "imu.name=mine", "mount=roof",
+                                "cam1.dist=[0.1, 0, 0, 0]", "imu.T_b_i=[[1,0,0,0.5],[0,1,0,0],[0,0,1,0],[0,0,0,1]]"])
+    assert new.wheels.ticks_per_rev == 2048 and type(new.wheels.ticks_per_rev) is int
+    assert new.imu.name == "mine" and new.mount == "roof" and new.cameras[1].dist == (0.1, 0.0, 0.0, 0.0, 0.0)
+    assert new.imu.T_b_i[0][3] == 0.5 and new.imu.rate_hz == rig.imu.rate_hz

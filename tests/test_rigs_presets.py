@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from rigs import RigError
-from rigs.io_yaml import load_rig
+from rigs.rig_yaml import load_rig
 from rigs.presets import PRESET_DIR, R_B_C_FORWARD, get_rig, rig_names
-from rigs.geometry.se3 import opk_deg_from_R
+from rigs.geometry import opk_deg_from_R
 
 
 @pytest.mark.parametrize("name", rig_names())

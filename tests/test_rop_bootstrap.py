@@ -99,18 +99,17 @@ def test_bootstrap_is_reproducible_and_handles_too_few_tracks():
     assert bootstrap_step_cov(*args, np.random.default_rng(3), 10, 1.0 / FOCAL, N_POINTS + 1, RANSAC) is None
 
 
-@pytest.mark.parametrize("cov", ["bootstrap", "chain_bootstrap"])
-def test_rop_cov_bootstrap_changes_only_the_covariance(campus_short, cov):
-    """On 44 rendered frames (keyframes at 34 and 42): ``cov="bootstrap"`` (and ``"chain_bootstrap"``, vo.rop.chain_bootstrap,
-    whose keyframe covariances come from replicate trajectories) gives the same poses as the default, finite
-    positive-definite covariances, the same bytes on a rerun (seeded by ``(seed, t_ns)``), and a
+def test_rop_chain_bootstrap_changes_only_the_covariance(campus_short):
+    """On 44 rendered frames (keyframes at 34 and 42): ``cov="chain_bootstrap"`` (vo.rop.chain_bootstrap,
+    keyframe covariances from replicate trajectories) gives the same poses as the default, finite
+    positive-semidefinite covariances, the same bytes on a rerun (seeded by ``(seed, t_ns)``), and a
     wider position covariance than the first-order model at the end (measured 5x on campus-short,
-    docs/consistency.md; a bootstrap that resampled nothing would give ~0)."""
+    docs/studies/rop_consistency.md; a bootstrap that resampled nothing would give ~0)."""
     from vo.dataset import open_dataset
     from vo.estimators.runner import run_estimator
     ds = open_dataset(campus_short)
-    runs = [run_estimator("rop", ds, options=o, progress=False, max_frames=44)
-            for o in ({}, {"cov": cov, "bootstrap_replicates": 12}, {"cov": cov, "bootstrap_replicates": 12})]
+    opts = {"cov": "chain_bootstrap", "bootstrap_replicates": 12}
+    runs = [run_estimator("rop", ds, options=o, progress=False, max_frames=44) for o in ({}, opts, opts)]
     base, boot, again = ([f for f in r.frames] for r in runs)
     assert all(np.array_equal(a.T_o_c0, b.T_o_c0) for a, b in zip(base, boot))
     assert all(a.cov.tobytes() == b.cov.tobytes() for a, b in zip(boot, again))
@@ -125,20 +124,18 @@ def test_startup_bootstraps_again_as_the_step_doubles(campus_short, monkeypatch)
     bootstrap is repeated each time the step has doubled in length (the bootstrap / first-order ratio
     of a < 1 px parallax epoch does not hold at 0.5 m). Recorded: the step length at every bootstrap
     of the first 44 frames (first keyframe at frame 34)."""
-    import vo.rop.estimator as E
     from vo.dataset import open_dataset
     from vo.estimators.runner import run_estimator
-    lengths, inner = [], E.RopEstimator._bootstrap_cov
+    from vo.rop.chain_bootstrap import ChainBootstrap
+    lengths, inner = [], ChainBootstrap.replicates
 
-    def recording(self, pairs, T_kf_c3, cov_step, fresh, timings):
-        out = inner(self, pairs, T_kf_c3, cov_step, fresh, timings)
-        if self._boot_len is not None and (not lengths or lengths[-1][0] != self._boot_len):
-            lengths.append((self._boot_len, fresh))          # a bootstrap ran at this step length
-        return out
+    def recording(self, step):
+        lengths.append((float(np.linalg.norm(step.T_kf_c[:3, 3])), step.keyframe))   # a bootstrap runs now
+        return inner(self, step)
 
-    monkeypatch.setattr(E.RopEstimator, "_bootstrap_cov", recording)
-    run_estimator("rop", open_dataset(campus_short), options={"cov": "bootstrap", "bootstrap_replicates": 8},
+    monkeypatch.setattr(ChainBootstrap, "replicates", recording)
+    run_estimator("rop", open_dataset(campus_short), options={"cov": "chain_bootstrap", "bootstrap_replicates": 8},
                   progress=False, max_frames=44)
-    startup = [length for length, fresh in lengths[:next(i for i, (_, f) in enumerate(lengths) if f)]]
+    startup = [length for length, kf in lengths[:next(i for i, (_, kf) in enumerate(lengths) if kf)]]
     assert len(startup) >= 3, lengths                          # the first ROP epoch and >= 2 refreshes
     assert all(b >= 2.0 * a for a, b in zip(startup, startup[1:])), startup

@@ -9,7 +9,7 @@ from vo.rop import adjust_rops
 from vo.rop.adjustment import AdjustmentConfig
 from vo.rop.bootstrap_cov import bootstrap_step_replicates, replicate_cov
 from vo.rop.chain_bootstrap import ReplicateChain, gaussian_pose_draws
-from vo.rop.estimator import propagate_cov
+from vo.rop.uncertainty import propagate_cov
 from vo.rop.relative import estimate_rop_normalized
 from vo.rop.ropset import PAIRS, RopSet
 
@@ -84,8 +84,8 @@ def test_chain_bootstrap_sees_errors_that_persist_across_steps():
     against the mean bootstrap variance of 4 runs (each a 40-replicate estimate, ~11 % in std; mean
     of 4: ~6 %), so ~8 % combined. Measured: chain / MC 0.95-1.30 (position 1.12-1.30: mildly
     pessimistic), independent / MC 0.66-0.79 in attitude (0.77-0.95 in position); bounds: chain
-    within [0.75, 1.45] (1.30 + 2 combined sigmas), the independent sum (what ``cov="bootstrap"`` does)
-    below 0.85 in every attitude axis, where the chain is >= 0.95."""
+    within [0.75, 1.45] (1.30 + 2 combined sigmas), the independent sum (the independent-steps
+    bootstrap of docs/studies/rop_models.py) below 0.85 in every attitude axis, where the chain is >= 0.95."""
     rng = np.random.default_rng(11)
     P = np.c_[rng.uniform(-6, 6, N_POINTS), rng.uniform(-1.5, 1.5, N_POINTS), rng.uniform(4, 14, N_POINTS)]
     T_true = _poses()[-1]                            # epoch 0 is O

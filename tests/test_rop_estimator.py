@@ -1,4 +1,5 @@
-"""RopEstimator end to end on a ray-cast textured room (no MuJoCo): accuracy, failure handling."""
+"""RopEstimator end to end on a ray-cast textured room (no MuJoCo): accuracy, failure handling, its
+configuration (RopConfig) and the UncertaintyModel interface."""
 import cv2
 import numpy as np
 import pytest
@@ -8,7 +9,9 @@ from vo.dataset.types import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import STATUSES
 from rigs.geometry import make_T, rot_y, rotation_angle, skew
-from vo.rop.estimator import RopEstimator, propagate_cov
+from vo.rop.config import RopConfig
+from vo.rop.estimator import RopEstimator
+from vo.rop.uncertainty import PropagatedCovariance, propagate_cov
 
 RIG = get_rig("cart27")                    # 720x480, 0.2857 m baseline, seed 000 distortion
 PLANES = [(2, 5.0), (2, -4.0), (0, -1.8), (0, 1.8), (1, 1.0), (1, -1.4)]   # room walls in O (axis, value)
@@ -74,18 +77,18 @@ def test_room_sequence_tracks_truth_klt():
     assert np.all(np.isfinite(traces)) and traces[-1] > traces[1] > 0     # uncertainty grows along the chain
 
 
-def test_room_sequence_orb_error_within_its_covariance():
+def test_room_sequence_orb_tracks_truth():
     """ORB keypoints (pyramid-quantised) give ~1-4 deg direction errors on forward motion here; the
-    a-posteriori covariance must own up to it: position error within 3 sigma (trace). (The default
-    "propagated" covariance does not: 28 mm error vs 6 mm sigma - the quantisation is not in the
-    Sampson residuals of each ROP, only in their disagreement.)"""
+    four ROPs still solve every frame. Measured after 2 steps of 0.3 m: 27.6 mm position error, 4.6 %
+    of the path (the first-order covariance, 6.4 mm, does not contain it: the quantisation is not in
+    each ROP's Sampson residuals, only in their disagreement). Bound: 10 % of the path."""
     poses = true_poses(3)
-    est = RopEstimator(RIG, frontend="orb", cov="apost")
+    est = RopEstimator(RIG, frontend="orb")
     results = [est.process(f) for f in frames(poses)]
     assert results[0].status == "init" and all(r.status in ("ok", "keyframe") for r in results[1:])
     r = results[-1]
     err = np.linalg.norm(r.T_o_c0[:3, 3] - poses[-1][:3, 3])
-    assert np.all(np.isfinite(r.cov)) and err < 3 * np.sqrt(np.trace(r.cov[3:, 3:]))
+    assert np.all(np.isfinite(r.cov)) and err < 0.1 * 0.6
 
 
 def test_blank_images_never_nan_and_reinitialise():
@@ -111,6 +114,79 @@ def test_options_are_validated():
         RopEstimator(RIG, frontends="orb")
     with pytest.raises(EstimatorError, match="rop.rop_loss: 'huber'; valid: gate, cauchy, tukey"):
         RopEstimator(RIG, rop_loss="huber")
+    with pytest.raises(EstimatorError, match="either config or options"):
+        RopEstimator(RIG, RopConfig(), weights="sampson")
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("cov", "apost", "rop.cov: 'apost'; valid: propagated, chain_bootstrap"),
+    ("weights", "equal", "rop.weights: 'equal'; valid: inliers, sampson"),
+    ("klt_refine", "quadratic", "rop.klt_refine: 'quadratic'; valid: translation, affine"),
+    ("ransac_method", "lmeds", "rop.ransac_method: 'lmeds'; valid: ransac, magsac"),
+    ("bootstrap_replicates", 3, "rop.bootstrap_replicates: 3; must be an integer >= 8"),
+    ("min_matches", 30.5, "rop.min_matches: 30.5; must be an integer >= 8"),
+    ("ransac_prob", 1.0, r"rop.ransac_prob: 1.0; must be a finite number in \(0, 1\)"),
+    ("ransac_threshold_px", float("nan"), "rop.ransac_threshold_px: nan; must be a finite number > 0"),
+    ("min_inlier_ratio", 1.5, r"rop.min_inlier_ratio: 1.5; must be a finite number in \[0, 1\]"),
+    ("constant_velocity", "yes", "rop.constant_velocity: 'yes'; must be true or false"),
+    ("klt_config", {"wn": 11}, r"rop.klt_config: unknown field\(s\) \['wn'\]"),
+])
+def test_rop_config_rejects_bad_values_in_one_line(field, value, message):
+    """Every bad value of a RopConfig field: one-line EstimatorError naming ``rop.<field>``, the value
+    and what is valid, from the dataclass and from ``--opt``-style keyword options alike."""
+    for build in (lambda: RopConfig(**{field: value}), lambda: RopEstimator(RIG, **{field: value})):
+        with pytest.raises(EstimatorError, match=message) as e:
+            build()
+        assert "\n" not in str(e.value)
+
+
+def test_rop_config_fields_are_the_option_keys():
+    cfg = RopConfig.from_options({"weights": "sampson", "klt_config": {"win": 11}, "cov": "chain_bootstrap"})
+    assert cfg.weights == "sampson" and cfg.klt_config.win == 11 and cfg.cov == "chain_bootstrap"
+    est = RopEstimator(RIG, weights="sampson", klt_config={"win": 11})
+    assert est.config == RopConfig(weights="sampson", klt_config={"win": 11})
+    assert RopEstimator(RIG, cfg).config is cfg
+    with pytest.raises(EstimatorError, match="valid: frontend, ransac_threshold_px"):
+        RopConfig.from_options({"sigma_rot_deg": 1.0})
+
+
+class CountingModel(PropagatedCovariance):
+    """The first-order model, recording every call and scaling the covariance by a known factor."""
+
+    def __init__(self):
+        self.steps, self.resets = [], []
+
+    def on_step(self, step):
+        self.steps.append(step)
+        return 4.0 * super().on_step(step)
+
+    def reset(self, T_o_c, cov):
+        self.resets.append(T_o_c.copy())
+
+
+def test_uncertainty_model_is_called_once_per_solved_step():
+    """A model plugged in via ``uncertainty=`` sees every solved frame once, in order, with the step
+    the pose came from, and its covariance is what the frame reports; a failed frame calls ``reset``
+    with the coasted pose. Poses do not depend on the model."""
+    poses = true_poses(5)
+    model = CountingModel()
+    est, ref = RopEstimator(RIG, uncertainty=model), RopEstimator(RIG)
+    fs = list(frames(poses))
+    blank = np.full((480, 720), 128, np.uint8)
+    seq = fs[:3] + [StereoFrame(3, 3 * 100_000_000 + 1, blank, blank)] + fs[3:]
+    results, refs = [est.process(f) for f in seq], [ref.process(f) for f in seq]
+    solved = [r for r in results if r.status in ("ok", "keyframe", "reinit")]
+    assert [s.t_ns for s in model.steps] == [r.t_ns for r in solved]
+    for s, r in zip(model.steps, solved):
+        np.testing.assert_array_equal(s.T_o_c, r.T_o_c0)
+        np.testing.assert_array_equal(4.0 * propagate_cov(s.cov_kf, s.T_o_kf, s.T_kf_c, s.cov_step), r.cov)
+        assert s.ropset is not None and s.tracks is not None and len(s.images) == 4
+    assert [s.keyframe for s in model.steps] == [r.status == "keyframe" for r in solved]
+    failed = [r for r in results if r.status == "few_features"]       # the blank frame and the one after it
+    assert len(failed) == len(model.resets) == 2 and results[-1].status == "reinit"
+    for T, r in zip(model.resets, failed):
+        np.testing.assert_array_equal(T, r.T_o_c0)
+    assert all(np.array_equal(a.T_o_c0, b.T_o_c0) for a, b in zip(results, refs))
 
 
 def test_propagate_cov_matches_monte_carlo_linearisation():

@@ -70,9 +70,9 @@ def test_project_cov_matches_finite_differences():
 
 
 def test_propagate_cov_matches_monte_carlo_of_composed_steps():
-    """Keyframe chaining ``T_o_c3 = T_o_c1 @ T_c1_c3`` (vo.rop.estimator.propagate_cov) against
+    """Keyframe chaining ``T_o_c3 = T_o_c1 @ T_c1_c3`` (vo.rop.uncertainty.propagate_cov) against
     composing independently perturbed poses (left perturbation ``[rotvec, position]``)."""
-    from vo.rop.estimator import propagate_cov
+    from vo.rop.uncertainty import propagate_cov
     rng = np.random.default_rng(7)
     T1 = make_T(so3_exp([0.1, 0.4, -0.2]), [0.3, -0.1, 2.0])
     C1 = np.diag([3e-3, 2e-3, 4e-3, 5e-3, 4e-3, 6e-3]) ** 2

@@ -1,16 +1,16 @@
 """ROP estimator extensions: standstill (rotation-only path), keyframe epochs, vectorised Sampson LM,
 grid detection and the four-view KLT tracks, on the ray-cast textured corridor (no MuJoCo)."""
+import cv2
 import numpy as np
 import pytest
 
 from rigs.presets import get_rig
 from vo.dataset.types import StereoFrame
-from vo.estimators.synthetic import box_scene, render
+from helpers.synthetic import box_scene, render
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, detect_in_empty_cells
 from rigs.geometry import make_T, rot_y, rotation_angle, so3_exp, skew
 from vo.rop.estimator import RopEstimator
-from vo.rop.griddetect import detect_grid
 from vo.rop.relative import chirality, sampson_jacobian
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
@@ -63,16 +63,47 @@ def test_four_view_tracks_share_one_feature_set(planes):
     assert {"detect", "track", "stereo"} <= set(timings)
 
 
-def test_grid_detection_matches_the_per_cell_detector(planes):
-    img = render(planes, RIG.cameras[0], np.eye(4))
-    grid = Grid(img.shape[1], img.shape[0], 32)
-    a = detect_in_empty_cells(img, grid, np.zeros((0, 2)))
-    b = detect_grid(img, grid, np.zeros((0, 2)))
-    assert np.array_equal(np.sort(grid.cell_index(a)), np.sort(grid.cell_index(b)))   # same cells
-    ka, kb = {c: p for c, p in zip(grid.cell_index(a), a)}, {c: p for c, p in zip(grid.cell_index(b), b)}
-    same = np.mean([np.allclose(ka[c], kb[c]) for c in ka])
-    assert same > 0.8           # ties / non-max suppression differ in a few cells only
-    assert len(detect_grid(img, grid, b)) == 0                # every detection cell is now occupied
+def _per_cell_reference(img, grid, config, peaks_only):
+    """Reference for :func:`detect_in_empty_cells`, one cell at a time: ``goodFeaturesToTrack`` on the
+    cell (with a ``block_size`` margin so the score uses true neighbours; seed 003's rule), or the
+    cell's maximum ``cornerMinEigenVal`` score wherever it is (``peaks_only=False``)."""
+    out, m = [], config.block_size
+    h, w = img.shape
+    eig_full = cv2.cornerMinEigenVal(img, m)
+    for k in grid.detection_cells(np.zeros((0, 2))):
+        x0, y0, x1, y1 = grid.cell_rect(k)
+        if not peaks_only:
+            cell = eig_full[y0:y1, x0:x1]
+            v, u = np.unravel_index(np.argmax(cell), cell.shape)
+            if cell[v, u] >= config.min_eigenvalue:
+                out.append((u + x0, v + y0))
+            continue
+        sx0, sy0, sx1, sy1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
+        sub = np.ascontiguousarray(img[sy0:sy1, sx0:sx1])
+        mask = np.zeros(sub.shape, np.uint8)
+        mask[y0 - sy0:y1 - sy0, x0 - sx0:x1 - sx0] = 255
+        c = cv2.goodFeaturesToTrack(sub, maxCorners=1, qualityLevel=config.quality_level,
+                                    minDistance=config.min_distance, mask=mask, blockSize=m)
+        if c is not None:
+            u, v = c.reshape(2)
+            if cv2.cornerMinEigenVal(sub, m)[int(round(v)), int(round(u))] >= config.min_eigenvalue:
+                out.append((u + sx0, v + sy0))
+    return np.array(out, dtype=np.float64).reshape(-1, 2)
+
+
+@pytest.mark.parametrize("peaks_only", [True, False])
+def test_grid_detection_matches_the_per_cell_detector(planes, peaks_only):
+    """The vectorised detector (one score image, per-cell maxima) gives exactly the corners of the
+    per-cell reference, in cell order; the two rules differ in some cells (a cell maximum on the
+    cell edge below a higher neighbour); detected cells are then occupied."""
+    img = np.clip(render(planes, RIG.cameras[0], np.eye(4)) + np.random.default_rng(4).normal(0, 1, (480, 752)),
+                  0, 255).astype(np.uint8)
+    grid, cfg = Grid(img.shape[1], img.shape[0], 32), KltConfig()
+    got = detect_in_empty_cells(img, grid, np.zeros((0, 2)), cfg, peaks_only=peaks_only)
+    np.testing.assert_array_equal(got, _per_cell_reference(img, grid, cfg, peaks_only))
+    other = detect_in_empty_cells(img, grid, np.zeros((0, 2)), cfg, peaks_only=not peaks_only)
+    assert len(got) > 100 and not np.array_equal(got, other)
+    assert len(detect_in_empty_cells(img, grid, got, cfg, peaks_only=peaks_only)) == 0
 
 
 def test_sampson_jacobian_matches_finite_differences():

@@ -8,6 +8,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
+from sim.rng import scene_streams  # noqa: E402
 from scenes import SceneConfig, make_scene  # noqa: E402
 from scenes.routes import point_at, resample  # noqa: E402
 
@@ -16,7 +17,7 @@ POSES_S = {"campus": 2.0, "indoor": 4.5}     # arc length (m) of the test camera
 
 def build(name, richness, seed=0):
     """Scene + compiled model with cameras at 1.2 m on the route looking along it."""
-    sc = make_scene(SceneConfig(name=name, seed=seed, texture_richness=richness))
+    sc = make_scene(SceneConfig(name=name, seed=seed, texture_richness=richness), scene_streams(seed))
     spec = mujoco.MjSpec()
     sc.add_to_spec(spec)
     spec.visual.quality.offsamples = 0
@@ -118,7 +119,7 @@ def test_same_config_same_model_other_seed_differs():
 
 
 def test_lighting_scales_brightness():
-    sc = make_scene(SceneConfig(name="indoor", lighting=0.5))
+    sc = make_scene(SceneConfig(name="indoor", lighting=0.5), scene_streams(0))
     spec = mujoco.MjSpec()
     sc.add_to_spec(spec)
     m = spec.compile()
@@ -127,5 +128,5 @@ def test_lighting_scales_brightness():
     assert m.light_diffuse[0, 0] == pytest.approx(0.175, abs=1e-6)
     assert not m.light_castshadow.any()
     spec = mujoco.MjSpec()
-    make_scene(SceneConfig(name="indoor", shadows=True)).add_to_spec(spec)
+    make_scene(SceneConfig(name="indoor", shadows=True), scene_streams(0)).add_to_spec(spec)
     assert spec.compile().light_castshadow.all()

@@ -5,6 +5,7 @@ from scipy.interpolate import CubicSpline
 
 from scenes import SceneConfig, SceneError, make_scene, scene_names
 from scenes.routes import distance_to_polyline
+from sim.rng import scene_streams
 
 
 def spline_length(wp, closed):
@@ -18,7 +19,7 @@ def spline_length(wp, closed):
 
 
 def test_campus_route_length_and_shape():
-    sc = make_scene(SceneConfig(name="campus"))
+    sc = make_scene(SceneConfig(name="campus"), scene_streams(0))
     r = sc.route
     assert r.closed and r.cruise_speed_mps == 1.2 and r.accel_mps2 == 0.4
     L = spline_length(r.xy, True)
@@ -30,7 +31,7 @@ def test_campus_route_length_and_shape():
 
 
 def test_indoor_route_length_and_open():
-    sc = make_scene(SceneConfig(name="indoor"))
+    sc = make_scene(SceneConfig(name="indoor"), scene_streams(0))
     r = sc.route
     assert not r.closed and r.cruise_speed_mps == 0.8
     L = spline_length(r.xy, False)
@@ -43,7 +44,7 @@ def test_indoor_route_length_and_open():
 @pytest.mark.parametrize("name,expected", [("campus", [f"C0{k}" for k in range(1, 8)]),
                                            ("indoor", ["P01", "P02", "P03"])])
 def test_gcps_on_route(name, expected):
-    sc = make_scene(SceneConfig(name=name))
+    sc = make_scene(SceneConfig(name=name), scene_streams(0))
     g = sc.gcp_sites
     assert [s.name for s in g] == expected
     d = distance_to_polyline([(s.x, s.y) for s in g], sc.path_xy, closed=sc.route.closed)
@@ -52,7 +53,7 @@ def test_gcps_on_route(name, expected):
 
 
 def test_indoor_p03_near_white_wall():
-    sc = make_scene(SceneConfig(name="indoor"))
+    sc = make_scene(SceneConfig(name="indoor"), scene_streams(0))
     p3 = sc.gcp_sites[2]
     fps = {f.name: f for f in sc.footprints()}
     white = [f for n, f in fps.items() if n.startswith("static/wall/north_n2")]
@@ -62,10 +63,10 @@ def test_indoor_p03_near_white_wall():
 
 
 def test_registry_and_unknown_scene():
-    assert scene_names() == ("campus", "indoor")
+    assert {"campus", "indoor"} <= set(scene_names()) and list(scene_names()) == sorted(scene_names())
     with pytest.raises(SceneError) as e:
-        make_scene(SceneConfig(name="x"))
-    assert str(e.value) == "unknown scene 'x'; valid: campus, indoor"
+        make_scene(SceneConfig(name="x"), scene_streams(0))
+    assert str(e.value).startswith(f"unknown scene 'x'; valid: {', '.join(scene_names())}") and "\n" not in str(e.value)
 
 
 def test_plot_topdown_runs():
@@ -74,7 +75,17 @@ def test_plot_topdown_runs():
     import matplotlib.pyplot as plt
     from scenes.plot import plot_topdown
     fig, ax = plt.subplots()
-    sc = make_scene(SceneConfig(name="indoor"))
+    sc = make_scene(SceneConfig(name="indoor"), scene_streams(0))
     plot_topdown(sc, ax)
     assert len(ax.patches) > 50 and ax.get_title() == "indoor (seed 0)"
     plt.close(fig)
+
+
+def test_scene_draws_from_the_streams_it_receives():
+    """Same factory -> same layout; another seed's factory -> another layout (campus trees)."""
+    def trees(seed):
+        fps = make_scene(SceneConfig(name="campus"), scene_streams(seed)).footprints()
+        return [f.center_xy for f in fps if f.name.startswith("static/tree")]
+    assert trees(0) == trees(0) and trees(0) != trees(1)
+    with pytest.raises(SceneError, match="streams must be a callable"):
+        make_scene(SceneConfig(name="campus"), 0)

@@ -5,23 +5,29 @@ import pytest
 from scenes.errors import SceneError
 from scenes.terrain import Crater, crater_profile, grid_xy, heightfield, random_craters
 from scenes.textures import make_texture, texture_kinds
+from sim.rng import scene_streams
+
+
+def _tex(kind, seed, richness, size=256, variant=0):
+    """The texture the simulator makes: scene stream of ``seed``, key ``texture/<kind>/<variant>``."""
+    return make_texture(kind, scene_streams(seed)(f"texture/{kind}/{variant}"), richness, size)
 
 
 @pytest.mark.parametrize("kind", texture_kinds())
 def test_same_seed_same_bytes_other_seed_differs(kind):
-    a = make_texture(kind, 7, 0.8, 64)
+    a = _tex(kind, 7, 0.8, 64)
     assert a.shape == (64, 64, 3) and a.dtype == np.uint8
-    assert a.tobytes() == make_texture(kind, 7, 0.8, 64).tobytes()
-    assert a.tobytes() != make_texture(kind, 8, 0.8, 64).tobytes()
-    assert a.tobytes() != make_texture(kind, 7, 0.8, 64, variant=1).tobytes()
+    assert a.tobytes() == _tex(kind, 7, 0.8, 64).tobytes()
+    assert a.tobytes() != _tex(kind, 8, 0.8, 64).tobytes()
+    assert a.tobytes() != _tex(kind, 7, 0.8, 64, variant=1).tobytes()
 
 
 @pytest.mark.parametrize("kind", texture_kinds())
 def test_richness_zero_is_flat_and_one_is_textured(kind):
-    flat = make_texture(kind, 3, 0.0, 128)
+    flat = _tex(kind, 3, 0.0, 128)
     assert np.all(flat == flat[0, 0])                     # one colour, no texture at all
-    rich = make_texture(kind, 3, 1.0, 128).astype(float)
-    half = make_texture(kind, 3, 0.5, 128).astype(float)
+    rich = _tex(kind, 3, 1.0, 128).astype(float)
+    half = _tex(kind, 3, 0.5, 128).astype(float)
     # contrast scales with richness: half richness gives half the std (within rounding/clipping)
     s1, s05 = rich.std(axis=(0, 1)).mean(), half.std(axis=(0, 1)).mean()
     assert s1 > 8.0
@@ -31,18 +37,19 @@ def test_richness_zero_is_flat_and_one_is_textured(kind):
 def test_rich_textures_have_many_corners():
     import cv2
     for kind in ("pavement", "brick", "facade", "poster", "bark", "foliage", "carpet", "asphalt"):
-        g = cv2.cvtColor(make_texture(kind, 0, 1.0, 256), cv2.COLOR_RGB2GRAY)
+        g = cv2.cvtColor(_tex(kind, 0, 1.0, 256), cv2.COLOR_RGB2GRAY)
         c = cv2.goodFeaturesToTrack(g, 1000, 0.01, 5)
         assert c is not None and len(c) >= 60, kind
 
 
 def test_bad_texture_arguments_raise_one_line():
-    for args in (("nope", 0, 0.5), ("brick", 0, 1.5)):
+    rng = np.random.default_rng(0)
+    for args in (("nope", rng, 0.5), ("brick", rng, 1.5), ("brick", 0, 0.5), ("brick", rng, 0.5, 100)):
         with pytest.raises(SceneError) as e:
             make_texture(*args)
         assert "\n" not in str(e.value)
     with pytest.raises(SceneError, match="valid: asphalt"):
-        make_texture("nope", 0, 0.5)
+        make_texture("nope", rng, 0.5)
 
 
 def test_crater_profile_is_where_requested():

@@ -1,15 +1,17 @@
 """Run an estimator on a dataset and evaluate it against the dataset's ground truth.
 
-Library functions behind ``vo-testbed run``, ``check`` and the README's main job.
+Library functions behind ``vo-testbed run``, ``eval``, ``check`` and the README's main job. The
+evaluation policy lives here, not in the CLI: a dataset is opened once; a run is evaluated when
+the dataset has ground truth; a run stopped after ``max_frames`` is judged on the frames it was
+given, an external program on every frame of the dataset.
 """
 from __future__ import annotations
 
-import dataclasses
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
+from rigs.atomic_io import atomic_write_json
 from vo.errors import VoError
 
 
@@ -28,31 +30,75 @@ class Evaluated:
                 "timings_ms": self.run.timings_ms}
 
 
+def prepare_out_dir(path) -> Path:
+    """Create the output folder ``path`` now, so an unwritable place fails before any work (VoError)."""
+    import os
+    import tempfile
+    out = Path(path).expanduser()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out, prefix=".write_test_"):
+            pass
+    except OSError as e:
+        raise VoError(f"{out}: cannot write output folder ({e.strerror or e})") from None
+    if not os.access(out, os.W_OK):
+        raise VoError(f"{out}: cannot write output folder (permission denied)")
+    return out
+
+
+def run_dataset(dataset_dir, estimator: str, out_dir, options: Optional[dict] = None, progress: bool = True,
+                max_frames=None):
+    """``vo-testbed run``: open ``dataset_dir`` once, run, save to ``out_dir``, evaluate when the dataset
+    has ground truth -> ``(RunResult, Evaluated or None)``."""
+    from vo.dataset import open_dataset
+    from vo.estimators.registry import check_spec
+    from vo.estimators.runner import run_estimator
+
+    check_spec(estimator)
+    out = prepare_out_dir(out_dir)
+    ds = open_dataset(dataset_dir)
+    run = run_estimator(estimator, ds, options=options or {}, progress=progress, max_frames=max_frames)
+    run.save(out)                      # kept even when the evaluation then fails
+    if ds.groundtruth is None:
+        return run, None
+    return run, evaluate_run(ds, run, estimator, out_dir=out, save_run=False)
+
+
 def run_and_evaluate(dataset, estimator: str, out_dir=None, options: Optional[dict] = None,
                      progress: bool = True, align: str = "first", max_frames=None) -> Evaluated:
     """Run ``estimator`` on an opened dataset, evaluate against ``dataset.groundtruth_cam0()``."""
-    from vo.estimators.registry import is_external
     from vo.estimators.runner import run_estimator
 
-    target = str(dataset.path) if is_external(estimator) else dataset
-    run = run_estimator(estimator, target, options=options or {}, progress=progress, max_frames=max_frames)
+    run = run_estimator(estimator, dataset, options=options or {}, progress=progress, max_frames=max_frames)
     return evaluate_run(dataset, run, estimator, out_dir=out_dir, align=align)
 
 
-def evaluate_run(dataset, run, estimator: str, out_dir=None, align: str = "first", plots: bool = True) -> Evaluated:
-    """Evaluate a finished run against the dataset's ground truth; save trajectory, metrics and plots."""
-    from vo.eval import evaluate
-
+def reference_truth(dataset, run):
+    """Ground truth ``T_w_c0`` at the frames the run was given: all of them for an external program,
+    the first ``len(run.frames)`` for an in-process run (``max_frames``)."""
     gt = dataset.groundtruth_cam0()
     if gt is None or len(gt) == 0:
         raise VoError(f"{dataset.path}: no ground truth to evaluate against")
+    if run.frames and len(run.frames) < len(dataset):
+        gt = gt.subset(gt.t_ns <= int(dataset.frame_times_ns[len(run.frames) - 1]))
+    return gt
+
+
+def evaluate_run(dataset, run, estimator: str, out_dir=None, align: str = "first", plots: bool = True,
+                 save_run: bool = True) -> Evaluated:
+    """Evaluate a finished run against the dataset's ground truth; save (into ``out_dir``) the run's
+    files unless ``save_run`` is False, and the metrics and plots."""
+    from vo.eval import evaluate
+
+    gt = reference_truth(dataset, run)
     ev = evaluate(gt, run.trajectory, gcps=dataset.gcps, align=align)
     label = estimator if not estimator.startswith("cmd:") else "external"
     result = Evaluated(label, run, ev, ev.aligned_est)
     if out_dir is not None:
         out = Path(out_dir)
-        run.save(out)
-        _write_json(out / "metrics.json", result.to_dict())
+        if save_run:
+            run.save(out)
+        atomic_write_json(out / "metrics.json", result.to_dict(), sort_keys=True)
         if plots:
             from vo.eval.plots import plot_error_vs_distance, plot_topdown
             plot_topdown({label: ev.aligned_est}, gt, dataset.gcps, out / "topdown.png")
@@ -60,17 +106,26 @@ def evaluate_run(dataset, run, estimator: str, out_dir=None, align: str = "first
     return result
 
 
-def _write_json(path: Path, obj) -> None:
-    from rigs.io_yaml import write_text_atomic
-    write_text_atomic(path, json.dumps(obj, indent=2, sort_keys=True, default=_default))
+def load_gcps(path) -> list:
+    """A GCP csv (``#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z``) that must exist and hold rows."""
+    from vo.dataset.base import read_gcps_csv
+    from vo.errors import DatasetError
+    if not Path(path).is_file():
+        raise DatasetError(f"{path}: GCP file not found")
+    gcps = read_gcps_csv(Path(path))
+    if not gcps:
+        raise DatasetError(f"{path}: no GCP rows (expected #name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z)")
+    return gcps
 
 
-def _default(o):
-    import numpy as np
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    if dataclasses.is_dataclass(o):
-        return dataclasses.asdict(o)
-    return str(o)
+def load_groundtruth(path, fmt: str = "auto"):
+    """Ground truth for ``eval``: a trajectory file, or a dataset folder (ours, real EuRoC or KITTI),
+    whose left camera ``T_w_c0`` at the frame times is taken (the extrinsics applied to EuRoC's
+    IMU/body truth) -> ``(Trajectory, gcps or [], note)``; ``note`` says what was read."""
+    from vo.trajfile import read_trajectory
+    if Path(path).is_dir():
+        from vo.dataset import open_dataset
+        ds = open_dataset(path)
+        gt = ds.groundtruth_cam0()
+        return gt, list(ds.gcps), f"ground truth: left camera (c0) of the {ds.kind} dataset {ds.path}"
+    return read_trajectory(path, fmt), [], ""

@@ -62,11 +62,9 @@ def _make_scene(name: str, shadows: bool) -> Scene:
     except ImportError as e:
         raise SimError(f"bench: scenes.registry.make_scene is not available yet ({e}); "
                        "pass Scene objects with scenes=...") from None
+    from sim.rng import scene_streams
     config = SceneConfig(name=name, shadows=shadows)
-    try:
-        return make_scene(config)                  # make_scene(config: SceneConfig)
-    except TypeError:
-        return make_scene(name, config=config)     # make_scene(name, config=...)
+    return make_scene(config, scene_streams(config.seed))
 
 
 def bench_scene(scene: Scene, rig: Rig, n_pairs: int = 40) -> BenchResult:

@@ -1,6 +1,14 @@
-"""The CI accuracy gate: generate (or reuse) a scenario, run an estimator, compare with bounds."""
+"""The CI accuracy gate: generate (or reuse) a scenario, run an estimator, compare with bounds.
+
+The gate fails (``passed`` False, exit code 1 in the CLI) when a figure exceeds its bound or the
+estimate covers less than ``min_coverage`` of the frames. Bad input (no bound, a negative bound, an
+unknown estimator, a program that crashes or writes garbage) raises a :class:`TestbedError`
+instead (exit code 2), so a crash never reads as an accuracy failure. External programs run on a
+sensor-only view of the dataset (:mod:`vo.estimators.sensor_view`).
+"""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -11,6 +19,7 @@ BOUND_KEYS = {
     "max_ate": ("ATE RMSE (m)", lambda ev: ev.ape.trans.rmse),
     "max_rpe": ("RPE per frame, translation RMSE (m)", lambda ev: ev.rpe_frame.trans.rmse),
 }
+DEFAULT_MIN_COVERAGE = 0.95
 
 
 @dataclass
@@ -20,8 +29,11 @@ class CheckResult:
     dataset: str
     figures: dict
     bounds: dict
+    coverage: dict
+    min_coverage: float
     failures: list = field(default_factory=list)
     n_lost: int = 0
+    program_stderr: str = ""
 
     @property
     def passed(self) -> bool:
@@ -29,38 +41,112 @@ class CheckResult:
 
     def to_dict(self) -> dict:
         return {"scenario": self.scenario, "estimator": self.estimator, "dataset": self.dataset,
-                "figures": self.figures, "bounds": self.bounds, "failures": self.failures,
-                "n_lost": self.n_lost, "passed": self.passed}
+                "figures": {k: (v if math.isfinite(v) else None) for k, v in self.figures.items()},
+                "bounds": self.bounds, "coverage": self.coverage, "min_coverage": self.min_coverage,
+                "failures": self.failures, "n_lost": self.n_lost, "passed": self.passed,
+                "program_stderr": self.program_stderr}
 
-    def text(self) -> str:
-        lines = [f"check {self.estimator} on {self.scenario} ({self.dataset})"]
+    def text(self, verbose: bool = False) -> str:
+        c = self.coverage
+        lines = [f"check {self.estimator} on {self.scenario} ({self.dataset})",
+                 f"  {'coverage':<38} {c['n_matched']} of {c['n_reference']} frames "
+                 f"({100 * c['fraction']:.1f} %, {c['span_s']:.2f} of {c['reference_span_s']:.2f} s)"
+                 f"  (minimum {100 * self.min_coverage:g} %)"]
+        failed = {f["bound"] for f in self.failures}
         for key, (label, _) in BOUND_KEYS.items():
             bound = self.bounds.get(key)
-            verdict = "" if bound is None else ("  FAIL" if key in {f['bound'] for f in self.failures} else "  ok")
+            verdict = "" if bound is None else ("  FAIL" if key in failed else "  ok")
             limit = "" if bound is None else f"  (bound {bound:g})"
             lines.append(f"  {label:<38} {self.figures[key]:10.4f}{limit}{verdict}")
         lines.append(f"  frames lost: {self.n_lost}")
+        if self.program_stderr.strip() and (verbose or not self.passed):
+            lines += ["  program stderr:"] + [f"    {line}" for line in self.program_stderr.rstrip().splitlines()]
         lines.append("PASSED" if self.passed else "FAILED: " + "; ".join(f["message"] for f in self.failures))
         return "\n".join(lines)
 
 
-def check(estimator: str, scenario: str, bounds: dict, overrides=(), seed: Optional[int] = None,
-          out_dir=None, options: Optional[dict] = None, progress: bool = True) -> CheckResult:
-    """Run ``estimator`` on the cached dataset of ``scenario``; a figure above its bound is a failure."""
-    from sim.scenarios import cached_dataset, get_scenario
-    from vo.dataset import open_dataset
-    from vo.pipeline import run_and_evaluate
-
+def validate_bounds(bounds: dict, min_coverage: float) -> dict:
+    """The given bounds (None dropped); an unknown key, no bound at all, or a bound that is negative
+    or not a number raises SimError naming the parameter."""
     unknown = set(bounds) - set(BOUND_KEYS)
     if unknown:
         raise SimError(f"unknown bound {sorted(unknown)[0]!r}; valid: {', '.join(BOUND_KEYS)}")
+    given = {k: v for k, v in bounds.items() if v is not None}
+    if not given:
+        raise SimError(f"no bound given: a gate needs at least one of {', '.join(BOUND_KEYS)}")
+    for key, value in given.items():
+        if not (isinstance(value, (int, float)) and value >= 0):       # also refuses NaN
+            raise SimError(f"{key}: must be a number >= 0, got {value!r}")
+    if not (isinstance(min_coverage, (int, float)) and 0 < min_coverage <= 1):
+        raise SimError(f"min_coverage: must be in (0, 1], got {min_coverage!r}")
+    return {k: float(v) for k, v in given.items()}
+
+
+def scenario_dataset(scenario: str, overrides=(), seed: Optional[int] = None, progress: bool = True):
+    """The cached dataset folder of ``scenario`` (generated when missing); an unwritable cache
+    (``VO_TESTBED_CACHE``) raises SimError naming it."""
+    from sim.scenarios import cache_root, cached_dataset, get_scenario
     config = get_scenario(scenario, overrides=overrides, seed=seed)
-    path = cached_dataset(config, progress=progress)
+    try:
+        return cached_dataset(config, progress=progress)
+    except OSError as e:
+        raise SimError(f"VO_TESTBED_CACHE={cache_root()}: cannot write the scenario cache "
+                       f"({e.strerror or e}{': ' + str(e.filename) if e.filename else ''})") from None
+
+
+def check(estimator: str, scenario: str, bounds: dict, overrides=(), seed: Optional[int] = None,
+          out_dir=None, options: Optional[dict] = None, progress: bool = True,
+          min_coverage: float = DEFAULT_MIN_COVERAGE) -> CheckResult:
+    """Run ``estimator`` on the cached dataset of ``scenario``; a figure above its bound, or fewer than
+    ``min_coverage`` of the frames matched by the estimate, is a failure."""
+    from vo.dataset import open_dataset
+    from vo.estimators.registry import check_spec
+    from vo.estimators.runner import run_estimator
+    from vo.pipeline import prepare_out_dir, reference_truth
+
+    bounds = validate_bounds(bounds, min_coverage)
+    check_spec(estimator)
+    if out_dir is not None:
+        prepare_out_dir(out_dir)
+    path = scenario_dataset(scenario, overrides, seed, progress)
     ds = open_dataset(path)
-    res = run_and_evaluate(ds, estimator, out_dir=out_dir, options=options, progress=progress)
-    figures = {key: float(fn(res.evaluation)) for key, (_, fn) in BOUND_KEYS.items()}
-    failures = [{"bound": k, "value": figures[k], "limit": v,
-                 "message": f"{BOUND_KEYS[k][0]} {figures[k]:.4f} > {v:g}"}
-                for k, v in bounds.items() if v is not None and not figures[k] <= v]
-    return CheckResult(scenario, estimator, str(path), figures, {k: v for k, v in bounds.items() if v is not None},
-                       failures, res.run.n_lost)
+    run = run_estimator(estimator, ds, options=options or {}, progress=progress)
+    gt = reference_truth(ds, run)
+    cov, ev = _evaluate(ds, run, estimator, gt, out_dir)
+    figures = {key: float(fn(ev.evaluation)) if ev else math.nan for key, (_, fn) in BOUND_KEYS.items()}
+    failures = _failures(cov, figures if ev is not None else None, bounds, min_coverage)
+    return CheckResult(scenario, estimator, str(path), figures, bounds, cov.to_dict(), min_coverage, failures,
+                       run.n_lost, run.stderr)
+
+
+def _failures(cov, figures, bounds: dict, min_coverage: float) -> list:
+    """Coverage below ``min_coverage`` and every figure above its bound; ``figures`` None means fewer than
+    two poses matched (nothing measurable), always a failure."""
+    def fail(bound, value, limit, message):
+        return {"bound": bound, "value": value, "limit": limit, "message": message}
+    seen = f"coverage: {cov.n_matched} of {cov.n_reference} frames matched an estimated pose"
+    out = []
+    if cov.fraction < min_coverage:
+        out.append(fail("min_coverage", cov.fraction, min_coverage,
+                        f"{seen} ({100 * cov.fraction:.1f} % < {100 * min_coverage:g} %)"))
+    if figures is None:
+        return out or [fail("min_coverage", cov.fraction, min_coverage,
+                            f"{seen}; at least 2 are needed to measure anything")]
+    return out + [fail(k, figures[k], v, f"{BOUND_KEYS[k][0]} {figures[k]:.4f} > {v:g}")
+                  for k, v in bounds.items() if not figures[k] <= v]
+
+
+def _evaluate(ds, run, estimator, gt, out_dir):
+    """-> ``(Coverage, Evaluated or None)``; None when fewer than two poses match (nothing to measure)."""
+    import numpy as np
+    from vo.errors import VoError
+    from vo.eval import associate, coverage
+    from vo.pipeline import evaluate_run
+    try:
+        gt_m, _ = associate(gt, run.trajectory)
+    except VoError:                       # not one timestamp matches
+        gt_m = gt.subset(np.zeros(len(gt), dtype=bool))
+    cov = coverage(gt, run.trajectory, gt_m)
+    if cov.n_matched < 2:
+        return cov, None
+    return cov, evaluate_run(ds, run, estimator, out_dir=out_dir)

@@ -35,15 +35,23 @@ class DemoResult:
 
 def run_demo(scenario: str = "campus", estimators=DEFAULT_ESTIMATORS, out_dir="out/demo", progress: bool = True,
              max_frames=None) -> DemoResult:
-    """Generate (cached) ``scenario``, run each estimator, evaluate, and plot all against the truth."""
-    from sim.scenarios import cached_dataset, get_scenario
+    """Generate (cached) ``scenario``, run each estimator, evaluate, and plot all against the truth.
+
+    Unknown estimator names and an unwritable ``out_dir`` raise before anything is generated; an
+    estimator that fails on the data is reported in ``errors`` and the others still run."""
+    from sim.app.check import scenario_dataset
     from vo.dataset import open_dataset
     from vo.errors import VoError
+    from vo.estimators.registry import check_spec
     from vo.eval.plots import plot_error_vs_distance, plot_topdown
-    from vo.pipeline import run_and_evaluate
+    from vo.pipeline import prepare_out_dir, run_and_evaluate
 
-    out = Path(out_dir)
-    path = cached_dataset(get_scenario(scenario), progress=progress)
+    if not estimators:
+        raise VoError("estimators: none given")
+    for name in estimators:            # every name checked before anything is rendered
+        check_spec(name)
+    out = prepare_out_dir(out_dir)
+    path = scenario_dataset(scenario, progress=progress)
     ds = open_dataset(path)
     demo = DemoResult(scenario, str(path), str(out))
     for name in estimators:

@@ -1,9 +1,10 @@
-"""Dataset writers (EuRoC ASL, KITTI odometry); they take numpy arrays and never import mujoco."""
+"""Dataset writers (EuRoC ASL, KITTI odometry, ROS bags); they take numpy arrays and never import mujoco."""
 from pathlib import Path
 
 from sim.dataset.euroc_writer import EurocWriter, euroc_resume_state  # noqa: F401
 from sim.dataset.fanout import DatasetWriters, write_tum_groundtruth  # noqa: F401
 from sim.dataset.kitti_writer import KittiWriter, kitti_resume_state  # noqa: F401
+from sim.dataset.rosbag_writer import export_rosbag  # noqa: F401
 
 
 def resume_state(out_dir) -> int:
@@ -17,4 +18,4 @@ def resume_state(out_dir) -> int:
 
 
 __all__ = ["EurocWriter", "KittiWriter", "DatasetWriters", "write_tum_groundtruth", "resume_state",
-           "euroc_resume_state", "kitti_resume_state"]
+           "euroc_resume_state", "kitti_resume_state", "export_rosbag"]

@@ -6,7 +6,7 @@ Life cycle of an output folder ``out_dir``:
    ``INCOMPLETE`` marker is resumed (same configuration) or wiped (``overwrite=True``); a complete
    dataset folder is refused unless ``overwrite=True``. The marker is written before anything else.
 2. Frames and samples stream to disk (PNG per image, CSV rows appended and flushed).
-3. :func:`finalize_folder` writes ``metadata.yaml`` (temp file + ``os.replace``) and removes
+3. :func:`finalize_folder` writes ``metadata.yaml`` (atomically, :mod:`rigs.atomic_io`) and removes
    ``INCOMPLETE`` last, so a folder without the marker is always complete.
 
 No wall-clock time is written anywhere: the same inputs give byte-identical folders.
@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import shutil
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from rigs.atomic_io import atomic_write, atomic_write_text
 from sim.errors import SimError
 
 MARKER = "INCOMPLETE"
@@ -85,13 +85,14 @@ def prepare_folder(out_dir, metadata: dict, overwrite: bool) -> tuple[Path, bool
 def finalize_folder(out_dir: Path, metadata: dict, counts: dict, rig) -> None:
     """Write ``metadata.yaml`` (caller config + ``rig`` as rig_to_dict unless the caller gave one +
     counts + ``status: complete``), then drop the marker."""
-    from rigs.io_yaml import dump_yaml, rig_to_dict, write_text_atomic
+    from rigs.config_io import dump_yaml
+    from rigs.rig_yaml import rig_to_dict
     meta = dict(_plain(metadata))
     if "rig" not in meta:
         meta["rig"] = rig_to_dict(rig)
     meta.update({k: int(v) for k, v in counts.items()})
     meta["status"] = "complete"
-    write_text_atomic(out_dir / METADATA, dump_yaml(meta))
+    atomic_write_text(out_dir / METADATA, dump_yaml(meta))
     (out_dir / MARKER).unlink()
 
 
@@ -118,16 +119,11 @@ def write_png(path: Path, image: np.ndarray, rgb: bool = True) -> None:
     img = np.ascontiguousarray(image)
     if img.ndim == 3 and img.shape[2] == 3 and rgb:
         img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
-    tmp = path.with_name(path.stem + ".tmp.png")
-    if not cv2.imwrite(str(tmp), img, [cv2.IMWRITE_PNG_COMPRESSION, 3]):
-        raise SimError(f"{path}: cv2.imwrite failed for an image of shape {img.shape} dtype {img.dtype}")
-    os.replace(tmp, path)
 
-
-def write_npy(path: Path, array: np.ndarray) -> None:
-    tmp = path.with_name(path.stem + ".tmp.npy")
-    np.save(tmp, np.ascontiguousarray(array))
-    os.replace(tmp, path)
+    def imwrite(tmp: Path) -> None:
+        if not cv2.imwrite(str(tmp), img, [cv2.IMWRITE_PNG_COMPRESSION, 3]):
+            raise SimError(f"{path}: cv2.imwrite failed for an image of shape {img.shape} dtype {img.dtype}")
+    atomic_write(path, imwrite)
 
 
 class CsvStream:

@@ -4,15 +4,23 @@ Layout (as the real EuRoC MAV recordings, body ``B`` = IMU frame ``S``)::
 
     out_dir/
       INCOMPLETE                       # only while writing
-      metadata.yaml  rig.yaml  groundtruth_tum.txt (T_w_c0 at frame times)  gcps.csv
-      mav0/cam0/data.csv  data/<t_ns>.png  sensor.yaml (T_BS = T_i_c0)
-           cam0/depth/<t_ns>.npy                      # float32 metres along the optical axis
+      metadata.yaml  rig.yaml  groundtruth_tum.txt (T_w_c0 at frame times)
+      gcps.csv                         # only when a check point was reached (never an empty file)
+      mav0/cam0/data.csv  data/<t_ns>.png  sensor.yaml (T_BS = T_i_c0; 4 radtan coefficients)
+           camchain.yaml                              # Kalibr camchain, only when a camera has k3 != 0
+           cam0/depth/<t_ns>.npy                      # float32 metres along the optical axis, inf = sky
+           cam0/depth/<t_ns>.png                      # or (depth_format png16) uint16 mm, 0 = sky / > 65.535 m
            cam0/segmentation/<t_ns>.png               # uint16, object id + 1 (0 = background, id -1)
            cam0/segmentation/<t_ns>_dynamic.png       # uint8 0/1 mask (only when seg has 2 channels)
            cam1/...  imu0/data.csv  imu0/sensor.yaml (T_BS = I)
            state_groundtruth_estimate0/data.csv  sensor.yaml   # T_w_i, v_w, b_g, b_a
 
 Floats are written with Python ``repr`` (shortest exact round trip of float64).
+
+Calibration: ``rig.yaml`` is exact and complete. ``sensor.yaml`` lists the 4 radtan coefficients
+``k1, k2, p1, p2`` as real EuRoC does, so it drops ``k3``; when a camera has ``k3 != 0``,
+``mav0/camchain.yaml`` (Kalibr, 5 coefficients) is written and is the exact file for tools that
+do not read ``rig.yaml``.
 """
 from __future__ import annotations
 
@@ -20,8 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs.atomic_io import atomic_write_npy
 from sim.dataset.common import (CsvStream, config_hash, finalize_folder, fmt_float, prepare_folder,
-                                write_marker, write_npy, write_png)
+                                write_marker, write_png)
 from sim.errors import SimError
 
 CAM_HEADER = "#timestamp [ns],filename"
@@ -32,6 +41,8 @@ GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q
              "b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], "
              "b_a_RS_S_z [m s^-2]")
 CAM0_TRUTH_HEADER = "#timestamp [ns],T_w_c0 row-major 3x4 (12 numbers)"
+DEPTH_FORMATS = ("npy", "png16")
+DEPTH_PNG_MAX_MM = 65535
 GCP_HEADER = "#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z"
 GT_SENSOR_YAML = """# Additional sensor information
 sensor_type: visual-inertial
@@ -100,9 +111,12 @@ class EurocWriter:
     """
 
     def __init__(self, out_dir, rig, metadata: dict, depth: bool = False, segmentation: bool = False,
-                 overwrite: bool = False):
+                 overwrite: bool = False, depth_format: str = "npy"):
         if not rig.is_stereo:
             raise SimError(f"EurocWriter: rig {rig.name!r} has {len(rig.cameras)} camera(s); need 2")
+        if depth_format not in DEPTH_FORMATS:
+            raise SimError(f"depth_format: unknown {depth_format!r}; valid: {', '.join(DEPTH_FORMATS)}")
+        self.depth_format = depth_format
         self.rig, self.metadata = rig, dict(metadata)
         self.depth, self.segmentation = bool(depth), bool(segmentation)
         self.out_dir, resuming = prepare_folder(out_dir, self.metadata, overwrite)
@@ -121,7 +135,8 @@ class EurocWriter:
 
     # ------------------------------------------------------------------ static files
     def _write_static_files(self) -> None:
-        from rigs.io_yaml import save_rig, write_text_atomic
+        from rigs.atomic_io import atomic_write_text
+        from rigs.rig_yaml import save_rig
         cio = calib_io()
         for k in (0, 1):
             d = self.mav0 / f"cam{k}"
@@ -130,11 +145,13 @@ class EurocWriter:
                 (d / "depth").mkdir(exist_ok=True)
             if self.segmentation:
                 (d / "segmentation").mkdir(exist_ok=True)
-            cio.write_euroc_camera_yaml(d / "sensor.yaml", self.rig.cameras[k], T_i_c(self.rig, k),
-                                        self.rig.camera_rate_hz)
+            cio.write_euroc_camera_yaml(d / "sensor.yaml", four_coefficients(self.rig.cameras[k]),
+                                        T_i_c(self.rig, k), self.rig.camera_rate_hz)
+        if has_k3(self.rig):
+            cio.write_kalibr(self.rig, self.mav0 / "camchain.yaml")
         (self.mav0 / "imu0").mkdir(parents=True, exist_ok=True)
         cio.write_euroc_imu_yaml(self.mav0 / "imu0" / "sensor.yaml", self.rig.imu, np.eye(4))
-        write_text_atomic(self.mav0 / "state_groundtruth_estimate0" / "sensor.yaml", GT_SENSOR_YAML)
+        atomic_write_text(self.mav0 / "state_groundtruth_estimate0" / "sensor.yaml", GT_SENSOR_YAML)
         save_rig(self.rig, self.out_dir / "rig.yaml")
 
     # ------------------------------------------------------------------ streams
@@ -153,7 +170,7 @@ class EurocWriter:
             if d is not None:
                 if not self.depth:
                     raise SimError("add_frame: depth given but the writer was created with depth=False")
-                write_npy(self.mav0 / f"cam{k}" / "depth" / f"{t_ns}.npy", np.asarray(d, dtype=np.float32))
+                self._write_depth(self.mav0 / f"cam{k}" / "depth", t_ns, np.asarray(d, dtype=np.float32))
         for k, s in enumerate(_per_camera(seg, 2, "seg")):
             if s is not None:
                 if not self.segmentation:
@@ -164,6 +181,16 @@ class EurocWriter:
         for cam in self._cams:
             cam.append(t_ns, [f"{t_ns}.png"])
         write_marker(self.out_dir, self._hash, f"frames={self._cams[0].rows}")
+
+    def _write_depth(self, folder: Path, t_ns: int, depth_m: np.ndarray) -> None:
+        """``npy``: float32 m (inf = nothing drawn); ``png16``: uint16 mm as TUM RGB-D, 0 = no depth
+        (sky, or farther than 65.535 m)."""
+        if self.depth_format == "npy":
+            atomic_write_npy(folder / f"{t_ns}.npy", depth_m)
+            return
+        mm = np.round(depth_m.astype(np.float64) * 1000.0)
+        ok = np.isfinite(mm) & (mm <= DEPTH_PNG_MAX_MM) & (mm >= 0)
+        write_png(folder / f"{t_ns}.png", np.where(ok, mm, 0).astype(np.uint16), rgb=False)
 
     def _write_seg(self, k: int, t_ns: int, seg: np.ndarray) -> None:
         folder = self.mav0 / f"cam{k}" / "segmentation"
@@ -220,11 +247,13 @@ class EurocWriter:
         """Write gcps.csv, groundtruth_tum.txt and metadata.yaml, then remove INCOMPLETE."""
         for s in (*self._cams, self._imu, self._gt, self._c0):
             s.close()
-        write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
+        gcp_note = write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
         self._write_tum()
         counts = {"n_frames": self._cams[0].rows, "n_imu": self._imu.rows, "n_groundtruth": self._gt.rows,
                   "n_gcps": len(self._gcps)}
-        meta = dict(self.metadata, format="euroc")
+        meta = dict(self.metadata, format="euroc", gcps=gcp_note, calibration=calibration_note(self.rig))
+        if self.depth:
+            meta["depth_format"] = self.depth_format
         finalize_folder(self.out_dir, meta, counts, self.rig)
         self.finalized = True
         return self.out_dir
@@ -242,13 +271,37 @@ class EurocWriter:
         self._c0.path.unlink()
 
 
-def write_gcps_csv(path: Path, gcps) -> None:
-    """``#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z`` sorted as given."""
-    from rigs.io_yaml import write_text_atomic
+def four_coefficients(cam):
+    """The camera with ``k3`` set to 0, so EuRoC's sensor.yaml lists 4 coefficients as the real files do."""
+    import dataclasses
+    return dataclasses.replace(cam, dist=tuple(cam.dist[:4]) + (0.0,))
+
+
+def has_k3(rig) -> bool:
+    return any(float(c.dist[4]) != 0.0 for c in rig.cameras)
+
+
+def calibration_note(rig) -> str:
+    """metadata.yaml ``calibration``: which calibration file is exact."""
+    if has_k3(rig):
+        return ("rig.yaml and mav0/camchain.yaml are exact; mav0/camK/sensor.yaml lists 4 radtan coefficients "
+                "and omits k3 (non-zero for this rig)")
+    return "rig.yaml and mav0/camK/sensor.yaml are exact (k3 = 0 for every camera)"
+
+
+def write_gcps_csv(path: Path, gcps) -> str:
+    """``#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z`` sorted as given; no file without a GCP
+    (``eval --gcps`` rejects an empty one). Returns the note metadata.yaml records under ``gcps``."""
+    from rigs.atomic_io import atomic_write_text
+    if not gcps:
+        if path.exists():
+            path.unlink()
+        return "none reached within the simulated duration; gcps.csv not written"
     lines = [GCP_HEADER]
     for g in gcps:
         if "," in g.name:
             raise SimError(f"gcps: name {g.name!r} must not contain a comma")
         vals = [fmt_float(x) for x in (*np.asarray(g.ground_w).reshape(3), *np.asarray(g.p_w_c0).reshape(3))]
         lines.append(",".join([g.name, str(int(g.t_ns))] + vals))
-    write_text_atomic(path, "\n".join(lines) + "\n")
+    atomic_write_text(path, "\n".join(lines) + "\n")
+    return f"{len(gcps)} in gcps.csv"

@@ -1,11 +1,29 @@
-"""Fan-out of writer calls to a EuRoC and/or a KITTI writer, and a TUM convenience."""
+"""Fan-out of writer calls to a EuRoC and/or a KITTI writer, and a TUM convenience.
+
+``rosbag1``/``rosbag2`` write the EuRoC folder into ``out_dir`` and then convert it with
+:func:`sim.dataset.rosbag_writer.export_rosbag` into ``out_dir/dataset.bag`` (ROS 1) or
+``out_dir/rosbag2/`` (ROS 2, MCAP storage); the EuRoC folder stays, so every tool of ours reads it.
+"""
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from sim.errors import SimError
 
-FORMATS = ("euroc", "kitti", "both")
+FORMATS = ("euroc", "kitti", "both", "rosbag1", "rosbag2")
+BAG_NAMES = {"rosbag1": "dataset.bag", "rosbag2": "rosbag2"}
+
+
+def output_paths(out_dir, fmt: str) -> list:
+    """The folders (and bag) a ``generate --format fmt`` into ``out_dir`` writes, for messages."""
+    out_dir = Path(out_dir)
+    if fmt == "both":
+        return [out_dir / "euroc", out_dir / "kitti"]
+    if fmt in BAG_NAMES:
+        return [out_dir, out_dir / BAG_NAMES[fmt]]
+    return [out_dir]
 
 
 def write_tum_groundtruth(path, traj) -> None:
@@ -17,20 +35,23 @@ def write_tum_groundtruth(path, traj) -> None:
 class DatasetWriters:
     """Forward every writer call to the EuRoC and/or KITTI writer chosen by ``fmt``.
 
-    ``fmt="both"`` writes ``out_dir/euroc`` and ``out_dir/kitti``; a single format writes ``out_dir``.
+    ``fmt="both"`` writes ``out_dir/euroc`` and ``out_dir/kitti``; a single format writes ``out_dir``;
+    a bag format writes EuRoC into ``out_dir`` and converts it at :meth:`finalize`.
     """
 
     def __init__(self, out_dir, rig, metadata: dict, fmt: str = "euroc", depth: bool = False,
-                 segmentation: bool = False, overwrite: bool = False):
+                 segmentation: bool = False, overwrite: bool = False, depth_format: str = "npy"):
         from sim.dataset.euroc_writer import EurocWriter
         from sim.dataset.kitti_writer import KittiWriter
         if fmt not in FORMATS:
             raise SimError(f"dataset format {fmt!r} unknown; valid: {', '.join(FORMATS)}")
         out_dir = Path(out_dir)
+        self.fmt, self.out_dir = fmt, out_dir
         self.writers = []
-        if fmt in ("euroc", "both"):
+        if fmt in ("euroc", "both", *BAG_NAMES):
             self.writers.append(EurocWriter(out_dir / "euroc" if fmt == "both" else out_dir, rig, metadata,
-                                            depth=depth, segmentation=segmentation, overwrite=overwrite))
+                                            depth=depth, segmentation=segmentation, overwrite=overwrite,
+                                            depth_format=depth_format))
         if fmt in ("kitti", "both"):
             self.writers.append(KittiWriter(out_dir / "kitti" if fmt == "both" else out_dir, rig, metadata,
                                             overwrite=overwrite))
@@ -61,12 +82,47 @@ class DatasetWriters:
             w.add_gcps(gcps)
 
     def add_wheels(self, samples) -> None:
-        """Wheel-encoder ticks (``sim.wheels.WheelSamples``) as ``wheels.csv`` in every dataset root."""
-        from rigs.io_yaml import write_text_atomic
+        """Wheel-encoder ticks (``sim.sensors.wheels.WheelSamples``) as ``wheels.csv`` in every dataset root."""
+        from rigs.atomic_io import atomic_write_text
         rows = ["#timestamp [ns],left_ticks,right_ticks"]
         rows += [f"{t},{l},{r}" for t, l, r in zip(samples.t_ns, samples.left_ticks, samples.right_ticks)]
         for w in self.writers:
-            write_text_atomic(w.out_dir / "wheels.csv", "\n".join(rows) + "\n")
+            atomic_write_text(w.out_dir / "wheels.csv", "\n".join(rows) + "\n")
+
+    def add_actors(self, t_ns, actors) -> None:
+        """Ground truth of a scene's moving actors as ``actors.csv`` in every dataset root: one row per frame
+        time and actor, ``actors`` a list of ``(actor_id, kind, moving, T_w_x (N,4,4))`` at ``t_ns`` (N,)."""
+        from rigs.atomic_io import atomic_write_text
+        from rigs.geometry import quat_wxyz_from_R
+        rows = ["#timestamp [ns],actor_id,kind,moving,p_x [m],p_y [m],p_z [m],q_w,q_x,q_y,q_z"]
+        per_actor = [(a_id, kind, int(moving), T[:, :3, 3], quat_wxyz_from_R(T[:, :3, :3]))
+                     for a_id, kind, moving, T in actors]
+        for k, t in enumerate(np.asarray(t_ns, np.int64)):
+            for a_id, kind, moving, p, q in per_actor:
+                rows.append(f"{t},{a_id},{kind},{moving}," + ",".join(f"{x:.6f}" for x in (*p[k], *q[k])))
+        for w in self.writers:
+            atomic_write_text(w.out_dir / "actors.csv", "\n".join(rows) + "\n")
+
+    def add_segmentation_ids(self, rows) -> None:
+        """``segmentation_ids.csv`` in every dataset root: ``(seg_id, geom_name, actor_id, kind, moving)`` per
+        value the segmentation PNGs hold (``seg_id`` = geom id + 1; 0 is background)."""
+        from rigs.atomic_io import atomic_write_text
+        lines = ["seg_id,geom_name,actor_id,kind,moving"] + [",".join(map(str, r)) for r in rows]
+        for w in self.writers:
+            atomic_write_text(w.out_dir / "segmentation_ids.csv", "\n".join(lines) + "\n")
 
     def finalize(self) -> list:
-        return [w.finalize() for w in self.writers]
+        """Finalize every writer; a bag format then converts the EuRoC folder (a bag left by an
+        interrupted conversion is replaced)."""
+        folders = [w.finalize() for w in self.writers]
+        if self.fmt in BAG_NAMES:
+            import shutil
+            from sim.dataset.rosbag_writer import export_rosbag
+            bag = self.out_dir / BAG_NAMES[self.fmt]
+            if bag.is_dir():
+                shutil.rmtree(bag)
+            elif bag.exists():
+                bag.unlink()
+            export_rosbag(self.out_dir, bag, kind=self.fmt, storage="mcap")
+            folders.append(bag)
+        return folders

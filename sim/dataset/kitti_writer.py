@@ -3,11 +3,13 @@
 Layout (the real KITTI odometry tree, plus our root files)::
 
     out_dir/
-      INCOMPLETE (while writing)  metadata.yaml  gcps.csv
+      INCOMPLETE (while writing)  metadata.yaml  gcps.csv (only when a check point was reached)
       sequences/00/image_0/000000.png  image_1/000000.png  calib.txt  times.txt  times_ns.txt
       poses/00.txt
 
-``calib.txt``: P0..P3 of :func:`rigs.rectify.stereo_rectify` (P2 = P0, P3 = P1). ``times.txt``:
+``calib.txt``: P0..P3 of :func:`rigs.rectify.stereo_rectify` (P2 = P0, P3 = P1) and ``Tr``, the 3x4
+``T_r0_b``: it maps points of our body frame ``b`` into the rectified left camera ``r0``
+(``p_r0 = Tr @ [p_b; 1]``), in the place of real KITTI's velodyne-to-cam0 ``Tr``. ``times.txt``:
 seconds since the first frame, ``%.6e`` as KITTI writes it; ``times_ns.txt`` (our extension)
 holds the exact int64 frame times. ``poses/00.txt``: ``T_r0(0)_r0(k)``, the rectified left
 camera ``r0`` at frame k in its own frame at frame 0, where ``T_w_r0 = T_w_c0 @ [R0_rect^T | 0]``.
@@ -22,6 +24,7 @@ import numpy as np
 from sim.dataset.common import (CsvStream, config_hash, finalize_folder, fmt_float, prepare_folder,
                                 write_marker, write_png)
 from sim.errors import SimError
+from vo.frontend.image import to_gray
 
 FRAMES_HEADER = "#timestamp [ns],index"
 TRUTH_HEADER = "#timestamp [ns],T_w_c0 row-major 3x4 (12 numbers)"
@@ -45,12 +48,6 @@ def kitti_resume_state(out_dir, sequence: str = "00") -> int:
     return n
 
 
-def to_gray(image: np.ndarray) -> np.ndarray:
-    """(H,W) gray or (H,W,3) RGB uint8 -> (H,W) uint8 gray (OpenCV's RGB2GRAY weights)."""
-    img = np.asarray(image)
-    return cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) if img.ndim == 3 else img
-
-
 class KittiWriter:
     """Stream a stereo sequence as KITTI odometry (see module docstring).
 
@@ -71,13 +68,18 @@ class KittiWriter:
         self.rect = stereo_rectify(rig)
         self._maps = self.rect.maps()
         from rigs.calib_io import write_kitti_calib
-        write_kitti_calib(self.seq_dir / "calib.txt", self.rect.P0, self.rect.P1)
+        write_kitti_calib(self.seq_dir / "calib.txt", self.rect.P0, self.rect.P1, Tr=self.T_r0_b())
         self.resumed_frames = kitti_resume_state(self.out_dir, sequence) if resuming else 0
         self._frames = CsvStream(self.out_dir / "kitti_frames.csv", FRAMES_HEADER, resuming,
                                  keep_rows=self.resumed_frames)
         self._truth = CsvStream(self.out_dir / "kitti_cam0_truth.csv", TRUTH_HEADER, resuming)
         self._gcps: list = []
         self.finalized = False
+
+    def T_r0_b(self) -> np.ndarray:
+        """(4,4) body -> rectified left camera: ``inv(T_b_c0 @ T_c0_r0)``, ``T_c0_r0 = [R0_rect^T | 0]``."""
+        from rigs.geometry import inv_T, make_T
+        return inv_T(self.rig.cameras[0].T_b_c_array @ make_T(self.rect.R0_rect.T, np.zeros(3)))
 
     def add_frame(self, t_ns: int, images, depth=None, seg=None) -> None:
         """Rectify and write one stereo epoch (images as for EurocWriter; depth/seg ignored)."""
@@ -112,18 +114,18 @@ class KittiWriter:
     def finalize(self) -> Path:
         """Write times.txt, times_ns.txt, poses/NN.txt, gcps.csv, metadata.yaml; remove INCOMPLETE."""
         from sim.dataset.euroc_writer import write_gcps_csv
-        from rigs.io_yaml import write_text_atomic
+        from rigs.atomic_io import atomic_write_text
         self._frames.close()
         self._truth.close()
         t_frames = _read_log_times(self._frames.path)
         t0 = int(t_frames[0]) if len(t_frames) else 0
-        write_text_atomic(self.seq_dir / "times.txt", "".join(f"{(t - t0) * 1e-9:.6e}\n" for t in t_frames))
-        write_text_atomic(self.seq_dir / "times_ns.txt", "".join(f"{int(t)}\n" for t in t_frames))
+        atomic_write_text(self.seq_dir / "times.txt", "".join(f"{(t - t0) * 1e-9:.6e}\n" for t in t_frames))
+        atomic_write_text(self.seq_dir / "times_ns.txt", "".join(f"{int(t)}\n" for t in t_frames))
         n_poses = self._write_poses(t_frames)
-        write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
+        gcp_note = write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
         self._frames.path.unlink()
         self._truth.path.unlink()
-        meta = dict(self.metadata, format="kitti", kitti={"sequence": self.sequence, "t0_ns": t0})
+        meta = dict(self.metadata, format="kitti", kitti={"sequence": self.sequence, "t0_ns": t0}, gcps=gcp_note)
         finalize_folder(self.out_dir, meta, {"n_frames": len(t_frames), "n_poses": n_poses,
                                              "n_gcps": len(self._gcps)}, self.rig)
         self.finalized = True

@@ -12,7 +12,7 @@ from typing import Iterator, Optional
 import cv2
 import numpy as np
 
-from vo.dataset.types import Gcp, ImuData, StereoFrame
+from vo.dataset.types import Gcp, ImuData, StereoFrame, WheelData
 from vo.errors import DatasetError
 from vo.trajectory import Trajectory
 
@@ -56,6 +56,7 @@ class Dataset:
         self.frame_times_ns = np.asarray(frame_times_ns, dtype=np.int64)
         self._image_paths = image_paths          # list of (left Path, right Path)
         self.warnings = list(warnings or [])
+        _check_listed_images(image_paths)
 
     def __len__(self) -> int:
         return int(self.frame_times_ns.shape[0])
@@ -69,6 +70,10 @@ class Dataset:
             raise DatasetError(f"{self.path}: frame index {k} out of range [0, {len(self)})")
         k = k % len(self)
         left, right = self._image_paths[k]
+        for p in (left, right):
+            if not p.is_file():
+                raise DatasetError(f"{p}: image file not found (listed for frame {k}, missing from {p.parent}: "
+                                   f"the image list and the folder disagree)")
         return StereoFrame(index=k, t_ns=int(self.frame_times_ns[k]), left=load_gray(left), right=load_gray(right))
 
     def frames(self, start: int = 0, stop: Optional[int] = None, step: int = 1) -> Iterator[StereoFrame]:
@@ -92,11 +97,28 @@ class Dataset:
     def metadata(self) -> dict:
         return {}
 
+    @functools.cached_property
+    def wheels(self) -> Optional[WheelData]:
+        """Wheel-encoder ticks from ``wheels.csv`` in the dataset root; None when none were recorded."""
+        from vo.dataset.wheels import read_wheels_csv
+        return read_wheels_csv(Path(getattr(self, "root", self.path)) / "wheels.csv")
+
     def groundtruth_cam0(self) -> Trajectory:
         raise DatasetError(f"{self.path}: no ground truth in this dataset")
 
     def depth(self, k: int, cam: int = 0) -> np.ndarray:
         raise DatasetError(f"{self.path}: depth was not recorded in this dataset")
+
+
+def _check_listed_images(image_paths: list) -> None:
+    """Every listed image must exist: a truncated or edited ``data.csv`` (or deleted images) would
+    otherwise surface as "image file not found" deep in a run. One line naming both sides."""
+    missing = [p for pair in image_paths for p in pair if not Path(p).is_file()]
+    if missing:
+        folder = Path(missing[0]).parent
+        raise DatasetError(f"{folder.parent / 'data.csv'} and {folder} disagree: {len(missing)} listed image(s) "
+                           f"are not in the folder (first {Path(missing[0]).name!r}); a truncated or edited "
+                           f"data.csv, or deleted images")
 
 
 def read_gcps_csv(path: Path) -> list:
@@ -126,7 +148,7 @@ def read_metadata(path: Path) -> dict:
     path = Path(path)
     if not path.is_file():
         return {}
-    from rigs.io_yaml import read_yaml_file
+    from rigs.config_io import read_yaml_file
     d = rig_or_error(read_yaml_file, path)
     if not isinstance(d, dict):
         raise DatasetError(f"{path}: expected a mapping at the top level, got {type(d).__name__}")

@@ -2,9 +2,13 @@
 
 Real EuRoC: the body frame ``B`` is the IMU frame (``imu0/sensor.yaml`` has ``T_BS = I``), so
 the rig is built with ``T_b_c = T_BS`` of each camera's sensor.yaml and ``T_b_i = T_BS`` of imu0.
+sensor.yaml lists 4 radtan coefficients; when ``mav0/camchain.yaml`` (Kalibr, written by our
+generator for rigs with ``k3 != 0``) is present, the distortion comes from it (the exact file).
+Our own datasets are read from ``rig.yaml``, which is exact and complete.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 from pathlib import Path
 
@@ -39,14 +43,26 @@ def real_euroc_rig(mav0: Path, name: str):
     from rigs.calib_io import read_euroc_camera_yaml, read_euroc_imu_yaml
     from rigs.model import Rig
     cams, rate = [], None
+    exact = _camchain_distortion(mav0 / "camchain.yaml")
     for k in (0, 1):
         cam, r = rig_or_error(read_euroc_camera_yaml, mav0 / f"cam{k}" / "sensor.yaml", f"cam{k}")
-        cams.append(cam)
+        cams.append(cam if exact is None else dataclasses.replace(cam, dist=exact[k]))
         rate = rate or r
     imu_yaml = mav0 / "imu0" / "sensor.yaml"
     imu = rig_or_error(read_euroc_imu_yaml, imu_yaml) if imu_yaml.is_file() else None
     kw = {} if imu is None else {"imu": imu}
     return rig_or_error(Rig, name=name, cameras=tuple(cams), camera_rate_hz=rate, mount="euroc", **kw)
+
+
+def _camchain_distortion(path: Path):
+    """[dist of cam0, dist of cam1] (OpenCV 5-tuples) from a Kalibr camchain, or None without one."""
+    if not path.is_file():
+        return None
+    from rigs.calib_io import read_kalibr
+    chain = rig_or_error(read_kalibr, path)
+    if len(chain.cameras) < 2:
+        raise DatasetError(f"{path}: expected cam0 and cam1, got {len(chain.cameras)} camera(s)")
+    return [chain.cameras[0].dist, chain.cameras[1].dist]
 
 
 class EurocDataset(Dataset):
@@ -58,7 +74,7 @@ class EurocDataset(Dataset):
         t, paths, warnings = pair_cameras(self.mav0)
         name = root.name
         if ours:
-            from rigs.io_yaml import load_rig
+            from rigs.rig_yaml import load_rig
             rig = rig_or_error(load_rig, root / "rig.yaml")
             name = str(self.metadata.get("name", name))
         else:
@@ -111,18 +127,35 @@ class EurocDataset(Dataset):
     def gcps(self) -> list:
         return read_gcps_csv(self.root / "gcps.csv") if self.ours else []
 
+    def image_files(self, k: int) -> tuple:
+        """``(left, right)`` paths of frame ``k`` as stored (exporters copy the file contents as they are)."""
+        if not 0 <= k < len(self):
+            raise DatasetError(f"{self.path}: frame index {k} out of range [0, {len(self)})")
+        return self._image_paths[k]
+
     def _frame_time(self, k: int) -> int:
         if not 0 <= k < len(self):
             raise DatasetError(f"{self.path}: frame index {k} out of range [0, {len(self)})")
         return int(self.frame_times_ns[k])
 
     def depth(self, k: int, cam: int = 0) -> np.ndarray:
-        """(H,W) float32 depth along the optical axis (m) of camera ``cam`` at frame ``k``."""
-        path = self.mav0 / f"cam{cam}" / "depth" / f"{self._frame_time(k)}.npy"
-        if not path.is_file():
-            raise DatasetError(f"{path}: depth was not recorded for this frame/camera "
-                               f"(generate the dataset with depth enabled)")
-        return np.load(path)
+        """(H,W) float32 depth along the optical axis (m) of camera ``cam`` at frame ``k``; inf where
+        nothing is in range. Reads ``<t_ns>.npy`` (exact float32 m, inf = sky) or ``<t_ns>.png``
+        (uint16 mm, TUM RGB-D style: 0 = no depth, returned as inf; 1 mm quantisation)."""
+        import cv2
+        stem = self.mav0 / f"cam{cam}" / "depth" / f"{self._frame_time(k)}"
+        npy, png = stem.with_suffix(".npy"), stem.with_suffix(".png")
+        if npy.is_file():
+            return np.load(npy)
+        if not png.is_file():
+            raise DatasetError(f"{npy}: depth was not recorded for this frame/camera (no .npy or .png; "
+                               f"generate the dataset with depth enabled)")
+        mm = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
+        if mm is None or mm.dtype != np.uint16 or mm.ndim != 2:
+            raise DatasetError(f"{png}: expected a 16-bit single-channel PNG of millimetres")
+        depth = mm.astype(np.float32) / np.float32(1000.0)
+        depth[mm == 0] = np.inf
+        return depth
 
     def segmentation(self, k: int, cam: int = 0) -> tuple:
         """``(ids (H,W) int32 with -1 background, dynamic (H,W) bool or None)`` of frame ``k``."""

@@ -2,15 +2,18 @@
 
 Recognised: our EuRoC folder (``mav0/`` + ``rig.yaml``/``metadata.yaml``), a real EuRoC recording
 (a folder holding ``mav0/``, or ``mav0`` itself), our KITTI folder (``sequences/NN`` + ``poses/``),
-and a real KITTI ``sequences/NN`` folder. A folder marked ``INCOMPLETE`` is refused.
+and a real KITTI ``sequences/NN`` folder. The root of ``generate --format both`` opens its ``euroc/``.
+A folder marked ``INCOMPLETE`` is refused.
 """
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 from vo.errors import DatasetError
 
 MARKER = "INCOMPLETE"
+_ANNOUNCED: set = set()
 
 
 def _refuse_incomplete(*folders: Path) -> None:
@@ -40,6 +43,18 @@ def _kitti_sequence(path: Path) -> Path | None:
     raise DatasetError(f"{path}: holds several KITTI sequences ({names}); open one: {seqs_dir}/NN")
 
 
+def _both_root_to_euroc(path: Path) -> Path:
+    """The root of ``generate --format both`` (``euroc/`` + ``kitti/``) -> its ``euroc/`` copy, said once
+    per folder on the ``vo.dataset`` logger (printed to stderr when logging is not configured)."""
+    if (path / "mav0").is_dir() or not (path / "euroc" / "mav0").is_dir():
+        return path
+    if path not in _ANNOUNCED:
+        _ANNOUNCED.add(path)
+        logging.getLogger("vo.dataset").warning(
+            f"{path}: holds euroc/ and kitti/ (generate --format both); reading {path / 'euroc'}")
+    return path / "euroc"
+
+
 def open_dataset(path):
     """Open a dataset folder -> ``EurocDataset`` or ``KittiDataset`` (both :class:`Dataset`)."""
     path = Path(path).expanduser()
@@ -48,6 +63,7 @@ def open_dataset(path):
                            f"{path}: not a folder (give the dataset folder)")
     if path.name == "mav0" and (path / "cam0").is_dir():
         path = path.parent
+    path = _both_root_to_euroc(path)
     if (path / "mav0").is_dir():
         from vo.dataset.euroc_reader import EurocDataset
         _refuse_incomplete(path)

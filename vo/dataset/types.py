@@ -34,3 +34,13 @@ class Gcp:
     t_ns: int
     ground_w: np.ndarray = field(repr=False)
     p_w_c0: np.ndarray = field(repr=False)
+
+
+@dataclass(frozen=True)
+class WheelData:
+    """Wheel-encoder samples: ``t_ns`` (N,) int64 and cumulative ``left_ticks``, ``right_ticks`` (N,)
+    int64 (0 at the first sample). Ticks per revolution, wheel radius and track: ``rig.wheels``."""
+
+    t_ns: np.ndarray
+    left_ticks: np.ndarray
+    right_ticks: np.ndarray

@@ -65,8 +65,19 @@ CROSS_SITE_PRESETS = {
 
 
 def load_cross_site_config(path) -> CrossSiteConfig:
-    """YAML whose keys are :class:`CrossSiteConfig` field names."""
-    from rigs.io_yaml import load_dataclass
+    """YAML whose keys are :class:`CrossSiteConfig` field names, every one of them: a layout file
+    that left a field out would silently get the paper's value, so missing fields are an error
+    naming them all (the paper's layouts are :data:`CROSS_SITE_PRESETS`)."""
+    import dataclasses
+    from rigs.config_io import read_yaml_file
+    from rigs.typed_config import load_dataclass
+    names = [f.name for f in dataclasses.fields(CrossSiteConfig)]
+    data = read_yaml_file(path, VoError)
+    if isinstance(data, dict) and set(data) <= set(names):
+        missing = [n for n in names if n not in data]
+        if missing:
+            raise VoError(f"{path}: missing field(s) {', '.join(missing)}; a cross-site file gives every "
+                          f"field: {', '.join(names)}")
     return load_dataclass(CrossSiteConfig, path, VoError)
 
 

@@ -17,11 +17,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import chi2
 
+from vo.errors import VoError
+
 
 def nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
     """``err`` (..., d), ``cov`` (..., d, d) -> NEES (...). A singular ``cov`` (a claimed zero variance,
-    e.g. ``rop --opt cov=noise_chain --opt image_noise_sigma=0``) gives ``inf`` where the error leaves
-    its range, not an exception."""
+    e.g. a bootstrap whose replicates all agree) gives ``inf`` where the error leaves its range, not an
+    exception."""
     err = np.asarray(err, dtype=float)
     try:
         sol = np.linalg.solve(cov, err[..., None])[..., 0]
@@ -87,7 +89,7 @@ def expected_nees_sample_cov(dof: int, n_samples: int) -> float:
     ``n`` draws of ``N(0, P)``: ``e^T S^-1 e ~ d (n - 1) / (n - d) F(d, n - d)`` (Hotelling's T^2),
     whose mean is ``d (n - 1) / (n - d - 2)``; 3.34 for ``d = 3, n = 40``. Needs ``n > d + 2``."""
     if n_samples <= dof + 2:
-        raise ValueError(f"expected_nees_sample_cov: n_samples {n_samples} must exceed dof + 2 = {dof + 2}")
+        raise VoError(f"expected_nees_sample_cov.n_samples: {n_samples!r}; must exceed dof + 2 = {dof + 2}")
     return dof * (n_samples - 1) / (n_samples - dof - 2)
 
 

@@ -25,9 +25,9 @@ def parse_ranges(text: str) -> np.ndarray:
         else:
             values = np.array([float(p) for p in text.split(",") if p.strip()])
     except ValueError:
-        raise VoError(f"--ranges: expected a list '5,10,20' or 'start:stop[:step]', got {text!r}") from None
+        raise VoError(f"ranges: expected a list '5,10,20' or 'start:stop[:step]', got {text!r}") from None
     if values.size == 0 or np.any(values <= 0) or not np.all(np.isfinite(values)):
-        raise VoError(f"--ranges: ranges must be positive finite metres, got {text!r}")
+        raise VoError(f"ranges: ranges must be positive finite metres, got {text!r}")
     return values
 
 
@@ -59,8 +59,12 @@ def predict_range(rig, ranges_m, sigma_p_px: float = 1.0 / 3.0) -> RangePredicti
     """Range error of points straight ahead of the left camera.
 
     ``sigma_p_px`` is the parallax (disparity) error of eq. 7; the triangulation model gets the
-    equivalent per-image pixel error ``sigma_p / sqrt(2)`` in each camera (isotropic).
+    equivalent per-image pixel error ``sigma_p / sqrt(2)`` in each camera (isotropic). A
+    ``sigma_p_px`` that is not a positive number raises VoError (a negative one would print
+    negative errors).
     """
+    if not (isinstance(sigma_p_px, (int, float)) and np.isfinite(sigma_p_px) and sigma_p_px > 0):
+        raise VoError(f"sigma_p_px: must be a positive number of pixels, got {sigma_p_px!r}")
     c0, c1 = rig.cameras[0], rig.cameras[1]
     T_c0_c1 = rig.T_c0_c1
     f = float(c0.fx)

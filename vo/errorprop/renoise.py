@@ -14,7 +14,7 @@ noise footprints) the replicates' spread is then the runs'; and every discrete d
 chosen in a grid cell, a forward-backward or epipolar check, a RANSAC inlier) flips between
 replicates about as often as between runs, since it flips on a difference of the same size. On
 rendered scenes those flips set most of the noise-only spread, and no first-order model sees them
-(docs/consistency.md). It works for any estimator the runner can run (``name``, ``module:Class``),
+(docs/studies/rop_consistency.md). It works for any estimator the runner can run (``name``, ``module:Class``),
 at ``replicates`` times the cost of one run.
 """
 from __future__ import annotations
@@ -25,7 +25,7 @@ import numpy as np
 
 from vo.dataset.image_noise import ImageNoiseDataset
 from vo.errors import VoError
-from vo.estimators.pnp_core import to_gray
+from vo.frontend.image import to_gray
 from rigs.geometry import pose_error_cov
 
 RENOISE_TAG = 0x5E1F              # separates the replicates' noise streams from the Monte-Carlo runs'

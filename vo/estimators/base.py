@@ -15,6 +15,7 @@ from rigs.model import Rig
 from vo.dataset.types import ImuData, StereoFrame
 
 STATUSES = ("init", "ok", "keyframe", "few_features", "lost", "reinit")
+MAX_COAST_FRAMES = 10    # failed frames extrapolated at constant velocity before the translation is held
 
 
 @dataclass
@@ -48,6 +49,10 @@ class Estimator(abc.ABC):
 
     def set_imu(self, imu: Optional[ImuData]) -> None:
         """Give the whole IMU stream up front (VINS estimators use it; VO ignores it)."""
+
+    def set_dataset(self, dataset) -> None:
+        """The whole dataset, before the first frame, for estimators that read more than frames and IMU
+        (e.g. ``vins-oracle`` reads the true segmentation); default: nothing."""
 
     @abc.abstractmethod
     def process(self, frame: StereoFrame) -> FrameResult:

@@ -1,4 +1,4 @@
-"""Shared pieces of the stereo PnP estimators: configuration, PnP with RANSAC + LM refinement, helpers.
+"""Shared pieces of the stereo PnP estimators: configuration, PnP with RANSAC + LM refinement.
 
 Poses: ``T_o_c0`` left camera in the frame ``o`` of the first left camera; PnP returns ``T_c0_o``
 (OpenCV's rvec/tvec map object points into the camera), inverted at the boundary in :func:`solve_pnp`.
@@ -10,8 +10,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from rigs.geometry import inv_T, make_T, transform_points
+from rigs.geometry.pinhole import project
 from vo.errors import EstimatorError
-from rigs.geometry import inv_T, make_T
+from vo.frontend.image import to_gray  # noqa: F401  (re-exported: the estimators' grey conversion)
 
 PNP_METHODS = {"iterative": cv2.SOLVEPNP_ITERATIVE, "epnp": cv2.SOLVEPNP_EPNP}
 
@@ -76,21 +78,10 @@ def solve_pnp(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: PnpC
     T_c0_o = make_T(cv2.Rodrigues(rvec)[0], tvec.reshape(3))
     if not np.all(np.isfinite(T_c0_o)):
         return None, np.zeros(n, bool)
-    # inliers of the refined pose
-    proj, _ = cv2.projectPoints(obj, rvec, tvec, K, None)
-    inl = np.linalg.norm(proj.reshape(-1, 2) - img.reshape(-1, 2), axis=1) < config.ransac_reproj_px
-    p_c = p_o @ T_c0_o[:3, :3].T + T_c0_o[:3, 3]
-    inl &= p_c[:, 2] > 0
+    # inliers of the refined pose (in front of the camera, reprojection below the RANSAC threshold)
+    p_c = transform_points(T_c0_o, p_o)
+    inl = p_c[:, 2] > 0
+    inl[inl] = np.linalg.norm(project(p_c[inl], K) - img.reshape(-1, 2)[inl], axis=1) < config.ransac_reproj_px
     if inl.sum() < config.min_pnp_inliers:
         return None, inl
     return inv_T(T_c0_o), inl
-
-
-def to_gray(img: np.ndarray) -> np.ndarray:
-    """(H,W) or (H,W,3) image -> (H,W) uint8 contiguous."""
-    a = np.asarray(img)
-    if a.ndim == 3:
-        a = cv2.cvtColor(a, cv2.COLOR_RGB2GRAY)
-    if a.dtype != np.uint8:
-        a = np.clip(a, 0, 255).astype(np.uint8)
-    return np.ascontiguousarray(a)

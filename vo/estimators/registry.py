@@ -18,13 +18,35 @@ ESTIMATORS = {
     "rop": "vo.rop.estimator:RopEstimator",
     "klt-pnp": "vo.estimators.pnp:KltPnpEstimator",
     "orb-pnp": "vo.estimators.pnp:OrbPnpEstimator",
+    "vins": "vo.vins.estimator:VinsEstimator",
+    "vins-ac-gf": "vo.vins.estimator:VinsAcGf",
+    "vins-ac": "vo.vins.estimator:VinsAc",
+    "vins-ac-me": "vo.vins.estimator:VinsAcMe",
+    "vins-huber": "vo.vins.estimator:VinsHuber",
+    "vins-oracle": "vo.vins.estimator:VinsOracle",
 }
 FORMS = "a registered name, 'package.module:Class', or 'cmd:<command with {dataset} and {out}>'"
+# one line each for `vo-testbed list`; a name without one shows its class docstring's first sentence
+DESCRIPTIONS = {
+    "rop": "seed 000: stereo VO by relative-orientation-parameter (ROP) adjustment, with propagated covariance",
+    "klt-pnp": "seed 003: KLT optical-flow tracking on a feature grid, stereo triangulation, PnP-RANSAC",
+    "orb-pnp": "seed 003's baseline: ORB (or SIFT) descriptor matching, stereo triangulation, PnP-RANSAC",
+}
 
 
 def estimator_names() -> list:
     """Registered estimator names, sorted."""
     return sorted(ESTIMATORS)
+
+
+def describe(name: str) -> str:
+    """One line about registered estimator ``name``."""
+    if name in DESCRIPTIONS:
+        return DESCRIPTIONS[name]
+    own = [c.__doc__ for c in load_class(ESTIMATORS[name]).__mro__ if c is not Estimator
+           and issubclass(c, Estimator) and c.__doc__]           # not the base class's docstring
+    doc = own[0].strip() if own else ""
+    return " ".join(doc.split("\n\n")[0].split()).split(". ")[0].rstrip(".") or "(no description)"
 
 
 def load_class(path: str) -> type:
@@ -41,6 +63,26 @@ def load_class(path: str) -> type:
     if not (isinstance(cls, type) and issubclass(cls, Estimator)):
         raise EstimatorError(f"estimator {path!r}: not a subclass of vo.estimators.base.Estimator")
     return cls
+
+
+class ExternalCommandError(EstimatorError):
+    """An external program failed; ``stderr`` holds what it printed there."""
+
+    def __init__(self, message: str, stderr: str = ""):
+        super().__init__(message)
+        self.stderr = stderr
+
+
+def check_spec(spec: str) -> None:
+    """Raise EstimatorError now, before any work, when ``spec`` names no estimator we could run."""
+    if is_external(spec):
+        ExternalCommand(spec)
+    elif spec in ESTIMATORS:
+        return
+    elif isinstance(spec, str) and ":" in spec:
+        load_class(spec)
+    else:
+        raise EstimatorError(f"estimator {spec!r} unknown; valid names: {', '.join(estimator_names())}; or {FORMS}")
 
 
 def is_external(spec: str) -> bool:
@@ -84,18 +126,22 @@ class ExternalCommand:
         return [a.format(dataset=str(dataset_path), out=str(out_path)) for a in shlex.split(self.cmd_template)]
 
     def run(self, dataset_path, out_path) -> Path:
-        """Run once; returns ``out_path``. Failure -> EstimatorError with exit code and last stderr line."""
+        """Run once; returns ``out_path`` (what the program wrote to stderr is kept in ``self.stderr``).
+        Failure -> ExternalCommandError with exit code and last stderr line (all of it in ``.stderr``)."""
         cmd = self.command(dataset_path, out_path)
+        self.stderr = ""
         try:
             proc = subprocess.run(cmd, shell=self.shell, capture_output=True, text=True, timeout=self.timeout_s)
         except FileNotFoundError as e:
             raise EstimatorError(f"external command {self.cmd_template!r}: program not found ({e.filename})") from None
         except subprocess.TimeoutExpired:
             raise EstimatorError(f"external command {self.cmd_template!r}: timed out after {self.timeout_s} s") from None
+        self.stderr = proc.stderr
         if proc.returncode != 0:
             last = next((l for l in reversed(proc.stderr.splitlines()) if l.strip()), "")
-            raise EstimatorError(f"external command {self.cmd_template!r} failed with exit code "
-                                 f"{proc.returncode}: {last}")
+            raise ExternalCommandError(f"external command {self.cmd_template!r} failed with exit code "
+                                       f"{proc.returncode}: {last}", proc.stderr)
         if not Path(out_path).is_file():
-            raise EstimatorError(f"external command {self.cmd_template!r}: exit 0 but wrote no trajectory to {out_path}")
+            raise ExternalCommandError(f"external command {self.cmd_template!r}: exit 0 but wrote no trajectory "
+                                       f"to {{out}}", proc.stderr)
         return Path(out_path)

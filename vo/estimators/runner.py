@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import sys
 import tempfile
 import time
@@ -12,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rigs.io_yaml import write_text_atomic as _atomic_write
+from rigs.atomic_io import atomic_write_json, atomic_write_text as _atomic_write
 from vo.errors import EstimatorError, VoError
 from vo.estimators.base import STATUSES, FrameResult
-from vo.estimators.registry import ExternalCommand, is_external, make_estimator
+from vo.estimators.registry import ExternalCommand, ExternalCommandError, is_external, make_estimator
 from vo.trajectory import Trajectory
 from vo.trajfile import read_tum, write_kitti, write_tum
 
@@ -34,6 +33,7 @@ class RunResult:
     timings_ms: dict = field(default_factory=dict)
     n_lost: int = 0
     wall_time_s: float = 0.0
+    stderr: str = ""             # what an external program printed on stderr
 
     def summary(self) -> dict:
         counts = {s: 0 for s in STATUSES}
@@ -51,7 +51,7 @@ class RunResult:
         write_tum(out / "trajectory_tum.txt", self.trajectory)
         write_kitti(out / "trajectory_kitti.txt", self.trajectory, times_path=out / "times.txt")
         _atomic_write(out / "frames.csv", self._frames_csv())
-        _atomic_write(out / "summary.json", json.dumps(self.summary(), indent=2) + "\n")
+        atomic_write_json(out / "summary.json", self.summary())
         return out
 
     def _frames_csv(self) -> str:
@@ -76,6 +76,7 @@ def run_estimator(spec: str, dataset, options: dict | None = None, progress: boo
     t0 = time.perf_counter()
     est = make_estimator(spec, dataset.rig, **(options or {}))
     est.set_imu(getattr(dataset, "imu", None))
+    est.set_dataset(dataset)
     n = len(dataset) if max_frames is None else min(len(dataset), max_frames)
     frames = []
     for frame in _progress(dataset.frames(), n, progress, est.name or spec):
@@ -117,16 +118,24 @@ def _progress(it, total, enabled, desc):
 
 
 def _run_external(spec: str, dataset) -> RunResult:
-    path = dataset if isinstance(dataset, (str, Path)) else getattr(dataset, "path", None)
-    if path is None:
+    """Run ``cmd:...`` on a sensor-only view of ``dataset`` (an opened Dataset or a folder to open):
+    the program never sees ground truth, and cannot change the dataset (:mod:`vo.estimators.sensor_view`)."""
+    from vo.dataset import open_dataset
+    from vo.estimators.sensor_view import SensorView
+    ds = open_dataset(dataset) if isinstance(dataset, (str, Path)) else dataset
+    if getattr(ds, "path", None) is None:
         raise EstimatorError(f"{spec}: external commands need a dataset folder (dataset.path)")
     cmd = ExternalCommand(spec)
     t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="vo_ext_") as tmp:
-        out = cmd.run(Path(path), Path(tmp) / "trajectory_tum.txt")
+    sensors = SensorView(ds)
+    with sensors as view, tempfile.TemporaryDirectory(prefix="vo_ext_") as tmp:
+        try:
+            out = cmd.run(view, Path(tmp) / "trajectory_tum.txt")
+        finally:
+            sensors.check_untouched(cmd.name)      # also after a crash: a written dataset file is worse
         try:
             traj = read_tum(out, ref="o", frame="c0")
         except VoError as e:
-            raise EstimatorError(f"{cmd.name}: unreadable TUM output ({e})") from None
+            raise ExternalCommandError(f"{cmd.name}: unreadable TUM output ({e})", cmd.stderr) from None
     wall = time.perf_counter() - t0
-    return RunResult(cmd.name, traj, [], {"total": wall * 1e3 / max(len(traj), 1)}, 0, wall)
+    return RunResult(cmd.name, traj, [], {"total": wall * 1e3 / max(len(traj), 1)}, 0, wall, stderr=cmd.stderr)

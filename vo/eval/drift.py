@@ -35,14 +35,19 @@ class DriftResult:
                 "length_ratio_pct": self.length_ratio_pct}
 
 
-def drift(gt: Trajectory, est: Trajectory) -> DriftResult:
-    """End-point drift of associated trajectories (last pose of each; align with ``"first"`` before).
+def drift(gt: Trajectory, est: Trajectory, route: Trajectory | None = None) -> DriftResult:
+    """End-point drift of associated trajectories (align with ``"first"`` before).
 
+    ``route`` is the whole ground-truth route from the first matched pose on (default ``gt``): the
+    end difference is taken against the route's last pose and the ratio over the route's length, so
+    an estimate that stops early is charged for the part it did not cover. With an estimate that
+    covers the route, ``route`` and ``gt`` end at the same pose and both give the same figures.
     Ratios are NaN when the gt path length is zero."""
     if len(gt) != len(est) or len(gt) < 2:
         raise VoError(f"drift: gt and est must be associated with >= 2 poses, got {len(gt)} and {len(est)}")
-    L_gt, L_est = gt.path_length, est.path_length
-    d = est.positions[-1] - gt.positions[-1]
+    route = gt if route is None else route
+    L_gt, L_est = route.path_length, est.path_length
+    d = est.positions[-1] - route.positions[-1]
     end = float(np.linalg.norm(d))
     pct = (lambda x: 100.0 * x / L_gt) if L_gt > 0 else (lambda x: float("nan"))   # NaN for a standstill
     return DriftResult(L_gt, L_est, end, tuple(float(v) for v in d), pct(end), L_est - L_gt, pct(abs(L_est - L_gt)))

@@ -4,8 +4,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from vo.dataset.types import Gcp
+from vo.errors import VoError
 from vo.eval.align import AlignInfo, align as align_traj
 from vo.eval.associate import DEFAULT_MAX_DIFF_NS, associate
+from vo.eval.coverage import Coverage, coverage
+from vo.eval.frames import frame_warning
 from vo.eval.metrics import (ApeResult, DriftResult, GcpTable, KittiResult, RpeResult, ate, drift, gcp_errors,
                              kitti_errors, rpe)
 from vo.trajectory import Trajectory
@@ -25,9 +28,12 @@ class EvalResult:
     gcps: GcpTable | None
     aligned_est: Trajectory
     gt_matched: Trajectory
+    coverage: Coverage
+    warnings: tuple = ()
 
     def to_dict(self) -> dict:
-        return {"n_matched": self.n_matched, "alignment": self.alignment.to_dict(), "ape": self.ape.to_dict(),
+        return {"n_matched": self.n_matched, "coverage": self.coverage.to_dict(), "warnings": list(self.warnings),
+                "alignment": self.alignment.to_dict(), "ape": self.ape.to_dict(),
                 "rpe_frame": self.rpe_frame.to_dict(), "rpe_m": self.rpe_m.to_dict() if self.rpe_m else None,
                 "drift": self.drift.to_dict(), "kitti": self.kitti.to_dict(),
                 "gcps": self.gcps.to_dict() if self.gcps else None}
@@ -35,20 +41,21 @@ class EvalResult:
     def table(self) -> str:
         """Plain-text report: ATE, RPE, drift, KITTI and (if given) the seed 000 GCP table."""
         a, r, d, k = self.ape, self.rpe_frame, self.drift, self.kitti
-        lines = [f"poses matched       {self.n_matched}   (alignment: {self.alignment.method}, "
+        lines = [f"coverage            {self.coverage.text()}   (alignment: {self.alignment.method}, "
                  f"scale {self.alignment.s:.6f})",
                  _stats_line("ATE trans (m)", a.trans), _stats_line("ATE rot (deg)", a.rot_deg),
                  _stats_line("RPE/frame t (m)", r.trans), _stats_line("RPE/frame r (deg)", r.rot_deg)]
         if self.rpe_m is not None:
             lines += [_stats_line(f"RPE/{self.rpe_m.delta:g}m t (m)", self.rpe_m.trans),
                       _stats_line(f"RPE/{self.rpe_m.delta:g}m r (deg)", self.rpe_m.rot_deg)]
-        lines += [f"drift               end diff {d.end_diff_m:.3f} m over {d.gt_length_m:.3f} m gt path "
+        lines += [f"drift               end diff {d.end_diff_m:.3f} m over {d.gt_length_m:.3f} m gt route "
                   f"({d.drift_ratio_pct:.2f} %); est path {d.est_length_m:.3f} m",
                   f"KITTI               t_err {k.t_err_pct:.3f} %  r_err {k.r_err_deg_per_m:.5f} deg/m  "
                   f"({k.n_segments} segments, lengths {', '.join(f'{v:.2f}' for v in k.lengths_m)} m"
                   f"{', scaled to route' if k.scaled else ''})"]
         if self.gcps is not None:
             lines += ["", self.gcps.text()]
+        lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 
 
@@ -61,13 +68,25 @@ def evaluate(gt: Trajectory, est: Trajectory, gcps: list[Gcp] | None = None, ali
              max_diff_ns: int = DEFAULT_MAX_DIFF_NS, rpe_delta_m: float | None = None) -> EvalResult:
     """Associate ``est`` to ``gt``, align (``align`` method), and run ATE, RPE (1 frame and, if the path
     allows, ``rpe_delta_m`` metres - default 10% of the gt path), drift, KITTI and GCP errors.
-    GCPs passed outside the matched time span (e.g. a run stopped early) are not scored."""
+
+    Coverage counts the gt poses matched (``gt`` at the frame times: the dataset's frames). Drift is
+    taken against the end of the whole gt route (from the first matched pose), so an estimate that
+    stops early is charged for the rest. GCPs outside the matched time span are not scored.
+    A rotation error after alignment over a few degrees adds a warning that the frames differ
+    (:mod:`vo.eval.frames`)."""
     gt_m, est_m = associate(gt, est, max_diff_ns)
+    if len(gt_m) < 2:
+        raise VoError(f"evaluate: only {len(gt_m)} of {len(gt)} ground-truth poses matched an estimate "
+                      f"within {max_diff_ns * 1e-6:g} ms; need at least 2")
     est_a, info = align_traj(est_m, gt_m, align)
     delta_m = rpe_delta_m if rpe_delta_m is not None else round(0.1 * gt_m.path_length, 3)
     rpe_m = rpe(gt_m, est_a, delta_m, "m") if delta_m > 0 else None
-    d = drift(gt_m, est_a)
+    route = gt.subset(gt.t_ns >= gt_m.t_ns[0])
+    d = drift(gt_m, est_a, route)
     gcps = [g for g in (gcps or []) if est_a.t_ns[0] <= g.t_ns <= est_a.t_ns[-1]]
     table = gcp_errors(est_a, gcps, d) if gcps else None
-    return EvalResult(len(gt_m), info, ate(gt_m, est_a), rpe(gt_m, est_a, 1, "frames"), rpe_m, d,
-                      kitti_errors(gt_m, est_a), table, est_a, gt_m)
+    ape = ate(gt_m, est_a)
+    warning = frame_warning(gt_m, est_a, ape.rot_rmse_deg)
+    return EvalResult(len(gt_m), info, ape, rpe(gt_m, est_a, 1, "frames"), rpe_m, d,
+                      kitti_errors(gt_m, est_a), table, est_a, gt_m, coverage(gt, est, gt_m),
+                      (warning,) if warning else ())

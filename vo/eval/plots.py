@@ -1,7 +1,6 @@
-"""Evaluation plots (matplotlib Agg); every file is written atomically (temp file + os.replace)."""
+"""Evaluation plots (matplotlib Agg); every file is written atomically (:mod:`rigs.atomic_io`)."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import matplotlib
@@ -10,6 +9,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from rigs.atomic_io import atomic_write  # noqa: E402
 from vo.eval.associate import associate  # noqa: E402
 from vo.eval.rpe import RpeResult  # noqa: E402
 from vo.trajectory import Trajectory  # noqa: E402
@@ -18,12 +18,11 @@ from vo.trajectory import Trajectory  # noqa: E402
 def save_figure(fig, path) -> Path:
     """Save and close ``fig`` atomically (temp name, then rename); format from the suffix."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    fig.savefig(tmp, format=(path.suffix.lstrip(".") or "png"), dpi=120, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, path)
-    return path
+    try:
+        return atomic_write(path, lambda tmp: fig.savefig(tmp, format=(path.suffix.lstrip(".") or "png"), dpi=120,
+                                                           bbox_inches="tight"))
+    finally:
+        plt.close(fig)
 
 
 def plot_topdown(results: dict, gt: Trajectory, gcps=None, path="topdown.png") -> Path:
@@ -78,3 +77,12 @@ def plot_rpe(rpes: dict, path="rpe.png") -> Path:
         a.grid(True, alpha=0.3)
     a1.legend(loc="best", fontsize=8)
     return save_figure(fig, path)
+
+
+def plot_evaluation(result, gcps, out_dir) -> list:
+    """The three plots of one :class:`vo.eval.EvalResult` (top-down, error vs distance, RPE) in ``out_dir``."""
+    out = Path(out_dir)
+    est = {"estimate": result.aligned_est}
+    return [plot_topdown(est, result.gt_matched, gcps, out / "topdown.png"),
+            plot_error_vs_distance(result.gt_matched, est, out / "error_vs_distance.png"),
+            plot_rpe({"estimate": result.rpe_frame}, out / "rpe.png")]

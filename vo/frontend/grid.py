@@ -59,6 +59,19 @@ class Grid:
         empty = self.empty_cells(pts)
         return empty[~self.is_border[empty]]
 
+    def best_in_cells(self, score: np.ndarray, last: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Per-cell maximum of a (height, width) ``score`` image -> ``(best (n_cells,), uv (n_cells, 2))``,
+        ``uv`` the integer pixel of the maximum; ties go to the first pixel in row-major order within the
+        cell, or the last with ``last`` (as ``cv2.goodFeaturesToTrack`` sorts equal scores)."""
+        c = self.cell
+        pad = np.full((self.n_rows * c, self.n_cols * c), -np.inf, np.float32)
+        pad[:self.height, :self.width] = score
+        blocks = pad.reshape(self.n_rows, c, self.n_cols, c).transpose(0, 2, 1, 3).reshape(self.n_cells, c * c)
+        k = c * c - 1 - np.argmax(blocks[:, ::-1], axis=1) if last else np.argmax(blocks, axis=1)
+        row, col = np.divmod(np.arange(self.n_cells), self.n_cols)
+        uv = np.c_[col * c + k % c, row * c + k // c].astype(np.float64)
+        return blocks[np.arange(self.n_cells), k], uv
+
     def cell_rect(self, k: int) -> tuple:
         """Cell ``k`` -> ``(x0, y0, x1, y1)`` pixel bounds, half-open, clipped to the image."""
         row, col = divmod(int(k), self.n_cols)

@@ -88,30 +88,27 @@ def is_keyframe(empty_fraction: float, n_inliers: int, config: KltConfig = KltCo
 
 
 def detect_in_empty_cells(img: np.ndarray, grid: Grid, existing_pts: np.ndarray,
-                          config: KltConfig = KltConfig()) -> np.ndarray:
-    """One best Shi-Tomasi corner per empty non-border cell -> (M,2) float64 pixels.
+                          config: KltConfig = KltConfig(), peaks_only: bool = True) -> np.ndarray:
+    """One best Shi-Tomasi corner per empty non-border cell -> (M,2) float64 integer pixels, in cell order.
 
-    Each cell's sub-image is cut with a margin of ``block_size`` pixels so the corner score near the
-    cell edge uses true neighbours; a mask restricts the corner to the cell; offsets are added back.
+    One ``cv2.cornerMinEigenVal`` over the whole image and a per-cell maximum (:meth:`Grid.best_in_cells`);
+    a corner needs a score >= ``min_eigenvalue`` and > ``quality_level`` x the cell's maximum.
+    ``peaks_only`` (seed 003's ``goodFeaturesToTrack`` rule, the same corners as one call per cell): only
+    3x3 local maxima of the score compete, so a cell whose maximum sits on its edge below a higher
+    neighbour in the next cell gets its best interior peak. ``peaks_only=False`` (the ``rop`` front-end,
+    :mod:`vo.rop.tracks`) takes the cell's maximum wherever it is; ~8 % of the cells then get another
+    corner, and rop's benchmarked drift depends on it (docs/estimators.md).
     """
-    out = []
-    m = config.block_size
-    h, w = img.shape[:2]
-    for k in grid.detection_cells(existing_pts):
-        x0, y0, x1, y1 = grid.cell_rect(k)
-        sx0, sy0, sx1, sy1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
-        sub = np.ascontiguousarray(img[sy0:sy1, sx0:sx1])
-        mask = np.zeros(sub.shape, np.uint8)
-        mask[y0 - sy0:y1 - sy0, x0 - sx0:x1 - sx0] = 255
-        c = cv2.goodFeaturesToTrack(sub, maxCorners=1, qualityLevel=config.quality_level,
-                                    minDistance=config.min_distance, mask=mask, blockSize=config.block_size)
-        if c is None:
-            continue
-        u, v = c.reshape(2)
-        eig = cv2.cornerMinEigenVal(sub, config.block_size)[int(round(v)), int(round(u))]
-        if eig >= config.min_eigenvalue:
-            out.append((u + sx0, v + sy0))
-    return np.array(out, dtype=np.float64).reshape(-1, 2)
+    cells = grid.detection_cells(existing_pts)
+    if len(cells) == 0:
+        return np.zeros((0, 2))
+    eig = cv2.cornerMinEigenVal(img, config.block_size)
+    score = np.where(eig >= cv2.dilate(eig, None), eig, -np.inf) if peaks_only else eig
+    best, uv = grid.best_in_cells(score, last=peaks_only)
+    keep = best[cells] >= config.min_eigenvalue
+    if peaks_only:
+        keep &= best[cells] > config.quality_level * grid.best_in_cells(eig)[0][cells]
+    return uv[cells[keep]]
 
 
 def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig()) -> tuple:

@@ -5,10 +5,15 @@ Frames: ``c0`` left, ``c1`` right camera (OpenCV); ``T_c0_c1`` from the rig (``p
 """
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
-from rigs.geometry import inv_T, skew
+from rigs.geometry import inv_T, skew, transform_points
+from rigs.geometry.pinhole import project as project_pinhole, to_normalized, to_pixels, undistort_points
+from rigs.geometry.triangulation import triangulate_normalized
+
+# OpenCV's default fixed-point iterations (cv2.undistortPoints without criteria): within 7.3e-6 px of the
+# exact inverse over cart27's images (pinhole.undistort_exact), far below the front-ends' 1 px gates.
+UNDISTORT_ITERS = 5
 
 
 def undistort_px(pts: np.ndarray, camera) -> np.ndarray:
@@ -16,14 +21,12 @@ def undistort_px(pts: np.ndarray, camera) -> np.ndarray:
     p = np.asarray(pts, dtype=np.float64).reshape(-1, 2)
     if p.shape[0] == 0 or not camera.has_distortion:
         return p.copy()
-    out = cv2.undistortPoints(p.reshape(-1, 1, 2), camera.K, camera.dist_coeffs, P=camera.K)
-    return out.reshape(-1, 2)
+    return to_pixels(undistort_points(p, camera.K, camera.dist_coeffs, iters=UNDISTORT_ITERS, eps=None), camera.K)
 
 
 def normalized(pts_undist_px: np.ndarray, camera) -> np.ndarray:
     """(N,2) undistorted pixels -> (N,2) normalised image coordinates ``(x/z, y/z)``."""
-    p = np.asarray(pts_undist_px, dtype=np.float64).reshape(-1, 2)
-    return np.column_stack([(p[:, 0] - camera.cx) / camera.fx, (p[:, 1] - camera.cy) / camera.fy])
+    return to_normalized(pts_undist_px, camera.K)
 
 
 def fundamental_from_rig(rig) -> np.ndarray:
@@ -63,7 +66,7 @@ def triangulate(rig, p_left_px: np.ndarray, p_right_px: np.ndarray, max_depth: f
                 max_reproj_px: float = 1.0) -> tuple:
     """Triangulate raw left/right pixel pairs -> ``(p_c0 (N,3), ok (N,) bool)``.
 
-    ``cv2.triangulatePoints`` on normalised coordinates with ``P0 = [I|0]``, ``P1 = [R_c1_c0|t_c1_c0]``.
+    Linear triangulation of the normalised coordinates (:func:`rigs.geometry.triangulation.triangulate_normalized`).
     ``ok`` requires positive depth in both cameras, left depth <= ``max_depth`` (m) and reprojection error
     <= ``max_reproj_px`` in both (undistorted) images.
     """
@@ -73,12 +76,8 @@ def triangulate(rig, p_left_px: np.ndarray, p_right_px: np.ndarray, max_depth: f
     c0, c1 = rig.cameras[0], rig.cameras[1]
     x0, x1 = undistort_px(p_left_px, c0), undistort_px(p_right_px, c1)
     T_c1_c0 = inv_T(rig.T_c0_c1)
-    P0, P1 = np.hstack([np.eye(3), np.zeros((3, 1))]), T_c1_c0[:3, :]
-    X = cv2.triangulatePoints(P0, P1, normalized(x0, c0).T, normalized(x1, c1).T)
-    w = X[3]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        p_c0 = (X[:3] / np.where(np.abs(w) > 1e-12, w, np.nan)).T
-    p_c1 = p_c0 @ T_c1_c0[:3, :3].T + T_c1_c0[:3, 3]
+    p_c0 = triangulate_normalized(normalized(x0, c0), normalized(x1, c1), np.eye(4), T_c1_c0)
+    p_c1 = transform_points(T_c1_c0, p_c0)
     ok = np.all(np.isfinite(p_c0), axis=1) & (p_c0[:, 2] > 1e-6) & (p_c1[:, 2] > 1e-6) & (p_c0[:, 2] <= max_depth)
     safe0, safe1 = np.where(ok[:, None], p_c0, 1.0), np.where(ok[:, None], p_c1, 1.0)
     e0 = np.linalg.norm(project(safe0, c0) - x0, axis=1)
@@ -89,5 +88,4 @@ def triangulate(rig, p_left_px: np.ndarray, p_right_px: np.ndarray, max_depth: f
 
 def project(p_c: np.ndarray, camera) -> np.ndarray:
     """(N,3) points in the camera frame -> (N,2) undistorted pixels (pinhole K only)."""
-    z = p_c[:, 2]
-    return np.column_stack([camera.fx * p_c[:, 0] / z + camera.cx, camera.fy * p_c[:, 1] / z + camera.cy])
+    return project_pinhole(p_c, camera.K)

@@ -5,7 +5,10 @@ camera frames. ``R_i_j = R_j^i`` (rotation C_j -> C_i), ``t_i_j = r_j^i`` (origi
 ``rhat_i_j`` its unit direction. The object frame O of one epoch pair is C_1.
 
 Modules: :mod:`relative` (one ROP from point matches), :mod:`initial` (initial EOPs of images 3, 4),
-:mod:`adjustment` (two-step network adjustment, eqs. 1-3), :mod:`estimator` (the "rop" estimator).
+:mod:`adjustment` (two-step network adjustment, eqs. 1-3), :mod:`estimator` (the "rop" estimator,
+configured by :mod:`config`; its ROP gates in :mod:`consensus`, front-ends in :mod:`tracks` and
+:mod:`matching`), and its covariance: :mod:`uncertainty` (interface, first order), :mod:`propagation`
+(ROP covariances through the adjustment), :mod:`chain_bootstrap` with :mod:`bootstrap_cov`.
 """
 from vo.rop.relative import RopMeasurement, estimate_rop
 from vo.rop.initial import InitialEops, initial_eops

@@ -1,8 +1,8 @@
 """Bootstrap covariance of one adjusted ROP step over the epoch's four-view tracks (our extension).
 
-Why: the first-order models (:mod:`vo.rop.propagation`, :mod:`vo.rop.joint_cov`) propagate an
+Why: the first-order model (:mod:`vo.rop.propagation`) propagates an
 isotropic, independent pixel noise through a fixed inlier set. On rendered sequences the
-run-to-run error of a step is dominated by something else (docs/consistency.md): which tracks
+run-to-run error of a step is dominated by something else (docs/studies/rop_consistency.md): which tracks
 exist and which are inliers changes between noise realisations, and every track carries its own
 rendering / tracking error that is the same in every run, so a new feature set moves the solution
 like a resampling of those per-feature errors (heavy-tailed, heteroscedastic, shared by the

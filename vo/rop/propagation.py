@@ -10,19 +10,17 @@ with ``L`` chaining: rotation elements ``vec(dR_i_j) = M_p dphi_p`` -> step-1 ga
 vectors (``G``); directions ``d rhat_p`` -> step-2 gain ``K2``; and step 1 -> step 2 through
 ``d r / d phi3`` (``R_1_3`` is a coefficient of the calibrated ``rhat_3_4``). This is the a-priori
 covariance of the *chosen* estimator, so it stays valid with the paper's inlier weights.
-With ``px_factor`` on every ROP (``cov="joint"``, :mod:`vo.rop.joint_cov`, our extension) ``S`` is
-the full joint covariance of the four ROPs from the pixel noise of their shared tracks, with the
-off-diagonal blocks; otherwise ``S = diag(cov6_p)``.
-Approximations of the independent model: ROPs are treated as independent, but the KLT front-end gives all four the same
-tracks (13 and 24 share image 3's and 4's points), so their errors are positively correlated; the
-Sampson covariance assumes independent, equal image noise on the inliers.
+Approximations: the ROPs are treated as independent (``S = diag(cov6_p)``), but the KLT front-end
+gives all four the same tracks (13 and 24 share image 3's and 4's points), so their errors are
+positively correlated (a joint model of that correlation was measured to matter little for the
+end-point spread: docs/studies/rop_consistency.md); the Sampson covariance assumes independent,
+equal image noise on the inliers.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from rigs.geometry import skew
-from vo.rop.joint_cov import joint_rop_cov
 
 
 def rotation_element_map(R: np.ndarray) -> np.ndarray:
@@ -35,10 +33,8 @@ def propagated_cov(rops, pairs: tuple, gain_rot: np.ndarray, gain_dir: np.ndarra
 
     ``pairs``: the soft pairs in row order; ``gain_rot`` (6, 9n) maps their rotation-element errors
     to ``[phi3, phi4]``; ``gain_dir`` (6, 3n) maps direction errors to ``[r3, r4]``; ``dx_dphi3``
-    (6,3). ``S``: the joint covariance when every ROP has a ``px_factor``, else block-diagonal
-    ``cov6``. Returns None if neither is available."""
-    S_joint = joint_rop_cov(rops, pairs)
-    if S_joint is None and any(getattr(rops.rops[p], "cov6", None) is None for p in pairs):
+    (6,3). ``S`` block-diagonal ``cov6``. Returns None unless every pair has one."""
+    if any(getattr(rops.rops[p], "cov6", None) is None for p in pairs):
         return None
     n = len(pairs)
     L = np.zeros((12, 6 * n))
@@ -49,7 +45,6 @@ def propagated_cov(rops, pairs: tuple, gain_rot: np.ndarray, gain_dir: np.ndarra
         L[:6, 6 * k:6 * k + 3] = Lphi
         L[6:, 6 * k:6 * k + 3] = dx_dphi3 @ Lphi[:3]
         L[6:, 6 * k + 3:6 * k + 6] = gain_dir[:, 3 * k:3 * k + 3]
-        if S_joint is None:
-            S[6 * k:6 * k + 6, 6 * k:6 * k + 6] = m.cov6
-    C = L @ (S if S_joint is None else S_joint) @ L.T
+        S[6 * k:6 * k + 6, 6 * k:6 * k + 6] = m.cov6
+    C = L @ S @ L.T
     return 0.5 * (C + C.T)

@@ -21,6 +21,7 @@ import numpy as np
 
 from vo.errors import VoError
 from rigs.geometry import skew
+from rigs.geometry.pinhole import undistort_points
 
 MIN_INLIERS = 8
 METHODS = {"ransac": cv2.RANSAC, "magsac": cv2.USAC_MAGSAC}
@@ -43,7 +44,6 @@ class RopMeasurement:
     sigma_dir_rad: Optional[float] = None
     rms_px: Optional[float] = None
     cov6: Optional[np.ndarray] = None      # (6,6) of [dphi (R_i_j = exp(dphi) R_hat), d rhat_i_j]
-    px_factor: Optional[np.ndarray] = None  # (6, 8N) joint factor over the epoch's tracks (vo.rop.joint_cov)
 
 
 def _spread(x: np.ndarray) -> float:
@@ -65,13 +65,9 @@ def rop_from_opencv(R_cj_ci: np.ndarray, t_cj_ci: np.ndarray) -> tuple[np.ndarra
 
 
 def normalized_points(p_px: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
-    """(N,2) distorted pixels -> (N,2) undistorted normalized image coordinates ``(x/z, y/z)``."""
-    p = np.ascontiguousarray(np.asarray(p_px, dtype=np.float64).reshape(-1, 1, 2))
-    if len(p) == 0:
-        return np.zeros((0, 2))
-    d = np.zeros(5) if dist is None else np.asarray(dist, dtype=np.float64)
-    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-12)
-    return cv2.undistortPoints(p, np.asarray(K, dtype=np.float64), d, criteria=crit).reshape(-1, 2)
+    """(N,2) distorted pixels -> (N,2) undistorted normalized image coordinates ``(x/z, y/z)``
+    (:func:`rigs.geometry.pinhole.undistort_points`: 30 iterations, 1e-12)."""
+    return undistort_points(p_px, K, dist, iters=30, eps=1e-12)
 
 
 def sampson_residuals(E: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:
@@ -235,7 +231,7 @@ def _refine_robust(R, t, x_i, x_j, thr: float, min_inliers: int, kind: str):
     match in front of both cameras at the start, then the least-squares covariance over the inliers
     of the solution (``|r| < thr`` and in front).
 
-    Why (our extension; measured in docs/consistency.md): with the hard gate, re-selecting inliers at
+    Why (our extension; measured in docs/studies/rop_consistency.md): with the hard gate, re-selecting inliers at
     the LM solution and re-fitting has more than one self-consistent fixed point when a few tens of
     tracks sit near the threshold (static rendering / LK errors of ~1 px): solution A keeps them,
     solution B drops them, and each fits its own set best. Image noise too small to move any track by

@@ -1,8 +1,9 @@
 """KLT four-view front-end for the ROP estimator: ONE feature set gives the points of images 1-4.
 
 Images 1, 2 are the left/right images of the last keyframe epoch, 3, 4 those of the current
-frame. On a keyframe, corners are detected in the empty cells of a grid (seed 003) and matched
-left -> right by LK (forward-backward + calibrated epipolar check): ``p1``, ``p2``. Every frame,
+frame. On a keyframe, corners are detected in the empty cells of a grid (seed 003; each cell's
+highest Shi-Tomasi score, :func:`vo.frontend.klt.detect_in_empty_cells` with ``peaks_only=False``)
+and matched left -> right by LK (forward-backward + calibrated epipolar check): ``p1``, ``p2``. Every frame,
 the tracks are followed frame to frame on the left images by LK with a forward-backward check
 (``p3``; consecutive frames, so the flow stays small) and matched into the current right image by
 LK seeded with the keyframe disparity ``p3 + (p2 - p1)``, again forward-backward and epipolar
@@ -18,7 +19,7 @@ from ``p1`` in the keyframe left image, ``p4`` from ``p2`` in the keyframe right
 by the translation LK above and by the track's warp of the previous frame; the keyframe windows
 (:class:`vo.frontend.affine_lk.AffineTemplate`) are computed once per keyframe. The positions are then
 single measurements against the keyframe instead of a frame-to-frame chain, and without
-translation LK's window-averaging bias on perspective ground (docs/consistency.md).
+translation LK's window-averaging bias on perspective ground (docs/studies/rop_consistency.md).
 
 OpenCV's Python binding of ``calcOpticalFlowPyrLK`` does not accept pre-built pyramids (the
 ``buildOpticalFlowPyramid`` output is rejected as ``prevImg``), so each LK call builds its own;
@@ -34,10 +35,10 @@ import numpy as np
 from vo.errors import VoError
 from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
 from vo.frontend.grid import Grid
-from vo.frontend.klt import KltConfig, TrackIds
+from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells
 from vo.frontend.stereo import epipolar_mask
-from vo.rop.griddetect import detect_grid
 from vo.rop.relative import normalized_points
+from rigs.geometry.pinhole import to_normalized
 
 
 @dataclass
@@ -115,7 +116,7 @@ class KltFourView:
     def normalize(self, p, k):
         cam = self.cams[k]
         if not cam.has_distortion:
-            return np.c_[(p[:, 0] - cam.cx) / cam.fx, (p[:, 1] - cam.cy) / cam.fy]
+            return to_normalized(p, cam.K)
         return normalized_points(p, cam.K, cam.dist_coeffs)
 
     def _stereo(self, left, right, p_l, guess=None):
@@ -134,7 +135,7 @@ class KltFourView:
         else:
             p1 = p2 = x1 = x2 = np.zeros((0, 2))
             ids = np.zeros(0, np.int64)
-        new = detect_grid(left, self.grid, p1, self.config)
+        new = detect_in_empty_cells(left, self.grid, p1, self.config, peaks_only=False)
         t1 = cv2.getTickCount()
         new_r, ok = self._stereo(left, right, new)
         if self.refine == "affine" and ok.any():

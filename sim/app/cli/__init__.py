@@ -14,6 +14,7 @@ import click
 # name -> "module:attribute" of a click command
 COMMANDS = {
     "generate": "sim.app.cli.cmd_generate:generate",
+    "export": "sim.app.cli.cmd_export:export",
     "list": "sim.app.cli.cmd_list:list_cmd",
     "bench": "sim.app.cli.cmd_bench:bench",
     "run": "sim.app.cli.cmd_run:run",
@@ -23,6 +24,7 @@ COMMANDS = {
     "predict": "sim.app.cli.cmd_predict:predict",
     "consistency": "sim.app.cli.cmd_consistency:consistency",
     "validate": "sim.app.cli.cmd_validate:validate",
+    "sweep": "sim.app.cli.cmd_sweep:sweep",
 }
 
 
@@ -43,7 +45,26 @@ def _available(target: str) -> bool:
     return importlib.util.find_spec(module) is not None
 
 
+def _version_text() -> str:
+    """``vo-testbed X (dataset version Y)``: the package, and the version recorded in generated datasets."""
+    from importlib.metadata import PackageNotFoundError, version
+    from sim import __version__ as dataset_version
+    try:
+        package = version("vo-testbed")
+    except PackageNotFoundError:
+        package = "unknown (not installed)"
+    return f"vo-testbed {package} (dataset version {dataset_version})"
+
+
+def _print_version(ctx, param, value):
+    if value and not ctx.resilient_parsing:
+        click.echo(_version_text())
+        ctx.exit()
+
+
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--version", is_flag=True, expose_value=False, is_eager=True, callback=_print_version,
+              help="Print the package and dataset versions and exit.")
 def cli():
     """Simulation testbed for stereo visual odometry and visual-inertial navigation."""
     os.environ.setdefault("MUJOCO_GL", "egl")

@@ -13,7 +13,7 @@ def bench():
 
 @bench.command("render")
 @click.option("--scene", "scenes", multiple=True, help="Scene(s) to time; default: all.")
-@click.option("--pairs", type=int, default=40, show_default=True, help="Stereo pairs rendered per scene.")
+@click.option("--pairs", type=click.IntRange(min=1), default=40, show_default=True, help="Stereo pairs rendered per scene.")
 @click.option("--shadows", is_flag=True, help="Also time with shadows on.")
 @json_option
 def render(scenes, pairs, shadows, as_json):
@@ -36,7 +36,7 @@ def render(scenes, pairs, shadows, as_json):
 @click.option("--scenario", "scenarios", multiple=True, help="Scenario(s); default: campus and indoor.")
 @click.option("--estimator", "estimators", multiple=True, help="Estimator(s); default: rop, klt-pnp, orb-pnp.")
 @click.option("--all-cores", is_flag=True, help="Let OpenCV use every core (default: one thread).")
-@click.option("--max-frames", type=int, default=None)
+@click.option("--max-frames", type=click.IntRange(min=1), default=None)
 @click.option("--no-progress", is_flag=True)
 @opt_option
 @json_option

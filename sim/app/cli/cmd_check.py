@@ -1,6 +1,7 @@
 """``vo-testbed check``: CI accuracy gate for any VO (ours by name, a Python class, or a command)."""
 from __future__ import annotations
 
+import math
 import sys
 
 import click
@@ -8,31 +9,58 @@ import click
 from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
 
 
+def _bound(ctx, param, value):
+    if value is not None and not value >= 0:          # negative or NaN
+        raise click.BadParameter(f"must be a number >= 0, got {value}")
+    return value
+
+
+def _coverage(ctx, param, value):
+    if not (0 < value <= 1) or math.isnan(value):
+        raise click.BadParameter(f"must be in (0, 1], got {value}")
+    return value
+
+
 @click.command("check")
 @click.option("--estimator", required=True,
-              help="A built-in name (rop, klt-pnp, orb-pnp), a Python class 'package.module:Class' implementing "
-                   "vo.estimators.base.Estimator, or 'cmd:<command with {dataset} and {out}>' that reads the "
-                   "dataset folder and writes a TUM trajectory of the left camera to {out}.")
+              help="A built-in name (see `vo-testbed list`), a Python class 'package.module:Class' implementing "
+                   "vo.estimators.base.Estimator, or 'cmd:<command with {dataset} and {out}>': the program gets "
+                   "a read-only folder with the sensor data only (images, IMU, calibration) as {dataset} and "
+                   "writes a TUM trajectory of the left camera to {out}.")
 @click.option("--scenario", default="campus-short", show_default=True)
-@click.option("--max-drift", type=float, default=None, help="Bound on the drift ratio, percent.")
-@click.option("--max-ate", type=float, default=None, help="Bound on ATE RMSE after first-pose anchoring, m.")
-@click.option("--max-rpe", type=float, default=None, help="Bound on per-frame RPE translation RMSE, m.")
+@click.option("--max-drift", type=float, default=None, callback=_bound, help="Bound on the drift ratio, percent.")
+@click.option("--max-ate", type=float, default=None, callback=_bound,
+              help="Bound on ATE RMSE after first-pose anchoring, m.")
+@click.option("--max-rpe", type=float, default=None, callback=_bound,
+              help="Bound on per-frame RPE translation RMSE, m.")
+@click.option("--min-coverage", type=float, default=0.95, show_default=True, callback=_coverage,
+              help="Fail when fewer than this fraction of the frames have an estimated pose.")
 @click.option("--frontend", type=click.Choice(["klt", "orb", "sift"]), default=None)
 @click.option("--seed", type=int, default=None, help="Override the scenario's seed.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default=None, help="Keep trajectory and metrics.")
+@click.option("--verbose", "-v", is_flag=True, help="Also show what an external program printed on stderr.")
 @click.option("--no-progress", is_flag=True)
 @opt_option
 @set_option
 @json_option
-def check(estimator, scenario, max_drift, max_ate, max_rpe, frontend, seed, out_dir, no_progress, estimator_opts,
-          overrides, as_json):
-    """Generate (or reuse, cached by configuration hash) SCENARIO, run ESTIMATOR, print the metrics and
-    exit 1 when any given bound is exceeded (2 on a usage or input error)."""
+def check(estimator, scenario, max_drift, max_ate, max_rpe, min_coverage, frontend, seed, out_dir, verbose,
+          no_progress, estimator_opts, overrides, as_json):
+    """Generate (or reuse, cached by configuration hash) SCENARIO, run ESTIMATOR, print the metrics.
+
+    Exit codes: 0 every bound met, 1 a bound exceeded or coverage below --min-coverage, 2 bad input
+    (no bound, a negative bound, an unknown estimator, a program that failed), 3 internal error."""
     from sim.app.check import check as run_check
-    options = parse_opts(estimator_opts, frontend)
-    res = run_check(estimator, scenario, {"max_drift": max_drift, "max_ate": max_ate, "max_rpe": max_rpe},
-                    overrides=overrides, seed=seed, out_dir=out_dir, options=options,
-                    progress=not (no_progress or as_json))
-    echo_json(res.to_dict()) if as_json else click.echo(res.text())
+    from vo.estimators.registry import ExternalCommandError
+    if max_drift is None and max_ate is None and max_rpe is None:
+        raise click.UsageError("give at least one bound: --max-drift, --max-ate or --max-rpe")
+    try:
+        res = run_check(estimator, scenario, {"max_drift": max_drift, "max_ate": max_ate, "max_rpe": max_rpe},
+                        overrides=overrides, seed=seed, out_dir=out_dir, options=parse_opts(estimator_opts, frontend),
+                        progress=not (no_progress or as_json), min_coverage=min_coverage)
+    except ExternalCommandError as e:
+        if e.stderr.strip():
+            click.echo("program stderr:\n" + e.stderr.rstrip(), err=True)
+        raise
+    echo_json(res.to_dict()) if as_json else click.echo(res.text(verbose=verbose))
     if not res.passed:
         sys.exit(1)

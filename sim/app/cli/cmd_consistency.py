@@ -1,8 +1,6 @@
 """``vo-testbed consistency``: NEES and drift-spread of an estimator over Monte-Carlo runs."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import click
 
 from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
@@ -10,7 +8,8 @@ from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, 
 
 @click.command("consistency")
 @click.option("--scenario", default="campus-short", show_default=True)
-@click.option("--estimator", default="rop", show_default=True)
+@click.option("--estimator", default="rop", show_default=True,
+              help="Registered name or 'package.module:Class'; rop's covariance: --opt cov=propagated|chain_bootstrap.")
 @click.option("--runs", type=int, default=30, show_default=True)
 @click.option("--image-noise", type=float, default=1.0, show_default=True, help="Image noise sigma, grey levels.")
 @click.option("--max-frames", type=int, default=None)
@@ -30,19 +29,12 @@ from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, 
 @set_option
 @opt_option
 @json_option
-def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, oracle_px, renoise,
-                no_progress, overrides, estimator_opts, as_json):
+def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, oracle_px,
+                renoise, no_progress, overrides, estimator_opts, as_json):
     """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
-    from sim.app.consistency import consistency as run_mc, plot_consistency, save_npz_atomic
-    from vo.pipeline import _write_json
-    if runs < 2:
-        raise click.BadParameter("need at least 2 runs", param_hint="--runs")
+    from sim.app.consistency import consistency as run_mc, write_outputs
     res = run_mc(scenario, estimator, runs, image_noise, options=parse_opts(estimator_opts, frontend) or None,
                  progress=not (no_progress or as_json), max_frames=max_frames, workers=workers, vary=vary,
                  oracle_px=oracle_px, overrides=overrides, renoise=renoise)
-    out = Path(out_dir)
-    plot_consistency(res, out / "consistency.png")
-    _write_json(out / "consistency.json", res.to_dict())
-    if res.runs_data is not None:
-        save_npz_atomic(out / "runs.npz", res.runs_data)
-    echo_json(res.to_dict()) if as_json else click.echo(res.text() + f"\nplot: {out / 'consistency.png'}")
+    paths = write_outputs(res, out_dir)
+    echo_json(res.to_dict()) if as_json else click.echo(res.text() + f"\nplot: {paths['plot']}")

@@ -6,23 +6,11 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import click
 
 FORMATS = ("auto", "tum", "kitti", "euroc")
 ALIGNS = ("first", "se3", "sim3", "posyaw", "none")
-
-
-def _read_gcps(path):
-    from vo.dataset.base import read_gcps_csv
-    from vo.errors import DatasetError
-    if not Path(path).is_file():
-        raise DatasetError(f"{path}: GCP file not found")
-    gcps = read_gcps_csv(Path(path))
-    if not gcps:
-        raise DatasetError(f"{path}: no GCP rows (expected #name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z)")
-    return gcps
 
 
 def _finite_or_none(obj):
@@ -36,16 +24,11 @@ def _finite_or_none(obj):
     return obj
 
 
-def _write_plots(result, gcps, out_dir: Path) -> list:
-    from vo.eval.plots import plot_error_vs_distance, plot_rpe, plot_topdown
-    est = {"estimate": result.aligned_est}
-    return [plot_topdown(est, result.gt_matched, gcps, out_dir / "topdown.png"),
-            plot_error_vs_distance(result.gt_matched, est, out_dir / "error_vs_distance.png"),
-            plot_rpe({"estimate": result.rpe_frame}, out_dir / "rpe.png")]
-
-
 @click.command("eval")
-@click.option("--gt", "gt_path", required=True, type=click.Path(dir_okay=False), help="Ground-truth trajectory file.")
+@click.option("--gt", "gt_path", required=True, type=click.Path(),
+              help="Ground-truth trajectory file, or a dataset folder (ours, real EuRoC or KITTI): then the left "
+                   "camera's trajectory T_w_c0 at the frame times (EuRoC truth is the IMU/body frame; the "
+                   "extrinsics are applied), and its GCPs.")
 @click.option("--est", "est_path", required=True, type=click.Path(dir_okay=False), help="Estimated trajectory file.")
 @click.option("--format", "fmt", type=click.Choice(FORMATS), default="auto", show_default=True,
               help="Format of both files (auto: detect per file).")
@@ -58,15 +41,24 @@ def _write_plots(result, gcps, out_dir: Path) -> list:
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), default=None, help="Write PNG plots here.")
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of a table.")
 def eval_cmd(gt_path, est_path, fmt, align, gcps_path, max_diff_ms, rpe_delta_m, plot_dir, as_json):
-    """Evaluate an estimated trajectory against ground truth."""
+    """Evaluate an estimated trajectory against ground truth (coverage, ATE, RPE, drift, KITTI, GCPs).
+
+    Warns on stderr when the rotation error after alignment says the two track different frames."""
     from vo.eval import evaluate
+    from vo.pipeline import load_gcps, load_groundtruth, prepare_out_dir
     from vo.trajfile import read_trajectory
-    gt = read_trajectory(gt_path, fmt)
+    gt, gcps, note = load_groundtruth(gt_path, fmt)
     est = read_trajectory(est_path, fmt)
-    gcps = _read_gcps(gcps_path) if gcps_path else None
+    gcps = load_gcps(gcps_path) if gcps_path else (gcps or None)
+    out = prepare_out_dir(plot_dir) if plot_dir else None
     result = evaluate(gt, est, gcps=gcps, align=align, max_diff_ns=int(round(max_diff_ms * 1e6)),
                       rpe_delta_m=rpe_delta_m)
-    plots = _write_plots(result, gcps, Path(plot_dir)) if plot_dir else []
+    plots = []
+    if out:
+        from vo.eval.plots import plot_evaluation     # matplotlib only when plotting
+        plots = plot_evaluation(result, gcps, out)
+    for line in ([note] if note else []) + [f"warning: {w}" for w in result.warnings if as_json]:
+        click.echo(line, err=True)       # the table prints its warnings itself
     if as_json:
         d = _finite_or_none(result.to_dict())
         d["plots"] = [str(p) for p in plots]

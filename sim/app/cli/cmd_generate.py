@@ -1,53 +1,124 @@
-"""``vo-testbed generate``: write a synthetic dataset."""
+"""``vo-testbed generate``: write a synthetic dataset.
+
+The configuration is assembled in one order: a start (``--config FILE``, ``--scenario NAME`` or the
+defaults), then every flag given on the command line (flags win), then the ``--set`` items in order.
+The resolved whole is what ``metadata.yaml`` records.
+"""
 from __future__ import annotations
 
 import click
+from click.core import ParameterSource
 
 from sim.app.cli.options import echo_json, json_option, set_option
+
+# command-line parameter -> GenerateConfig field path (applied only when given on the command line)
+FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "seed": "seed", "fmt": "format",
+               "depth": "depth", "depth_format": "depth_format", "segmentation": "segmentation", "ideal": "ideal",
+               "images": "images", "rgb": "rgb", "vehicle": "vehicle"}
 
 
 @click.command("generate")
 @click.option("--scene", default="campus", show_default=True, help="Scene name (see `vo-testbed list`).")
-@click.option("--rig", default="cart27", show_default=True, help="Rig preset (see `vo-testbed list`).")
-@click.option("--scenario", default=None, help="Start from a named scenario instead of --scene/--rig/--duration.")
+@click.option("--rig", default="cart27", show_default=True, help="Rig preset or rig .yaml (see `vo-testbed list`).")
+@click.option("--scenario", default=None, help="Start from a named scenario (flags and --set then change it).")
+@click.option("--vehicle", default="cart", show_default=True, help="Vehicle: cart, car or rover.")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False), default=None,
-              help="YAML file whose keys are GenerateConfig fields (scene, rig, duration_s, seed, format, depth, "
-                   "segmentation, ideal, images, rgb, image_noise, overrides); command-line flags are ignored.")
+              help="Start from a YAML file whose keys are GenerateConfig fields (scene, rig, duration_s, seed, "
+                   "format, depth, depth_format, segmentation, ideal, images, vehicle, rgb, motion, render, noise; "
+                   "a dataset's metadata.yaml 'config' block is one); flags given and --set items win over it.")
 @click.option("--duration", type=float, default=None, help="Seconds to simulate; default: the whole route.")
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Output folder.")
-@click.option("--format", "fmt", type=click.Choice(["euroc", "kitti", "both"]), default="euroc", show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["euroc", "kitti", "both", "rosbag1", "rosbag2"]), default="euroc",
+              show_default=True, help="both: euroc/ and kitti/ sub-folders; rosbag1|rosbag2: EuRoC folder plus a bag "
+                                      "(dataset.bag, or rosbag2/ with MCAP storage) converted from it.")
 @click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--depth", is_flag=True, help="Also write per-frame depth (float32 m along the optical axis, .npy).")
-@click.option("--segmentation", is_flag=True, help="Also write per-frame segmentation (object id, dynamic flag).")
-@click.option("--ideal", is_flag=True, help="Turn every noise source off (IMU, image noise).")
-@click.option("--no-images", is_flag=True, help="Write IMU and ground truth only (seconds).")
-@click.option("--rgb", is_flag=True, help="Write RGB images (default: 8-bit grey, as EuRoC and KITTI odometry).")
+@click.option("--depth/--no-depth", default=False,
+              help="Also write per-frame depth along the optical axis (see --depth-format).")
+@click.option("--depth-format", type=click.Choice(["npy", "png16"]), default="npy", show_default=True,
+              help="npy: exact float32 m, inf = sky; png16: uint16 mm as TUM RGB-D, 0 = sky (26x smaller).")
+@click.option("--segmentation/--no-segmentation", default=False,
+              help="Also write per-frame segmentation (object id, dynamic flag).")
+@click.option("--ideal/--no-ideal", default=False, help="Turn every noise source off (IMU, image noise).")
+@click.option("--images/--no-images", default=True, help="--no-images: write IMU and ground truth only (seconds).")
+@click.option("--rgb/--no-rgb", default=False, help="Write RGB images (default: 8-bit grey, as EuRoC and KITTI).")
 @click.option("--overwrite", is_flag=True, help="Replace a complete dataset already in --out.")
 @click.option("--no-progress", is_flag=True)
 @set_option
 @json_option
-def generate(scene, rig, scenario, config_file, duration, out_dir, fmt, seed, depth, segmentation, ideal, no_images, rgb,
-             overwrite, no_progress, overrides, as_json):
+@click.pass_context
+def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, overrides, as_json, **flags):
     """Generate a dataset (EuRoC, KITTI or both) with exact ground truth, GCPs and a top-down PNG."""
-    from sim.config import GenerateConfig
     from sim.generate import generate as run
-    from sim.scenarios import get_scenario
 
-    if config_file:
-        from sim.config import load_generate_config
-        cfg = load_generate_config(config_file)
-    elif scenario:
-        base = get_scenario(scenario, overrides=overrides, seed=seed)
-        cfg = GenerateConfig(**{**base.to_dict(), "format": fmt, "depth": depth, "segmentation": segmentation,
-                                "ideal": ideal, "images": not no_images, "rgb": rgb,
-                                **({"duration_s": duration} if duration else {})})
-    else:
-        cfg = GenerateConfig(scene=scene, rig=rig, duration_s=duration, seed=seed, format=fmt, depth=depth,
-                             segmentation=segmentation, ideal=ideal, images=not no_images, rgb=rgb,
-                             overrides=overrides)
+    from sim.scenarios import traverse_scenarios
+    if scenario in traverse_scenarios():
+        return _traverse(ctx, scenario, config_file, out_dir, overwrite, no_progress, overrides, as_json, flags)
+    cfg = build_config(ctx, scenario, config_file, flags, overrides)
     res = run(cfg, out_dir, progress=not no_progress and not as_json, overwrite=overwrite)
     if as_json:
         echo_json(res.to_dict())
     else:
+        from sim.dataset.fanout import output_paths
+        where = " and ".join(str(p) for p in output_paths(res.out_dir, cfg.format))
         click.echo(f"wrote {res.n_frames} stereo frames, {res.n_imu} IMU samples, {res.duration_s:.1f} s, "
-                   f"{res.path_length_m:.1f} m to {res.out_dir} ({', '.join(res.formats)}); top-down: {res.topdown_png}")
+                   f"{res.path_length_m:.1f} m to {where} ({', '.join(res.formats)}); top-down: {res.topdown_png}")
+
+
+def build_config(ctx, scenario, config_file, flags: dict, overrides):
+    """Start (file, scenario or defaults) -> flags given on the command line -> ``--set`` items. The
+    plain flags are applied together, so a combination valid as a whole (``--format kitti --images``
+    over a file with ``images: false``) is accepted."""
+    import dataclasses
+    from sim.config import GenerateConfig, load_generate_config
+    from sim.scenarios import get_scenario
+
+    if config_file and scenario:
+        raise click.UsageError("give --config or --scenario, not both")
+    cfg = load_generate_config(config_file) if config_file else \
+        get_scenario(scenario) if scenario else GenerateConfig()
+    given = [n for n in FLAG_FIELDS
+             if ctx.get_parameter_source(n) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)]
+    plain = [n for n in given if "." not in FLAG_FIELDS[n] and n != "rig"]
+    for name in (n for n in given if n not in plain):            # --scene, --rig
+        cfg = _labelled([name], cfg.with_value, FLAG_FIELDS[name], flags[name])
+    cfg = _labelled(plain, dataclasses.replace, cfg, **{FLAG_FIELDS[n]: flags[n] for n in plain})
+    return cfg.with_overrides(overrides, source="--set")
+
+
+def _labelled(names: list, fn, *args, **kwargs):
+    """``fn(*args, **kwargs)``; an error is prefixed with the flag it names (or the only flag given)."""
+    from rigs.errors import TestbedError
+    try:
+        return fn(*args, **kwargs)
+    except TestbedError as exc:
+        msg = str(exc)
+        hit = [n for n in names if msg.startswith(FLAG_FIELDS[n] + ":")] or (names if len(names) == 1 else [])
+        if not hit:
+            raise
+        flag = "format" if hit[0] == "fmt" else hit[0].replace("_", "-")
+        if f"--{flag}" in msg or f"--no-{flag}" in msg:          # the message names the flag already
+            raise
+        raise type(exc)(f"--{flag}: {msg}") from None
+
+
+def _traverse(ctx, scenario, config_file, out_dir, overwrite, no_progress, overrides, as_json, flags):
+    """A stop-and-go traverse scenario: ``--set traverse.<field>=v`` items go to its TraverseConfig."""
+    from rigs.typed_config import replace_path, split_item
+    from sim.dataset.traverse_writer import generate_traverse
+    from sim.errors import SimError
+    from sim.scenarios import traverse_scenarios
+    tcfg = traverse_scenarios()[scenario]
+    rest = []
+    for item in overrides:
+        key, value = split_item(item, "--set", SimError)
+        if key.startswith("traverse."):
+            tcfg = replace_path(tcfg, key.partition(".")[2], value, SimError)
+        else:
+            rest.append(item)
+    cfg = build_config(ctx, scenario, config_file, flags, tuple(rest))
+    res = generate_traverse(cfg, tcfg, out_dir, progress=not no_progress and not as_json, overwrite=overwrite)
+    if as_json:
+        echo_json(res)
+    else:
+        click.echo(f"wrote a traverse of {res['n_sites']} sites ({res['n_pairs']} stereo pairs), "
+                   f"{res['path_length_m']:.1f} m, {res['duration_s']:.0f} s to {res['out_dir']}; map: {res['map_png']}")

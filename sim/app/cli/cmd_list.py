@@ -1,4 +1,4 @@
-"""``vo-testbed list``: scenes, rigs, IMU models, scenarios, estimators."""
+"""``vo-testbed list``: scenes, rigs, IMU models, scenarios and estimators, with their details."""
 from __future__ import annotations
 
 import click
@@ -6,23 +6,19 @@ import click
 from sim.app.cli.options import echo_json, json_option
 
 
-def catalogue() -> dict:
-    from rigs.imu_models import imu_model_names
-    from rigs.presets import rig_names
-    from scenes.registry import scene_names
-    from sim.scenarios import scenario_names
-    from vo.estimators.registry import estimator_names
-    return {"scenes": list(scene_names()), "rigs": list(rig_names()), "imu_models": list(imu_model_names()),
-            "scenarios": scenario_names(), "estimators": list(estimator_names())}
-
-
 @click.command("list")
+@click.option("--names", "names_only", is_flag=True, help="Only the names (no scene or scenario is resolved).")
 @json_option
-def list_cmd(as_json):
-    """List the built-in scenes, rigs, IMU models, scenarios and estimators."""
-    cat = catalogue()
+def list_cmd(names_only, as_json):
+    """List the built-in scenes (route length, GCPs, knobs), rigs (resolution, baseline, rates), IMU models,
+    scenarios (scene, rig, duration, frames) and estimators, and how to plug in your own."""
+    from sim.app.catalogue import catalogue, catalogue_text
+    cat = catalogue(details=not names_only)
     if as_json:
         echo_json(cat)
-        return
-    for key, names in cat.items():
-        click.echo(f"{key.replace('_', ' ')}: {', '.join(names)}")
+    elif names_only:
+        for key, names in cat.items():
+            if key != "plugins":
+                click.echo(f"{key.replace('_', ' ')}: {', '.join(names)}")
+    else:
+        click.echo(catalogue_text(cat))

@@ -11,10 +11,20 @@ def predict():
     """Error-propagation predictions: stereo range error, cross-site localisation accuracy, image-noise spread."""
 
 
+def _as_flag(flag: str, fn, *args):
+    """Call a library function whose VoError names its parameter; report it as ``flag`` (exit 2)."""
+    from vo.errors import VoError
+    try:
+        return fn(*args)
+    except VoError as e:
+        raise click.BadParameter(str(e).split(": ", 1)[-1], param_hint=f"'{flag}'") from None
+
+
 @predict.command("range")
 @click.option("--rig", "rig_name", default="stereo27", show_default=True)
 @click.option("--ranges", default="1:30", show_default=True, help="'5,10,20' or 'start:stop[:step]' metres.")
-@click.option("--sigma-p", type=float, default=1 / 3, show_default=True, help="Parallax (disparity) error, px.")
+@click.option("--sigma-p", type=click.FloatRange(min=0, min_open=True), default=1 / 3, show_default=True,
+              help="Parallax (disparity) error, px (> 0).")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None, help="Write a PNG plot.")
 @set_option
 @json_option
@@ -24,7 +34,7 @@ def range_cmd(rig_name, ranges, sigma_p, plot_path, overrides, as_json):
     from rigs.presets import get_rig
     from vo.errorprop.predict import parse_ranges, plot_range_prediction, predict_range
     rig = apply_overrides(get_rig(rig_name), list(overrides))
-    pred = predict_range(rig, parse_ranges(ranges), sigma_p)
+    pred = _as_flag("--sigma-p", predict_range, rig, _as_flag("--ranges", parse_ranges, ranges), sigma_p)
     if plot_path:
         plot_range_prediction(pred, plot_path)
     echo_json(pred.to_dict()) if as_json else click.echo(pred.table())
@@ -35,7 +45,8 @@ def range_cmd(rig_name, ranges, sigma_p, plot_path, overrides, as_json):
 @click.option("--landmarks", "landmarks_file", type=click.Path(dir_okay=False), default=None,
               help="YAML with CrossSiteConfig fields (f_px, baseline_m, sigma_p_px, sigma_theta_px, "
                    "previous_site, current_site, landmarks).")
-@click.option("--monte-carlo", "mc", type=int, default=0, help="Also run N Monte-Carlo draws of the same model.")
+@click.option("--monte-carlo", "mc", type=click.IntRange(min=0), default=0,
+              help="Also run N Monte-Carlo draws of the same model.")
 @click.option("--seed", type=int, default=0)
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None)
 @json_option

@@ -27,10 +27,10 @@ def validate():
 @click.option("--baselines", default="0.063,0.12,0.27,0.5", show_default=True, help="Baselines (m).")
 @click.option("--ranges", default="2,3,5,7,10,15,20,25,30", show_default=True, help="Board ranges (m).")
 @click.option("--matchers", default="klt,sgbm", show_default=True, help="Comma list of klt, sgbm.")
-@click.option("--image-noise", type=float, default=1.0, show_default=True, help="Gaussian noise std (grey levels).")
-@click.option("--phases", type=int, default=16, show_default=True, help="Sub-pixel disparity phases per range.")
-@click.option("--tolerance", type=float, default=0.2, show_default=True, help="Allowed |measured/predicted - 1|.")
-@click.option("--min-samples", type=int, default=30, show_default=True, help="Bins with fewer samples are not judged.")
+@click.option("--image-noise", type=click.FloatRange(min=0), default=1.0, show_default=True, help="Gaussian noise std (grey levels).")
+@click.option("--phases", type=click.IntRange(min=1), default=16, show_default=True, help="Sub-pixel disparity phases per range.")
+@click.option("--tolerance", type=click.FloatRange(min=0, min_open=True), default=0.2, show_default=True, help="Allowed |measured/predicted - 1|.")
+@click.option("--min-samples", type=click.IntRange(min=1), default=30, show_default=True, help="Bins with fewer samples are not judged.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default=None,
               help="Write range_validation.json and range_validation.png here.")
@@ -40,6 +40,9 @@ def range_cmd(rig_name, baselines, ranges, matchers, image_noise, phases, tolera
               out_dir, strict, as_json):
     """Measured vs predicted (seed 001 eq. 7) stereo range error per baseline, matcher and range."""
     from sim.app.validation.range_check import measure_range_errors
+    from vo.pipeline import prepare_out_dir
+    if out_dir:
+        prepare_out_dir(out_dir)             # an unwritable place fails now, not after the measurement
     res = measure_range_errors(baselines=_floats(baselines, "--baselines"), ranges=_floats(ranges, "--ranges"),
                                matchers=tuple(m.strip() for m in matchers.split(",") if m.strip()),
                                image_noise=image_noise, seed=seed, rig=rig_name, min_samples=min_samples,
@@ -58,7 +61,7 @@ def range_cmd(rig_name, baselines, ranges, matchers, image_noise, phases, tolera
 @validate.command("imu")
 @click.option("--scene", default="campus", show_default=True)
 @click.option("--rig", "rig_name", default="cart27", show_default=True)
-@click.option("--duration", type=float, default=60.0, show_default=True)
+@click.option("--duration", type=click.FloatRange(min=0, min_open=True), default=60.0, show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
 @json_option
 def imu_cmd(scene, rig_name, duration, seed, as_json):
@@ -70,7 +73,7 @@ def imu_cmd(scene, rig_name, duration, seed, as_json):
 
 @validate.command("allan")
 @click.option("--imu", "imu_name", default="euroc-adis16448", show_default=True)
-@click.option("--hours", type=float, default=2.0, show_default=True)
+@click.option("--hours", type=click.FloatRange(min=0, min_open=True), default=2.0, show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
 @json_option
 def allan_cmd(imu_name, hours, seed, as_json):

@@ -7,9 +7,12 @@ import click
 
 json_option = click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON instead of a table.")
 set_option = click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-                          help="Override any field: baseline=0.063, imu.rate_hz=400, imu=paper002, "
-                               "scene.texture_richness=0.3, scene.lighting=0.7, motion.vibration_pitch_deg=0.5, "
-                               "image_noise=2, render.supersample=3.")
+                          help="Set any configuration field by its dotted name (value parsed as YAML, type- and "
+                               "range-checked; applied in order, after the other flags): scene.texture_richness=0.3, "
+                               "scene.lighting=0.7, scene.shadows=true, motion.vibration_pitch_deg=0.5, "
+                               "render.supersample=3, image_noise=2 (= noise.image_sigma), seed=3, rig=stereo27; "
+                               "rig keys: baseline=0.063, imu=paper002, imu.rate_hz=400, cam0.fx=500, "
+                               "cameras.k1=0.01, wheels=none. A wrong key lists the valid ones.")
 
 
 def echo_json(obj) -> None:
@@ -30,7 +33,7 @@ def _default(o):
 
 
 opt_option = click.option("--opt", "estimator_opts", multiple=True, metavar="KEY=VALUE",
-                          help="Estimator option, e.g. --opt weights=sampson --opt cov=apost (values parsed as YAML).")
+                          help="Estimator option, e.g. --opt weights=sampson --opt cov=chain_bootstrap (values parsed as YAML).")
 
 
 def parse_opts(items, frontend=None) -> dict:

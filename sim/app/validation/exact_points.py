@@ -6,10 +6,9 @@ Shapes: pixels ``p`` (N,2) (u, v), depths ``z`` (N,), points ``X`` (N,3), poses 
 """
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
-from vo.rop.relative import normalized_points
+from rigs.geometry import pinhole
 
 PLANE_TOL = 0.005                   # max inverse-depth plane residual / inverse depth in the 5x5 window
 
@@ -42,14 +41,12 @@ def project(camera, T_w_c: np.ndarray, X_w: np.ndarray) -> tuple[np.ndarray, np.
     X_c = (np.asarray(X_w, float).reshape(-1, 3) - T_w_c[:3, 3]) @ T_w_c[:3, :3]
     if not len(X_c):
         return np.zeros((0, 2)), np.zeros(0, bool)
-    uv, _ = cv2.projectPoints(X_c, np.zeros(3), np.zeros(3), camera.K, camera.dist_coeffs)
-    return uv.reshape(-1, 2), X_c[:, 2] > 0.1
+    return pinhole.project(X_c, camera.K, camera.dist_coeffs), X_c[:, 2] > 0.1
 
 
 def backproject(camera, p: np.ndarray, z: np.ndarray) -> np.ndarray:
     """(N,3) camera-frame points at pixels ``p`` (N,2, distorted) with optical-axis depths ``z`` (N,)."""
-    xn = normalized_points(p, camera.K, camera.dist_coeffs)
-    return np.c_[xn, np.ones(len(xn))] * np.asarray(z, float).reshape(-1, 1)
+    return pinhole.backproject(p, camera.K, camera.dist_coeffs, z)
 
 
 def exact_positions(camera_a, camera_b, p_a: np.ndarray, depth_a: np.ndarray, T_a_b: np.ndarray) -> tuple:

@@ -33,11 +33,11 @@ def dead_reckoning(scene: str = "campus", rig: str = "cart27", duration_s: float
     """Integrate the exact (``--ideal``) IMU from the true initial state; compare with the truth at the end."""
     from sim.config import GenerateConfig
     from sim.generate import resolve
-    from sim.imu import imu_pose_velocity, integrate_imu, measure_imu
+    from sim.sensors.imu import imu_pose_velocity, integrate_imu, measure_imu
     from rigs.geometry import so3_log
 
     setup = resolve(GenerateConfig(scene=scene, rig=rig, duration_s=duration_s, seed=seed, ideal=True,
-                                   images=False, overrides=tuple(overrides)))
+                                   images=False).with_overrides(tuple(overrides)))
     T_b_i = setup.rig.imu.T_b_i_array
     samples = measure_imu(setup.trajectory, setup.rig.imu, setup.imu_t_ns)
     T_true, v_true = imu_pose_velocity(setup.trajectory.states(setup.imu_t_ns), T_b_i)
@@ -81,8 +81,8 @@ def allan_check(imu_name: str = "euroc-adis16448", hours: float = 2.0, seed: int
     import dataclasses
     from rigs.imu_models import get_imu_model
     from sim.allan import allan_deviation, density_at_1s, fit_white_and_walk, loglog_slope
-    from sim.imu import ImuSamples
-    from sim.imu_noise import add_imu_noise
+    from sim.sensors.imu import ImuSamples
+    from sim.sensors.imu_noise import add_imu_noise
 
     imu = get_imu_model(imu_name)
     n = int(hours * 3600 * imu.rate_hz)

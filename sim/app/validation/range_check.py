@@ -230,13 +230,7 @@ def render_board_frames(rig, ranges_m, seed: int = 0, half_angles_deg=(10.0, 7.0
 
 
 def _add_noise(img: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
-    try:
-        from sim.image_noise import add_image_noise
-    except ImportError:                                    # fallback: same model, local
-        if sigma == 0:
-            return img.copy()
-        noisy = img.astype(np.float32) + rng.normal(0.0, sigma, size=img.shape).astype(np.float32)
-        return np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+    from vo.dataset.image_noise import add_image_noise
     return add_image_noise(img, sigma, rng)
 
 

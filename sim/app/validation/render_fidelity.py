@@ -5,7 +5,7 @@ into frame k, projected with the rig model (distortion included) and sampled the
 warp is what frame k+1 would look like if the texture were painted on the surfaces. Corners of the
 warp are aligned to the rendered frame k+1 by the affine LK refinement (:mod:`vo.frontend.affine_lk`,
 started at zero displacement); their mean displacement is the texture's motion against the
-geometry (zero for a faithful renderer). Used by docs/scripts/render_fidelity_check.py and
+geometry (zero for a faithful renderer). Used by docs/studies/render_fidelity_check.py and
 tests/test_render_supersample.py.
 """
 from __future__ import annotations

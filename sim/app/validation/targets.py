@@ -153,7 +153,9 @@ class TargetScene(Scene):
             self._add_board(spec, b)
 
     def _add_ground(self, spec) -> None:
-        img = make_texture("grass", self.config.seed, self.config.texture_richness, 256)
+        from sim.rng import scene_streams
+        rng = scene_streams(self.config.seed)("texture/grass/0")
+        img = make_texture("grass", rng, self.config.texture_richness, 256)
         self._texture(spec, "tex/ground", img)
         mat = spec.add_material(name="mat/ground", specular=0.0, shininess=0.0, texuniform=True,
                                 texrepeat=[0.5, 0.5])

@@ -1,0 +1,154 @@
+"""The sweep driver: farm the cells out on Dask distributed, then build the tables and plots.
+
+By default a :class:`dask.distributed.LocalCluster` of ``workers`` processes with one thread each
+(bound to 127.0.0.1, no dashboard); with ``scheduler`` the cells go to an existing cluster (``dask
+scheduler`` + ``dask worker``, or dask-jobqueue on Slurm/PBS). Dask is the optional extra
+``vo-testbed[sweep]`` and is imported only here. Cells whose record is already in ``DIR/cells`` are
+skipped, so an interrupted sweep resumes and a finished one re-runs without work.
+
+Layout of ``DIR``: ``sweep.json`` (the spec), ``cells/<key>.json`` (one record per cell),
+``results.{csv,json}``, ``aggregate.{csv,json}``, ``plots/``; ``work/<key>`` holds a dataset being
+generated and ``datasets/<key>`` the kept ones (``keep_datasets``).
+"""
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from rigs.atomic_io import atomic_write_json
+from sim.app.sweep.cell import is_done, read_record, record_path, run_cell
+from sim.app.sweep.grid import SweepError, SweepSpec
+
+INSTALL_HINT = "the sweep needs Dask distributed: pip install 'vo-testbed[sweep]'"
+
+
+@dataclass
+class SweepSummary:
+    out_dir: Path
+    n_cells: int
+    n_skipped: int      # already done before this run
+    n_run: int
+    n_failed: int       # cells with an error (generation or any estimator), this run or before
+    wall_s: float
+    tables: list
+    plots: list
+
+
+def import_dask():
+    """``(Client, LocalCluster, as_completed)``, or SweepError with the install line."""
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise SweepError(INSTALL_HINT) from None
+    return Client, LocalCluster, as_completed
+
+
+def run_sweep(spec: SweepSpec, out_dir, workers: int = 1, scheduler=None, keep_datasets: bool = False,
+              retry_failed: bool = False, progress: bool = True, max_cells=None) -> SweepSummary:
+    """Run every cell of ``spec`` not yet done (at most ``max_cells`` of them), then write tables and plots."""
+    t0 = time.perf_counter()
+    cells = spec.cells()                                   # validates every grid value first
+    Client, LocalCluster, as_completed = import_dask()
+    out_dir = Path(out_dir).expanduser().resolve()        # workers may run in another folder
+    _write_spec(out_dir, spec)
+    todo = [c for c in cells if not is_done(read_record(out_dir, c.key), spec.estimators, retry_failed)]
+    n_skipped = len(cells) - len(todo)
+    if max_cells is not None:
+        todo = todo[:max_cells]
+    if todo:
+        with _client(Client, LocalCluster, workers, scheduler) as client:
+            _run_cells(client, as_completed, todo, spec, out_dir, keep_datasets, progress, len(cells))
+    if (out_dir / "work").is_dir() and not any((out_dir / "work").iterdir()):
+        (out_dir / "work").rmdir()
+    tables, plots, n_failed = write_report(out_dir, spec, cells)
+    return SweepSummary(out_dir, len(cells), n_skipped, len(todo), n_failed,
+                        time.perf_counter() - t0, tables, plots)
+
+
+class _client:
+    """Context manager: a Client on ``scheduler``, or on a new LocalCluster that it closes afterwards."""
+
+    def __init__(self, Client, LocalCluster, workers, scheduler):
+        self.args = Client, LocalCluster, workers, scheduler
+        self.cluster = self.client = None
+
+    def __enter__(self):
+        Client, LocalCluster, workers, scheduler = self.args
+        os.environ.setdefault("MUJOCO_GL", "egl")          # inherited by the worker processes
+        if scheduler:
+            try:
+                self.client = Client(scheduler, timeout="20s")
+            except (OSError, TimeoutError) as exc:
+                raise SweepError(f"--scheduler {scheduler!r}: cannot connect ({exc})") from None
+            return self.client
+        self.cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                    dashboard_address=None)
+        self.client = Client(self.cluster)
+        return self.client
+
+    def __exit__(self, *exc):
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+        return False
+
+
+def _run_cells(client, as_completed, todo, spec, out_dir, keep_datasets, progress, n_total) -> None:
+    from tqdm import tqdm
+    futures = {client.submit(run_cell, c, spec.estimators, str(out_dir), keep_datasets, key=f"sweep-cell-{c.key}",
+                             pure=False): c for c in todo}
+    bar = tqdm(total=n_total, initial=n_total - len(todo), unit="cell", disable=not progress, desc="sweep")
+    try:
+        for future in as_completed(futures):
+            if future.status != "finished":            # the task itself died (e.g. its worker was killed)
+                _record_crash(out_dir, futures[future], future)
+            bar.update(1)
+    finally:
+        bar.close()
+
+
+def _record_crash(out_dir, cell, future) -> None:
+    try:
+        message = f"{type(future.exception()).__name__}: {future.exception()}"
+    except Exception as exc:       # noqa: BLE001 - cancelled futures have no exception to fetch
+        message = f"{type(exc).__name__}: {exc}"
+    from sim.app.sweep.cell import RECORD_VERSION
+    atomic_write_json(record_path(out_dir, cell.key),
+                      {"version": RECORD_VERSION, "key": cell.key, "seed": cell.seed, "values": dict(cell.values),
+                       "error": message.splitlines()[0], "runs": {}}, sort_keys=True)
+
+
+def _write_spec(out_dir: Path, spec: SweepSpec) -> None:
+    atomic_write_json(out_dir / "sweep.json", spec.to_dict())
+
+
+def load_sweep(out_dir) -> SweepSpec:
+    """The spec a sweep in ``out_dir`` was run with (``sweep.json``)."""
+    path = Path(out_dir) / "sweep.json"
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise SweepError(f"{path}: not a sweep output folder ({exc})") from None
+    from sim.app.sweep.grid import parse_seeds
+    return SweepSpec(data["scenario"], tuple((k, tuple(v)) for k, v in data["grid"].items()),
+                     tuple(data["estimators"]), parse_seeds(data["seeds"]), tuple(data.get("set", ())))
+
+
+def write_report(out_dir, spec: SweepSpec, cells=None) -> tuple:
+    """Tables and plots from the records in ``out_dir`` -> ``(table paths, plot paths, failed cells)``."""
+    from sim.app.sweep.plots import plot_all
+    from sim.app.sweep.table import aggregate, tidy_rows, write_tables
+    cells = spec.cells() if cells is None else cells
+    records = [r for r in (read_record(out_dir, c.key) for c in cells) if r is not None]
+    rows = tidy_rows(records, spec.axis_keys, spec.estimators)
+    agg = aggregate(rows, spec.axis_keys)
+    tables = write_tables(out_dir, rows, agg)
+    base = spec.base_config()
+    plots = plot_all(out_dir, rows, spec.axis_keys, spec.estimators, float(base.rig.baseline),
+                     float(base.rig.cameras[0].fx)) if rows else []
+    n_failed = sum(bool(r.get("error") or any(v.get("error") for v in r.get("runs", {}).values())) for r in records)
+    return tables, plots, n_failed

@@ -1,0 +1,1 @@
+"""Test-only helpers (synthetic scenes and renderers); not part of the product."""

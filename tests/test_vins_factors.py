@@ -1,0 +1,101 @@
+"""VINS visual factor wiring, the adaptive covariance (eq. 22-27), the adaptive Huber (eq. 30), options."""
+import gtsam
+import numpy as np
+import pytest
+from gtsam.symbol_shorthand import L, X
+
+from rigs.geometry import R_from_opk_deg, inv_T, make_T
+from rigs.model import Camera, Imu, Rig
+from vo.errors import EstimatorError
+from vo.estimators.registry import make_estimator
+from vo.vins.adaptive import geometry_factor, huber_k, noise_model, visual_weight
+from vo.vins.config import VinsConfig
+from vo.vins.frontend import FeatureFrame
+from vo.vins.window import Window
+
+CAM = Camera("cam0", 640, 480, 500.0, 500.0, 320.0, 240.0,
+             T_b_c=make_T(R_from_opk_deg(-90, 0, -90), [0.2, 0.05, 1.0]))
+IMU = Imu(T_b_i=make_T(R_from_opk_deg(3, -2, 91), [0.1, -0.3, 0.7]))
+
+
+def test_projection_factor_zero_at_truth_and_sees_errors():
+    """Window's reprojection factor (IMU pose key, T_i_c as body_P_sensor, undistorted pixels): zero residual
+    at the true IMU pose and point; a 1 cm lateral camera shift at 5 m gives 500 * 0.01 / 5 = 1 px."""
+    T_i_c = inv_T(IMU.T_b_i_array) @ CAM.T_b_c_array
+    w = Window(VinsConfig(robust="none"), CAM, T_i_c, None, None)
+    T_w_i = make_T(R_from_opk_deg(5, 10, 40), [3.0, -2.0, 1.5])
+    T_w_c = T_w_i @ T_i_c
+    p_c = np.array([0.4, -0.3, 5.0])
+    p_w = T_w_c[:3, :3] @ p_c + T_w_c[:3, 3]
+    xy = p_c[:2] / p_c[2]
+    st = w.add_state(0, FeatureFrame(0, np.array([7]), np.zeros((1, 2)), xy[None], np.array([3])), True,
+                     T_w_i, np.zeros(3), gtsam.imuBias.ConstantBias())
+    w.add_landmark(7, p_w)
+    f = w._factor(st, 7, xy)
+    assert np.abs(f.unwhitenedError(w.values)).max() < 1e-9
+    T_shift = T_w_c @ make_T(np.eye(3), [0.01, 0, 0]) @ inv_T(T_i_c)
+    w.values.update(X(st.k), gtsam.Pose3(T_shift))
+    r = f.unwhitenedError(w.values)
+    assert abs(np.linalg.norm(r) - 500 * 0.01 / 5.0) < 1e-3, r
+    assert w.values.exists(L(w.lm[7]))
+
+
+def test_geometry_factor_matches_pdop():
+    """eq. 22-25: six features on the +-x, +-y, +-z axes (any ranges): H^T H = 2 I, g_f = sqrt(3/2)."""
+    cam = np.array([1.0, 2.0, 3.0])
+    dirs = np.vstack([np.eye(3), -np.eye(3)]) * np.array([2.0, 5.0, 9.0, 1.0, 3.0, 7.0])[:, None]
+    assert geometry_factor(cam + dirs, cam) == pytest.approx(np.sqrt(1.5), rel=1e-12)
+    # features bunched in a narrow forward cone (paper Fig. 6b) have a worse (larger) g_f than spread ones
+    rng = np.random.default_rng(0)
+    def cone(half_angle):
+        a = rng.uniform(-half_angle, half_angle, (100, 2))
+        return np.column_stack([np.tan(a[:, 0]), np.tan(a[:, 1]), np.ones(100)]) * 10.0
+    assert geometry_factor(cone(0.1), np.zeros(3)) > 3 * geometry_factor(cone(0.6), np.zeros(3))
+    assert np.isnan(geometry_factor(np.ones((2, 3)), np.zeros(3)))
+
+
+@pytest.mark.parametrize("preset, g_f, n, weight", [
+    ("vins", 0.5, 10, 1.0),                      # eq. 27: fixed 1.5 px at F_c = 460
+    ("vins-ac-gf", 0.5, 10, 2.0),                # 1 / g_f
+    ("vins-ac", 0.5, 10, 10 * 0.02 / 0.5),       # N s / g_f (eq. 26)
+    ("vins-ac-me", 0.5, 40, 40 * 0.02 / 0.5),
+])
+def test_adaptive_weight_and_sigma(preset, g_f, n, weight):
+    cfg = VinsConfig.from_options(preset, {})
+    assert visual_weight(cfg, g_f, n) == pytest.approx(weight)
+    base = noise_model(cfg, g_f, n, fx=920.0)
+    sigma = 1.5 / 460.0 * 920.0 / weight
+    inner = base.noise() if hasattr(base, "noise") else base
+    assert inner.sigmas() == pytest.approx([sigma, sigma])
+
+
+def test_huber_thresholds():
+    assert huber_k(VinsConfig.from_options("vins-ac-me", {}), 35) == pytest.approx(0.02 * 35)     # eq. 30
+    assert huber_k(VinsConfig.from_options("vins-huber", {"robust_k": 1.5}), 35) == 1.5
+    assert huber_k(VinsConfig.from_options("vins", {}), 35) is None
+    # the robust model is applied to the whitened residual: weight 1 inside k, k/|e| outside
+    m = noise_model(VinsConfig.from_options("vins-ac-me", {}), 0.5, 50, fx=460.0)    # k = 1
+    assert m.robust().weight(0.5) == pytest.approx(1.0) and m.robust().weight(4.0) == pytest.approx(0.25)
+
+
+@pytest.mark.parametrize("options, match", [
+    ({"window_size": 2}, "window_size"), ({"robust": "tukey"}, "robust"), ({"s": 0}, r"option s\b"),
+    ({"imu_noise": "fast"}, "imu_noise"), ({"init_keyframes": 20}, "init_keyframes"), ({"bogus": 1}, "bogus"),
+    ({"init": "gps"}, r"option init\b"), ({"covariance": "every"}, "covariance"),
+    ({"init_min_keyframes": 12}, "init_min_keyframes"),
+])
+def test_bad_options_are_one_line_errors(options, match):
+    with pytest.raises(EstimatorError, match=match) as e:
+        VinsConfig.from_options("vins", options)
+    assert "\n" not in str(e.value)
+
+
+def test_registered_and_needs_imu():
+    rig = Rig("mono-imu", (CAM,), imu=IMU)
+    for name in ("vins", "vins-ac-gf", "vins-ac", "vins-ac-me", "vins-huber", "vins-oracle"):
+        assert make_estimator(name, rig).name == name
+    est = make_estimator("vins", rig)
+    with pytest.raises(EstimatorError, match="imu0"):
+        est.set_imu(None)
+    with pytest.raises(EstimatorError, match="imu0"):          # process() before any IMU was given
+        est.process(None)

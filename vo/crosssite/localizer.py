@@ -1,0 +1,141 @@
+"""The cross-site localizer (seed 001 §2): site k against site k-1, whose pose is held fixed.
+
+Stages 1-5 (:mod:`vo.crosssite.ties`) give tie points; stage 6 the initial values (space
+intersection at the previous site, resection at the current one, eq. 3); stage 7 the bundle
+adjustment (:mod:`vo.crosssite.bundle`). Without tie points (``no_tie_points``) or with fewer than
+``min_tie_points`` after the outlier test, a failed resection/BA, or a BA pose farther from the prior
+than ``prior_gate_chi2`` (a periodic texture can give a consistent wrong solution) (``few_tie_points``) the
+dead-reckoning pose is kept and its covariance multiplied by ``inflate``: never an exception or NaN
+for data that merely do not match.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Optional, Sequence
+
+import numpy as np
+
+from rigs.geometry import inv_T
+from vo.crosssite.bundle import TieObservations, bundle_adjust
+from vo.crosssite.config import CrossSiteConfig
+from vo.crosssite.initial import resection
+from vo.crosssite.ties import TieSet, body_points, candidate_ties, stereo_and_consistency
+from vo.crosssite.types import Site, SiteResult
+
+
+def _fallback(cur: Site, status: str, cfg, ties: Optional[TieSet], reason: str, timings) -> SiteResult:
+    return SiteResult(cur.index, status, cur.T_w_b_prior.copy(), cur.cov_prior * cfg.inflate,
+                      int(ties.inlier.sum()) if ties is not None and ties.inlier is not None else 0,
+                      dict(ties.stats) if ties is not None else {}, timings, reason)
+
+
+def initial_pose(cur: Site, T_w_b_prev, prev: Site, ties: TieSet, idx, cfg) -> tuple:
+    """Stage 6: tie points in w by intersection at the previous site; resection of each current left
+    image that sees >= ``min_tie_points`` of them; the pair with most inliers gives ``T_w_b``.
+    -> (T_w_b initial, P_w (n,3)); the prior when every resection fails."""
+    K, B = cur.cal.K, cur.cal.baseline
+    P_b, _ = body_points(prev, ties.pair_prev[idx], ties.uv_prev[idx], ties.ur_prev[idx], K, B)
+    P_w = P_b @ T_w_b_prev[:3, :3].T + T_w_b_prev[:3, 3]
+    best, T_best = 0, None
+    for j in np.unique(ties.pair_cur[idx]):
+        s = ties.pair_cur[idx] == j
+        if s.sum() < cfg.min_tie_points:
+            continue
+        T_b_c0 = cur.pairs[j].T_b_c0
+        r = resection(P_w[s], ties.uv_cur[idx][s], K, cur.T_w_b_prior @ T_b_c0, cfg.pnp_reproj_px, seed=cur.index)
+        if r is not None and len(r[1]) > best:
+            best, T_best = len(r[1]), r[0] @ inv_T(T_b_c0)
+    return (T_best if T_best is not None else cur.T_w_b_prior), P_w
+
+
+def _resection_inliers(cur: Site, T_w_b, P_w, ties: TieSet, idx, cfg) -> np.ndarray:
+    """(n,) bool: tie points whose reprojection into their current left image under the resected
+    pose is within ``pnp_reproj_px`` (the resection's RANSAC consensus, extended to all pairs)."""
+    from vo.crosssite.regions import project
+    keep = np.zeros(len(idx), bool)
+    for j in np.unique(ties.pair_cur[idx]):
+        s = ties.pair_cur[idx] == j
+        uv, z = project(T_w_b @ cur.pairs[j].T_b_c0, cur.cal.K, P_w[s])
+        keep[s] = (z > 0) & (np.linalg.norm(uv - ties.uv_cur[idx][s], axis=1) <= cfg.pnp_reproj_px)
+    return keep
+
+
+def _prior_mahalanobis(cur: Site, T_w_b) -> float:
+    """Squared Mahalanobis distance of ``T_w_b`` from the dead-reckoning prior under its covariance."""
+    import gtsam
+    xi = gtsam.Pose3.Logmap(gtsam.Pose3(cur.T_w_b_prior).between(gtsam.Pose3(np.asarray(T_w_b, float))))
+    return float(xi @ np.linalg.solve(cur.cov_prior, xi))
+
+
+def _observations(ties: TieSet, idx) -> TieObservations:
+    n = len(idx)
+    return TieObservations(np.r_[np.zeros(n, int), np.ones(n, int)], np.r_[ties.pair_prev[idx], ties.pair_cur[idx]],
+                           np.r_[np.arange(n), np.arange(n)], np.vstack([ties.uv_prev[idx], ties.uv_cur[idx]]),
+                           np.r_[ties.ur_prev[idx], ties.ur_cur[idx]])
+
+
+def _subsample(idx: np.ndarray, n_max: int) -> np.ndarray:
+    if len(idx) <= n_max:
+        return idx
+    return idx[np.linspace(0, len(idx) - 1, n_max).round().astype(int)]
+
+
+def localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSiteConfig = CrossSiteConfig()) -> SiteResult:
+    """Localize ``cur`` against ``prev`` whose body pose ``T_w_b_prev`` is held fixed."""
+    t0 = time.perf_counter()
+    T_w_b_prev = np.asarray(T_w_b_prev, float)
+    ties = candidate_ties(prev, T_w_b_prev, cur, cfg)
+    timings = dict(ties.timings_s)
+    if len(ties.pair_prev) == 0:
+        timings["total"] = time.perf_counter() - t0
+        return _fallback(cur, "no_tie_points", cfg, ties, "no ASIFT matches in the predicted regions", timings)
+    ties = stereo_and_consistency(prev, cur, ties, cfg, T_w_b_prev)
+    timings.update(ties.timings_s)
+    idx = _subsample(np.flatnonzero(ties.inlier), cfg.max_ba_points)
+    if len(idx) < cfg.min_tie_points:
+        timings["total"] = time.perf_counter() - t0
+        status = "no_tie_points" if ties.stereo_ok.sum() == 0 else "few_tie_points"
+        return _fallback(cur, status, cfg, ties, f"{len(idx)} tie points after the outlier test", timings)
+    t1 = time.perf_counter()
+    T_init, P_w = initial_pose(cur, T_w_b_prev, prev, ties, idx, cfg)
+    keep = _resection_inliers(cur, T_init, P_w, ties, idx, cfg)
+    if keep.sum() < cfg.min_tie_points:
+        timings.update(initial=time.perf_counter() - t1, total=time.perf_counter() - t0)
+        return _fallback(cur, "few_tie_points", cfg, ties, f"{int(keep.sum())} tie points agree with the resection",
+                         timings)
+    idx, P_w = idx[keep], P_w[keep]
+    t2 = time.perf_counter()
+    try:
+        res = bundle_adjust(T_w_b_prev, T_init, [[p.T_b_c0 for p in prev.pairs], [p.T_b_c0 for p in cur.pairs]],
+                            _observations(ties, idx), P_w, cur.cal.K, cur.cal.baseline, cfg.ba_sigma_px,
+                            cfg.ba_huber_k, cfg.mast_sigma_rad, cfg.mast_sigma_m)
+    except RuntimeError as e:  # gtsam: indeterminant system, cheirality
+        timings.update(initial=t2 - t1, bundle=time.perf_counter() - t2, total=time.perf_counter() - t0)
+        return _fallback(cur, "few_tie_points", cfg, ties, f"bundle adjustment failed: {' '.join(str(e).split())[:160]}",
+                         timings)
+    timings.update(initial=t2 - t1, bundle=time.perf_counter() - t2, total=time.perf_counter() - t0)
+    if not (np.all(np.isfinite(res.T_w_b)) and np.all(np.isfinite(res.cov))
+            and np.linalg.eigvalsh(0.5 * (res.cov + res.cov.T)).min() > 0):
+        return _fallback(cur, "few_tie_points", cfg, ties, "bundle adjustment gave a non-finite pose", timings)
+    d2 = _prior_mahalanobis(cur, res.T_w_b)
+    if d2 > cfg.prior_gate_chi2:
+        return _fallback(cur, "few_tie_points", cfg, ties, f"BA pose disagrees with the prior (chi2 {d2:.1f} > "
+                         f"{cfg.prior_gate_chi2})", timings)
+    stats = dict(ties.stats, n_ba_points=len(idx), prior_chi2=round(d2, 2), ba_rms_px=round(res.rms_px, 4), ba_iterations=res.iterations)
+    return SiteResult(cur.index, "ok", res.T_w_b, res.cov, int(ties.inlier.sum()), stats, timings)
+
+
+def localize_traverse(sites: Sequence[Site], T_w_b0: np.ndarray, cfg: CrossSiteConfig = CrossSiteConfig()) -> list:
+    """Sites in driving order, site 0 at the known ``T_w_b0``: each site against the previous one's
+    estimate (or kept prior). The dead-reckoning prior of site k is moved with the previous site's
+    correction, ``T_prev_est @ inv(T_prev_prior) @ T_k_prior`` (the drive's relative motion is the
+    dead reckoning's; its covariance is kept). -> [SiteResult] for sites 1..n-1."""
+    out, T_prev = [], np.asarray(T_w_b0, float)
+    for prev, cur in zip(sites[:-1], sites[1:]):
+        shift = T_prev @ inv_T(prev.T_w_b_prior)
+        cur_c = dataclasses.replace(cur, T_w_b_prior=shift @ cur.T_w_b_prior)
+        r = localize_site(prev, T_prev, cur_c, cfg)
+        out.append(r)
+        T_prev = r.T_w_b
+    return out

@@ -1,0 +1,191 @@
+"""Tie points between two sites: stages 1-5 of seed 001 §2 (regions, Wallis, ASIFT, stereo ZNCC +
+LSM, distance consistency) on :class:`vo.crosssite.types.Site` records."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vo.crosssite import asift, regions, wallis
+from vo.crosssite.consistency import distance_consistency, range_sigma
+from vo.crosssite.initial import intersect_rectified
+from vo.crosssite.zncc import match_stereo
+
+
+@dataclass
+class TieSet:
+    """Candidate ties between previous pair ``pair_prev[k]`` pixel ``uv_prev[k]`` and current pair
+    ``pair_cur[k]`` pixel ``uv_cur[k]``; after stereo: right columns ``ur_prev``, ``ur_cur`` and
+    ``stereo_ok``; after eq. 2: ``inlier``. ``boxes[(i, j)]`` the predicted regions."""
+
+    pair_prev: np.ndarray
+    uv_prev: np.ndarray
+    pair_cur: np.ndarray
+    uv_cur: np.ndarray
+    ur_prev: np.ndarray = None
+    ur_cur: np.ndarray = None
+    stereo_ok: np.ndarray = None
+    inlier: np.ndarray = None
+    boxes: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
+    timings_s: dict = field(default_factory=dict)
+
+
+def pair_regions(prev, T_w_b_prev, cur, cfg) -> dict:
+    """{(i, j): (box prev, box cur)} for every pair combination whose predicted regions exist."""
+    K, W, H = cur.cal.K, cur.cal.width, cur.cal.height
+    fn = regions.forward_forward if cfg.mode == "ff" else regions.forward_backward
+    out = {}
+    for i, pp in enumerate(prev.pairs):
+        for j, pc in enumerate(cur.pairs):
+            if not cfg.use_regions:
+                out[(i, j)] = ((0, 0, W, H), (0, 0, W, H))
+                continue
+            bp, bc = fn(T_w_b_prev @ pp.T_b_c0, cur.T_w_b_prior @ pc.T_b_c0, cur.T_w_b_prior, cur.cov_prior,
+                        K, W, H, cfg.region_max_range_m, cfg.region_sigma)
+            if bp is not None and bc is not None:
+                out[(i, j)] = (bp, bc)
+    return out
+
+
+def predicted_tilt(prev, T_w_b_prev, cur, boxes, cfg) -> tuple:
+    """Median predicted transition tilt (and its scale) over the region pairs, at the ground point
+    seen at each current box centre."""
+    K = cur.cal.K
+    found = []
+    for (i, j), (_, bc) in boxes.items():
+        T_w_c = cur.T_w_b_prior @ cur.pairs[j].T_b_c0
+        ray = np.linalg.solve(K, [(bc[0] + bc[2]) / 2, (bc[1] + bc[3]) / 2, 1.0])
+        d_w, o_w = T_w_c[:3, :3] @ ray, T_w_c[:3, 3]
+        z0 = cur.T_w_b_prior[2, 3]
+        if d_w[2] >= -1e-6:
+            continue
+        p = o_w + d_w * (z0 - o_w[2]) / d_w[2]
+        tau, s = asift.transition(T_w_b_prev @ prev.pairs[i].T_b_c0, T_w_c, K, p)
+        found.append((tau, s))
+    return tuple(float(v) for v in np.median(np.array(found), axis=0)) if found else (1.0, 1.0)
+
+
+def _enhanced(prev, cur, boxes, cfg) -> tuple:
+    """Left images after the Wallis filter (eq. 1), both towards the current regions' statistics."""
+    W, H = cur.cal.width, cur.cal.height
+    if not cfg.use_wallis:
+        return [p.left for p in prev.pairs], [p.left for p in cur.pairs]
+    sel = [cur.pairs[j].left[regions.box_mask(bc, W, H) > 0] for (_, j), (_, bc) in boxes.items()]
+    vals = np.concatenate(sel) if sel else np.concatenate([p.left.ravel() for p in cur.pairs])
+    m_f, s_f = float(vals.mean()), max(float(vals.std()), 1.0)
+    f = lambda im: wallis.wallis(im, m_f, s_f, cfg.wallis_b, cfg.wallis_c, cfg.wallis_window_px)  # noqa: E731
+    return [f(p.left) for p in prev.pairs], [f(p.left) for p in cur.pairs]
+
+
+def _detect_all(images, masks, tilts, cfg):
+    return [asift.detect(im, m, tilts, cfg.sift_features, cfg.use_asift) if m is not None and np.any(m)
+            else (np.zeros((0, 2)), np.zeros((0, 128), np.float32)) for im, m in zip(images, masks)]
+
+
+def candidate_ties(prev, T_w_b_prev, cur, cfg) -> TieSet:
+    """Stages 1-3: regions, Wallis, ASIFT (or SIFT) matching inside the regions."""
+    t0 = time.perf_counter()
+    W, H = cur.cal.width, cur.cal.height
+    boxes = pair_regions(prev, T_w_b_prev, cur, cfg)
+    tau, scale = predicted_tilt(prev, T_w_b_prev, cur, boxes, cfg)
+    tilts = asift.tilt_set(tau, cfg.asift_max_tilt)
+    t1 = time.perf_counter()
+    imgs_p, imgs_c = _enhanced(prev, cur, boxes, cfg)
+    t2 = time.perf_counter()
+    mask_p = [_union([bp for (i, _), (bp, _) in boxes.items() if i == k], W, H) for k in range(len(prev.pairs))]
+    mask_c = [_union([bc for (_, j), (_, bc) in boxes.items() if j == k], W, H) for k in range(len(cur.pairs))]
+    feats_p, feats_c = _detect_all(imgs_p, mask_p, tilts, cfg), _detect_all(imgs_c, mask_c, tilts, cfg)
+    rows = []
+    for (i, j), (bp, bc) in boxes.items():
+        (uv_a, d_a), (uv_b, d_b) = feats_p[i], feats_c[j]
+        ia, ib = np.flatnonzero(regions.in_box(uv_a, bp)), np.flatnonzero(regions.in_box(uv_b, bc))
+        for a, b in asift.match(d_a[ia], d_b[ib], cfg.ratio):
+            rows.append((i, *uv_a[ia[a]], j, *uv_b[ib[b]]))
+    r = _unique(np.array(rows, float).reshape(-1, 6))
+    ties = TieSet(r[:, 0].astype(int), r[:, 1:3], r[:, 3].astype(int), r[:, 4:6], boxes=boxes)
+    ties.stats.update(tilts=[round(t, 3) for t in tilts], predicted_tilt=round(tau, 3), predicted_scale=round(scale, 3),
+                      n_region_pairs=len(boxes), n_features_prev=sum(len(f[0]) for f in feats_p),
+                      n_features_cur=sum(len(f[0]) for f in feats_c), n_candidates=len(r))
+    ties.timings_s.update(regions=t1 - t0, wallis=t2 - t1, asift=time.perf_counter() - t2)
+    return ties
+
+
+def _union(boxes, W, H):
+    if not boxes:
+        return None
+    m = np.zeros((H, W), np.uint8)
+    for b in boxes:
+        m |= regions.box_mask(b, W, H)
+    return m
+
+
+def _unique(r: np.ndarray) -> np.ndarray:
+    """One tie per previous keypoint and per current keypoint (ASIFT repeats a point over views)."""
+    if len(r) == 0:
+        return r
+    _, first_p = np.unique(np.round(r[:, :3], 1), axis=0, return_index=True)
+    r = r[np.sort(first_p)]
+    _, first_c = np.unique(np.round(r[:, 3:], 1), axis=0, return_index=True)
+    return r[np.sort(first_c)]
+
+
+def prior_gate(prev, T_w_b_prev, cur, ties: TieSet, idx, P_b_prev, cfg) -> np.ndarray:
+    """(len(idx),) bool: the tie's current pixel lies within the predicted region of its own point,
+    the §2.1 region applied point by point: the previous-site intersection moved into the current
+    image with the prior pose, within ``region_sigma`` prior sigmas (``regions.prior_margin_px``)."""
+    ok = np.zeros(len(idx), bool)
+    P_w = P_b_prev @ T_w_b_prev[:3, :3].T + T_w_b_prev[:3, 3]
+    for j in np.unique(ties.pair_cur[idx]):
+        s = ties.pair_cur[idx] == j
+        uv, z = regions.project(cur.T_w_b_prior @ cur.pairs[j].T_b_c0, cur.cal.K, P_w[s])
+        margin = np.array([regions.prior_margin_px(cur.cov_prior, cur.cal.f, max(d, 0.5), cfg.region_sigma) for d in z])
+        ok[s] = (z > 0) & (np.linalg.norm(uv - ties.uv_cur[idx][s], axis=1) <= margin + 3.0)
+    return ok
+
+
+def stereo_and_consistency(prev, cur, ties: TieSet, cfg, T_w_b_prev=None) -> TieSet:
+    """Stages 4-5: ZNCC + median + LSM stereo matching at both sites, then eq. 2 on the survivors."""
+    t0 = time.perf_counter()
+    f, B, K = cur.cal.f, cur.cal.baseline, cur.cal.K
+    n = len(ties.pair_prev)
+    ur = {}
+    ok = np.ones(n, bool)
+    for name, site, pair_idx, uv in (("prev", prev, ties.pair_prev, ties.uv_prev), ("cur", cur, ties.pair_cur, ties.uv_cur)):
+        u_r = np.full(n, np.nan)
+        for k in np.unique(pair_idx):
+            sel = np.flatnonzero(pair_idx == k)
+            m = match_stereo(site.pairs[k].left, site.pairs[k].right, uv[sel], f, B, cfg)
+            u_r[sel] = m.uv_r[:, 0]
+        ur[name] = u_r
+        ok &= np.isfinite(u_r)
+    ties.ur_prev, ties.ur_cur, ties.stereo_ok = ur["prev"], ur["cur"], ok
+    t1 = time.perf_counter()
+    idx = np.flatnonzero(ok)
+    P1, P2 = body_points(prev, ties.pair_prev[idx], ties.uv_prev[idx], ur["prev"][idx], K, B), \
+        body_points(cur, ties.pair_cur[idx], ties.uv_cur[idx], ur["cur"][idx], K, B)
+    if T_w_b_prev is not None and cfg.use_regions:
+        g = prior_gate(prev, T_w_b_prev, cur, ties, idx, P1[0], cfg)
+        idx, P1, P2 = idx[g], (P1[0][g], P1[1][g]), (P2[0][g], P2[1][g])
+    ties.stats.update(n_prior_gate=int(len(idx)))
+    s1 = range_sigma(P1[1], f, B, cfg.sigma_p_px)
+    s2 = range_sigma(P2[1], f, B, cfg.sigma_p_px)
+    inl, _ = distance_consistency(P1[0], P2[0], s1, s2, cfg.consistency_abs_m, cfg.consistency_k_sigma,
+                                  cfg.weight_fraction, cfg.consistency_iterations)
+    ties.inlier = np.zeros(n, bool)
+    ties.inlier[idx[inl]] = True
+    ties.stats.update(n_stereo_ok=int(ok.sum()), n_consistent=int(ties.inlier.sum()))
+    ties.timings_s.update(stereo=t1 - t0, consistency=time.perf_counter() - t1)
+    return ties
+
+
+def body_points(site, pair_idx, uv_l, u_r, K, B) -> tuple:
+    """(points in the site's body frame (N,3), in the camera frames (N,3)) by space intersection."""
+    P_c = intersect_rectified(uv_l, u_r, K, B)
+    P_b = np.empty_like(P_c)
+    for k in np.unique(pair_idx):
+        s = pair_idx == k
+        T = site.pairs[k].T_b_c0
+        P_b[s] = P_c[s] @ T[:3, :3].T + T[:3, 3]
+    return P_b, P_c

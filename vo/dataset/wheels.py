@@ -1,0 +1,33 @@
+"""``wheels.csv`` (``#timestamp [ns],left_ticks,right_ticks``) -> :class:`vo.dataset.types.WheelData`."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from vo.dataset.types import WheelData
+from vo.errors import DatasetError
+
+
+def read_wheels_csv(path: Path) -> Optional[WheelData]:
+    """Strictly parsed wheel ticks; None when the file does not exist (no wheels recorded)."""
+    from vo.dataset.csvio import data_lines
+    path = Path(path)
+    if not path.is_file():
+        return None
+    rows = []
+    for n, line in data_lines(path, "wheels"):
+        parts = line.split(",")
+        if len(parts) != 3:
+            raise DatasetError(f"{path}: line {n}: expected 3 comma-separated values, got {len(parts)}")
+        try:
+            rows.append([int(p) for p in parts])
+        except ValueError:
+            raise DatasetError(f"{path}: line {n}: expected t_ns,left_ticks,right_ticks integers, "
+                               f"got {line[:60]!r}") from None
+    a = np.array(rows, dtype=np.int64).reshape(-1, 3)
+    if a.shape[0] > 1 and np.any(np.diff(a[:, 0]) <= 0):
+        k = int(np.argmax(np.diff(a[:, 0]) <= 0))
+        raise DatasetError(f"{path}: timestamps must increase strictly (row {k + 2} of the data)")
+    return WheelData(a[:, 0].copy(), a[:, 1].copy(), a[:, 2].copy())

@@ -1,0 +1,153 @@
+"""Dead-reckoning EKF: gyro-integrated attitude with accelerometer tilt updates, wheel odometry for
+the distance travelled along the body x axis.
+
+State ``x = (p_w (3), roll, pitch, yaw)`` (Euler ZYX, ``R_w_b = R_z(yaw) R_y(pitch) R_x(roll)``),
+filterpy's :class:`~filterpy.kalman.ExtendedKalmanFilter` with a nonlinear prediction per IMU
+interval ``[t_k, t_k+1]``: ``R <- R Exp(omega_b dt)``, ``p <- p + R (ds, 0, 0)`` with ``ds`` the mean
+of the two wheels' distances over the interval (cumulative ticks interpolated at the IMU times). The
+Jacobians are central differences. Process noise: white gyro noise (``gyro_noise_density^2 dt``)
+and wheel slip (``(slip_std ds)^2`` plus the tick quantum). Update: roll and pitch from the
+accelerometer (gravity direction) when ``| |a| - g |`` is below ``tilt_gate_mps2``. Gyro biases are
+not estimated (a rover calibrates them at rest). Output covariances use the pose tangent of
+:mod:`vo.crosssite.types` (right perturbation, ``rot_b``, ``trans_b``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter
+
+from rigs.geometry import make_T, so3_exp, so3_log
+from vo.errors import VoError
+
+G = 9.81
+
+
+@dataclass(frozen=True)
+class DeadReckoningConfig:
+    """Noise and wheel parameters (SI units). ``wheel_radius_m``, ``ticks_per_rev`` as in ``rig.wheels``."""
+
+    wheel_radius_m: float
+    ticks_per_rev: int
+    gyro_noise_density: float = 1e-4   # rad/s/sqrt(Hz)
+    slip_std: float = 0.01             # relative distance error per interval (1 sigma)
+    tilt_sigma_rad: float = 0.02       # accelerometer tilt measurement (vehicle accelerations)
+    tilt_gate_mps2: float = 0.3
+    tilt_update_every: int = 20        # IMU samples between tilt updates
+
+    def __post_init__(self):
+        for f in ("wheel_radius_m", "tilt_sigma_rad", "tilt_gate_mps2"):
+            if not float(getattr(self, f)) > 0:
+                raise VoError(f"deadreckoning.{f}: must be positive, got {getattr(self, f)!r}")
+        for f in ("gyro_noise_density", "slip_std"):
+            if not float(getattr(self, f)) >= 0:
+                raise VoError(f"deadreckoning.{f}: must be non-negative, got {getattr(self, f)!r}")
+        for f in ("ticks_per_rev", "tilt_update_every"):
+            if int(getattr(self, f)) < 1:
+                raise VoError(f"deadreckoning.{f}: must be a positive integer, got {getattr(self, f)!r}")
+
+
+def R_from_euler(rpy) -> np.ndarray:
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def euler_from_R(R) -> np.ndarray:
+    return np.array([np.arctan2(R[2, 1], R[2, 2]), -np.arcsin(np.clip(R[2, 0], -1, 1)), np.arctan2(R[1, 0], R[0, 0])])
+
+
+def _f(x, omega_b, dt, ds):
+    R = R_from_euler(x[3:])
+    R1 = R @ so3_exp(np.asarray(omega_b) * dt)
+    return np.r_[x[:3] + R @ np.array([ds, 0.0, 0.0]), euler_from_R(R1)]
+
+
+def _num_jac(fun, x0, eps=1e-6):
+    f0 = fun(x0)
+    J = np.empty((f0.size, x0.size))
+    for k in range(x0.size):
+        d = np.zeros(x0.size)
+        d[k] = eps
+        diff = fun(x0 + d) - fun(x0 - d)
+        diff[3:] = (diff[3:] + np.pi) % (2 * np.pi) - np.pi if f0.size == 6 else diff[3:]
+        J[:, k] = diff / (2 * eps)
+    return J
+
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+@dataclass(frozen=True)
+class DeadReckoning:
+    """Filter output at the IMU times: ``t_ns`` (N,), ``T_w_b`` (N,4,4), ``cov`` (N,6,6) (rot_b, trans_b)."""
+
+    t_ns: np.ndarray
+    T_w_b: np.ndarray
+    cov: np.ndarray
+
+    def at(self, t_ns) -> tuple:
+        """(T_w_b (M,4,4), cov (M,6,6)) at the output sample nearest each of ``t_ns``."""
+        t = np.atleast_1d(np.asarray(t_ns, np.int64))
+        if t.min() < self.t_ns[0] or t.max() > self.t_ns[-1]:
+            raise VoError(f"dead reckoning: requested times outside [{self.t_ns[0]}, {self.t_ns[-1]}] ns")
+        k = np.clip(np.searchsorted(self.t_ns, t), 1, len(self.t_ns) - 1)
+        k = np.where(t - self.t_ns[k - 1] < self.t_ns[k] - t, k - 1, k)
+        return self.T_w_b[k], self.cov[k]
+
+
+def _tangent_cov(x, P) -> np.ndarray:
+    """Covariance of the state (p_w, euler) -> pose tangent (rot_b, trans_b) by a numerical Jacobian."""
+    R0 = R_from_euler(x[3:])
+
+    def g(xx):
+        R = R_from_euler(xx[3:])
+        return np.r_[so3_log(R0.T @ R), R0.T @ (xx[:3] - x[:3])]
+    J = _num_jac(g, x)
+    return J @ P @ J.T
+
+
+def dead_reckon(imu, wheels, R_b_i: np.ndarray, T_w_b0: np.ndarray, P0: np.ndarray,
+                cfg: DeadReckoningConfig) -> DeadReckoning:
+    """Run the EKF from ``T_w_b0`` (state covariance ``P0`` (6,6) over (p_w, roll, pitch, yaw)) over the
+    IMU samples ``imu`` (t_ns, gyro, accel in the IMU frame, rotated to b by ``R_b_i``) and the wheel
+    ticks ``wheels`` (t_ns, left_ticks, right_ticks)."""
+    t = np.asarray(imu.t_ns, np.int64)
+    if len(t) < 2 or np.any(np.diff(t) <= 0):
+        raise VoError("dead reckoning: need two or more strictly increasing IMU times")
+    if wheels.t_ns[0] > t[0] or wheels.t_ns[-1] < t[-1]:
+        raise VoError("dead reckoning: wheel ticks must cover the IMU time span")
+    gyro_b, acc_b = np.asarray(imu.gyro) @ R_b_i.T, np.asarray(imu.accel) @ R_b_i.T
+    per_tick = 2 * np.pi * cfg.wheel_radius_m / cfg.ticks_per_rev
+    dist = 0.5 * (np.asarray(wheels.left_ticks) + np.asarray(wheels.right_ticks)) * per_tick
+    s = np.interp(t.astype(float), np.asarray(wheels.t_ns, float), dist)
+    ekf = ExtendedKalmanFilter(dim_x=6, dim_z=2)
+    ekf.x = np.r_[T_w_b0[:3, 3], euler_from_R(T_w_b0[:3, :3])]
+    ekf.P = np.array(P0, float)
+    ekf.R = np.eye(2) * cfg.tilt_sigma_rad ** 2
+    H = np.zeros((2, 6))
+    H[0, 3] = H[1, 4] = 1.0
+    out_T, out_P = [make_T(R_from_euler(ekf.x[3:]), ekf.x[:3])], [_tangent_cov(ekf.x, ekf.P)]
+    for k in range(len(t) - 1):
+        dt = (t[k + 1] - t[k]) * 1e-9
+        w = 0.5 * (gyro_b[k] + gyro_b[k + 1])
+        ds = s[k + 1] - s[k]
+        x0 = ekf.x.copy()
+        ekf.F = _num_jac(lambda xx: _f(xx, w, dt, ds), x0)
+        G_n = _num_jac(lambda n: _f(x0, w + n[:3], dt, ds + n[3]), np.zeros(4))
+        q = np.r_[[cfg.gyro_noise_density ** 2 / dt] * 3, (cfg.slip_std * ds) ** 2 + per_tick ** 2 / 6]
+        ekf.Q = G_n @ np.diag(q) @ G_n.T
+        ekf.predict_x = lambda u=0, x1=_f(x0, w, dt, ds): setattr(ekf, "x", x1)  # filterpy: sets self.x
+        ekf.predict()
+        a = acc_b[k + 1]
+        if (k + 1) % cfg.tilt_update_every == 0 and abs(np.linalg.norm(a) - G) < cfg.tilt_gate_mps2:
+            z = np.array([np.arctan2(a[1], a[2]), np.arctan2(-a[0], np.hypot(a[1], a[2]))])
+            ekf.update(z, lambda xx: H, lambda xx: xx[3:5], residual=lambda p, q2: _wrap(p - q2))
+        ekf.x[3:] = _wrap(ekf.x[3:])
+        out_T.append(make_T(R_from_euler(ekf.x[3:]), ekf.x[:3]))
+        out_P.append(_tangent_cov(ekf.x, ekf.P))
+    return DeadReckoning(t.copy(), np.array(out_T), np.array(out_P))

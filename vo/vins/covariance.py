@@ -1,0 +1,43 @@
+"""Per-frame pose covariance of the VINS output (``FrameResult.cov``).
+
+gtsam's marginal covariance of ``X(k)`` = ``T_w_i`` is in its tangent space ``[dtheta, dt]`` with the
+perturbation on the right: ``T_w_i = T_hat Exp([dtheta, dt])``, i.e. ``R = R_hat Exp(dtheta)`` and
+``p = p_hat + R_hat dt`` to first order. The output pose is ``T_o_c = T_o_w T_w_i T_i_c`` (``T_o_w``, ``T_i_c``
+fixed), and ``FrameResult.cov`` is that of ``[rotation vector, position]`` of ``T_o_c`` with the rotation
+perturbed on the left (``R = Exp(dphi) R_hat``). To first order:
+
+    dphi_o = R_o_w R_w_i dtheta
+    dp_o   = R_o_w (R_w_i dt - [R_w_i p_i_c]x R_w_i dtheta)
+
+so ``cov = J P J^T`` with ``J = [[A, 0], [-R_o_w [R_w_i p_i_c]x R_w_i, A]]``, ``A = R_o_w R_w_i``.
+The covariance is relative to the window's gauge (the prior on the first window state and the
+marginalisation priors); the uncertainty of ``T_o_w`` itself (fixed at initialisation) is not included.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# reported while the estimator is initialising (identity pose, motion unknown): 1 rad and 100 m std
+INIT_COV = np.diag([1.0] * 3 + [1e4] * 3)
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def output_jacobian(T_o_w: np.ndarray, T_w_i: np.ndarray, T_i_c: np.ndarray) -> np.ndarray:
+    """6x6 Jacobian of ``[dphi_o (left), dp_o]`` of ``T_o_c`` w.r.t. gtsam's ``[dtheta, dt]`` of ``T_w_i``."""
+    R_o_w, R_w_i = T_o_w[:3, :3], T_w_i[:3, :3]
+    A = R_o_w @ R_w_i
+    J = np.zeros((6, 6))
+    J[:3, :3] = A
+    J[3:, :3] = -R_o_w @ _skew(R_w_i @ T_i_c[:3, 3]) @ R_w_i
+    J[3:, 3:] = A
+    return J
+
+
+def output_covariance(P_x: np.ndarray, T_o_w: np.ndarray, T_w_i: np.ndarray, T_i_c: np.ndarray) -> np.ndarray:
+    """``FrameResult.cov`` from gtsam's marginal ``P_x`` (6x6) of ``X(k)``; symmetrised."""
+    J = output_jacobian(T_o_w, T_w_i, T_i_c)
+    C = J @ np.asarray(P_x, float) @ J.T
+    return 0.5 * (C + C.T)

@@ -1,0 +1,298 @@
+"""``VinsEstimator``: seed 002's monocular VINS (left camera + IMU) behind the project's Estimator interface.
+
+Output ``T_o_c0``: the left camera in the frame of the first left camera. Until the visual-inertial
+initialisation succeeds every frame reports ``init`` with the identity pose; the pose of the first frame in
+the estimator's gravity-aligned world is recovered from the first initialisation keyframe by inverting the
+pre-integration (eq. 10-12) over the frames the initialisation did not use.
+Per-frame diagnostics for plots and tables: ``self.diagnostics`` (a list of dicts: ``t_ns``, ``g_f``,
+``counts`` = N per feature, ``frac_n_lt_10`` = the paper's outlier rule, ``n_landmarks``, ``status``, ``message``;
+with a segmentation (``set_dataset``) also the true labels and the rule's confusion, :mod:`vo.vins.oracle`).
+``FrameResult.cov``: the covariance of ``[rotvec, position]`` of ``T_o_c0`` every frame (:mod:`vo.vins.covariance`).
+``vins-oracle`` removes the features on moving objects (true segmentation) before the back-end.
+"""
+from __future__ import annotations
+
+import time
+
+import cv2
+import gtsam
+import numpy as np
+from gtsam.symbol_shorthand import B, V, X
+
+from vo.errors import EstimatorError
+from vo.estimators.base import Estimator, FrameResult
+from vo.vins.config import VinsConfig
+from vo.vins.covariance import INIT_COV, output_covariance
+from vo.vins.frontend import FeatureFrame, KltFrontend, parallax_px
+from vo.vins.imu import GRAVITY, ImuStream, imu_params, preintegrate
+from vo.vins.initial import initialize
+from vo.vins.oracle import FeatureLabels, rule_confusion
+from vo.vins.truth_init import Truth, truth_init
+from vo.vins.window import Window
+
+
+class VinsEstimator(Estimator):
+    """Seed 002's monocular VINS-Mono baseline: fixed visual information (1.5 px at F_c 460), Cauchy loss."""
+
+    name = "vins"
+    preset = "vins"
+    remove_dynamic = False         # vins-oracle: drop features on moving objects (true segmentation)
+
+    def __init__(self, rig, **options):
+        super().__init__(rig, **options)
+        self.config = VinsConfig.from_options(self.preset, options)
+        self.camera = rig.cameras[0]
+        self.T_i_c = np.linalg.inv(rig.imu.T_b_i_array) @ self.camera.T_b_c_array
+        self.params = imu_params(self.config, rig.imu)
+        self.frontend = KltFrontend(self.camera, self.config.max_features, self.config.min_distance_px,
+                                    self.config.f_threshold_px)
+        self.stream = None
+        self.first_frame = None
+        self.diagnostics: list = []
+        self._reset()
+        self.T_o_w = None
+        self.last_T_o_c = np.eye(4)
+        self.labels = None
+        self.truth = None
+
+    def set_imu(self, imu) -> None:
+        self.stream = ImuStream(imu)
+
+    def set_dataset(self, dataset) -> None:
+        """Read the true segmentation when the dataset has it (diagnostics; required by ``vins-oracle``)."""
+        self.labels = FeatureLabels.of(dataset)
+        if self.config.init == "truth":
+            self.truth = Truth(dataset)
+        if self.remove_dynamic and self.labels is None:
+            raise EstimatorError(f"{self.name}: the dataset has no segmentation (cam0/segmentation); "
+                                 f"generate it with --segmentation")
+
+    def _reset(self) -> None:
+        self.window = None
+        self.init_frames: list = []
+
+    # ------------------------------------------------------------------ per frame
+    def process(self, frame) -> FrameResult:
+        if self.stream is None:
+            raise EstimatorError(f"{self.name}: the dataset has no IMU (imu0/data.csv missing); VINS needs imu0")
+        t0 = time.perf_counter()
+        feats = self.frontend.track(frame.left, frame.t_ns)
+        dynamic = self.labels.dynamic(frame.index, feats.px) if self.labels is not None else None
+        if self.remove_dynamic:
+            feats = _select(feats, ~dynamic)
+            dynamic = dynamic[~dynamic]
+        t1 = time.perf_counter()
+        if self.first_frame is None:
+            self.first_frame = feats
+        if self.window is None:
+            res = self._process_init(frame, feats)
+        else:
+            res = self._process_window(frame, feats)
+        t2 = time.perf_counter()
+        self._set_covariance(res)
+        t3 = time.perf_counter()
+        res.n_features = len(feats.ids)
+        res.timings_ms = {"track": (t1 - t0) * 1e3, "optimize": (t2 - t1) * 1e3, "covariance": (t3 - t2) * 1e3,
+                          "total": (t3 - t0) * 1e3}
+        self._diagnose(feats, res, dynamic)
+        if res.status != "init":
+            self.last_T_o_c = res.T_o_c0
+        return res
+
+    def _set_covariance(self, res) -> None:
+        """``res.cov``: marginal of the newest state (:meth:`Window.pose_covariance`) mapped to ``T_o_c0``
+        (:mod:`vo.vins.covariance`);
+        :data:`INIT_COV` (motion unknown) while initialising or after a reset."""
+        if res.status in ("init", "reinit") or self.window is None or self.config.covariance == "off":
+            res.cov = None if self.config.covariance == "off" else INIT_COV.copy()
+            return
+        w, st = self.window, self.window.states[-1]
+        try:
+            P_x = w.pose_covariance(st)
+        except (RuntimeError, np.linalg.LinAlgError) as e:     # singular information: say so, keep the pose
+            res.cov, res.message = INIT_COV.copy(), f"no covariance: {e}"
+            return
+        res.cov = output_covariance(P_x, self.T_o_w, w.values.atPose3(X(st.k)).matrix(), self.T_i_c)
+
+    def _is_keyframe(self, feats, last_kf) -> bool:
+        if last_kf is None:
+            return True
+        par, n_common = parallax_px(feats, last_kf, self.config.virtual_focal)
+        n_tracked = int(np.sum(feats.count > 1))
+        return par >= self.config.min_parallax_px or n_tracked < self.config.min_tracked
+
+    def _process_init(self, frame, feats) -> FrameResult:
+        if not self.stream.covers(self.first_frame.t_ns, feats.t_ns):
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "init", message="no IMU at this frame time")
+        new_kf = self._is_keyframe(feats, self.init_frames[-1] if self.init_frames else None)
+        if new_kf:
+            self.init_frames.append(feats)
+        cfg = self.config
+        need = cfg.init_keyframes if cfg.init == "truth" else cfg.init_min_keyframes
+        msg = f"collecting keyframes {len(self.init_frames)}/{need}"
+        if cfg.init == "truth" and len(self.init_frames) >= need:
+            if self.truth is None:
+                raise EstimatorError(f"{self.name}: init=truth needs the dataset's ground truth (run it on a "
+                                     f"dataset through the runner)")
+            return self._initialised(frame, truth_init(self.truth, self.init_frames))
+        if cfg.init == "vi" and new_kf and len(self.init_frames) >= need:
+            result, msg = initialize(self.stream, self.params, self.init_frames, self.T_i_c, cfg)
+            if result is not None:
+                return self._initialised(frame, result)
+            if len(self.init_frames) >= cfg.init_keyframes:
+                self.init_frames.pop(0)
+        return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "init", message=msg)
+
+    def _initialised(self, frame, result) -> FrameResult:
+        self._start_window(result)
+        T_w_c = self.window.T_w_c(self.window.states[-1])
+        return FrameResult(frame.t_ns, self.T_o_w @ T_w_c, "keyframe", message="initialised")
+
+    def _start_window(self, r) -> None:
+        """Gravity-align the SfM frame v, scale it, fill the window with the initialisation keyframes."""
+        R_w_v = _rotation_to_down(r.g_v)
+        cfg = self.config
+        self.window = w = Window(cfg, self.camera, self.T_i_c, self.stream, self.params)
+        T_c_i = np.linalg.inv(self.T_i_c)
+        bias = gtsam.imuBias.ConstantBias(np.zeros(3), r.bg)
+        for k, fr in enumerate(self.init_frames):
+            T_w_c = np.eye(4)
+            T_w_c[:3, :3], T_w_c[:3, 3] = R_w_v @ r.R_v_c[k], R_w_v @ (r.scale * r.p_v_c[k])
+            w.add_state(fr.t_ns, fr, True, T_w_c @ T_c_i, R_w_v @ r.v_v[k], bias)
+        for i, p in r.points.items():
+            w.add_landmark(i, R_w_v @ (r.scale * np.asarray(p)))
+        for st in w.states:
+            w.set_geometry(st)
+        first = w.states[0]
+        w.priors.append(gtsam.PriorFactorPose3(X(first.k), w.values.atPose3(X(first.k)),
+                                               gtsam.noiseModel.Diagonal.Sigmas(np.array([1e-3] * 3 + [1e-3] * 3))))
+        w.priors.append(gtsam.PriorFactorConstantBias(B(first.k), bias, gtsam.noiseModel.Diagonal.Sigmas(
+            np.array([0.1] * 3 + [0.01] * 3))))
+        w.optimize()
+        if self.T_o_w is None and self.truth is not None:
+            self.T_o_w = np.linalg.inv(self.truth.T_w_c[self.first_frame.t_ns])
+        elif self.T_o_w is None:
+            self.T_o_w = np.linalg.inv(self._first_camera_pose())
+        else:              # re-initialisation: the first new keyframe continues from the last emitted pose
+            self.T_o_w = self.last_T_o_c @ np.linalg.inv(w.T_w_c(w.states[0]))
+
+    def _first_camera_pose(self) -> np.ndarray:
+        """T_w_c of the dataset's first frame: invert eq. 10-12 from the first window state back to it."""
+        w, st = self.window, self.window.states[0]
+        T_w_i = w.values.atPose3(X(st.k)).matrix()
+        if st.t_ns == self.first_frame.t_ns:
+            return T_w_i @ self.T_i_c
+        pim = preintegrate(self.stream, self.params, self.first_frame.t_ns, st.t_ns, w.values.atConstantBias(B(st.k)))
+        dt, g = pim.deltaTij(), np.array([0.0, 0.0, -GRAVITY])
+        R0 = T_w_i[:3, :3] @ pim.deltaRij().matrix().T
+        v0 = w.values.atVector(V(st.k)) - g * dt - R0 @ pim.deltaVij()
+        T0 = np.eye(4)
+        T0[:3, :3] = R0
+        T0[:3, 3] = T_w_i[:3, 3] - v0 * dt - 0.5 * g * dt * dt - R0 @ pim.deltaPij()
+        return T0 @ self.T_i_c
+
+    def _process_window(self, frame, feats) -> FrameResult:
+        w = self.window
+        last_kf = next(st for st in reversed(w.states) if st.is_kf)
+        is_kf = self._is_keyframe(feats, last_kf.feats)
+        try:
+            w.add_state(feats.t_ns, feats, is_kf)
+            if not w.states[-2].is_kf:
+                w.drop_second_newest()
+            elif len(w.states) > self.config.window_size:
+                w.marginalize_oldest()
+            self._triangulate_new()
+            w.optimize()
+        except RuntimeError as e:                      # gtsam: indeterminant system, cheirality, ...
+            self._reset()
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit", message=f"optimizer failed: {e}")
+        T = self.T_o_w @ w.T_w_c(w.states[-1])
+        if not np.all(np.isfinite(T)):
+            self._reset()
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit", message="non-finite estimate")
+        return FrameResult(frame.t_ns, T, "keyframe" if is_kf else "ok", n_inliers=len(w.lm))
+
+    def _triangulate_new(self) -> None:
+        """Point3 landmarks for tracks seen in >= 2 window states with >= 1 deg of ray parallax."""
+        w = self.window
+        newest = w.states[-1]
+        first_obs = {}
+        for st in w.states[:-1]:
+            for i, xy in zip(st.feats.ids, st.feats.xy):
+                first_obs.setdefault(int(i), (st, xy))
+        T_b = np.linalg.inv(w.T_w_c(newest))
+        for i, xy in zip(newest.feats.ids, newest.feats.xy):
+            i = int(i)
+            if i in w.lm or i not in first_obs:
+                continue
+            st, xa = first_obs[i]
+            T_a = np.linalg.inv(w.T_w_c(st))
+            ra = T_a[:3, :3].T @ np.append(xa, 1.0)
+            rb = T_b[:3, :3].T @ np.append(xy, 1.0)
+            cosang = ra @ rb / np.linalg.norm(ra) / np.linalg.norm(rb)
+            if cosang > np.cos(np.radians(1.0)):
+                continue
+            P = cv2.triangulatePoints(T_a[:3], T_b[:3], xa.reshape(2, 1), xy.reshape(2, 1)).ravel()
+            if abs(P[3]) < 1e-12:
+                continue
+            p = P[:3] / P[3]
+            za, zb = (T_a @ np.append(p, 1))[2], (T_b @ np.append(p, 1))[2]
+            if 0.1 < za < 1e3 and 0.1 < zb < 1e3:
+                w.add_landmark(i, p)
+
+    def _diagnose(self, feats, res, dynamic=None) -> None:
+        """Per-frame record; with a segmentation also the true dynamic labels and the N < 10 rule's confusion
+        (:func:`vo.vins.oracle.rule_confusion`)."""
+        g_f = self.window.states[-1].g_f if self.window is not None and self.window.states else float("nan")
+        d = {"t_ns": int(feats.t_ns), "g_f": float(g_f), "counts": feats.count.copy(),
+             "frac_n_lt_10": float(np.mean(feats.count < 10)) if len(feats.count) else 0.0,
+             "n_landmarks": len(self.window.lm) if self.window is not None else 0,
+             "status": res.status, "message": res.message}
+        if dynamic is not None:
+            d["dynamic"] = np.asarray(dynamic, bool)
+            d.update(rule_confusion(dynamic, feats.count))
+        self.diagnostics.append(d)
+
+
+def _select(feats: FeatureFrame, keep: np.ndarray) -> FeatureFrame:
+    return FeatureFrame(feats.t_ns, feats.ids[keep], feats.px[keep], feats.xy[keep], feats.count[keep])
+
+
+def _rotation_to_down(g_v: np.ndarray) -> np.ndarray:
+    """R_w_v with R_w_v g_v = [0, 0, -|g|] (smallest rotation; yaw is unobservable)."""
+    a = np.asarray(g_v, float) / np.linalg.norm(g_v)
+    b = np.array([0.0, 0.0, -1.0])
+    v, c = np.cross(a, b), float(a @ b)
+    if np.linalg.norm(v) < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    return gtsam.Rot3.Expmap(v / np.linalg.norm(v) * np.arctan2(np.linalg.norm(v), c)).matrix()
+
+
+class VinsAcGf(VinsEstimator):
+    """Seed 002 VINS-AC (g_f): visual information scaled by 1/g_f (eq. 22-26), Cauchy loss."""
+
+    name = preset = "vins-ac-gf"
+
+
+class VinsAc(VinsEstimator):
+    """Seed 002 VINS-AC (g_f, N): visual information scaled by N s / g_f (eq. 26), Cauchy loss."""
+
+    name = preset = "vins-ac"
+
+
+class VinsAcMe(VinsEstimator):
+    """Seed 002 VINS-AC-ME: adaptive covariance (eq. 26) and adaptive Huber k_t = M_s N (eq. 28-30)."""
+
+    name = preset = "vins-ac-me"
+
+
+class VinsHuber(VinsEstimator):
+    """VINS with fixed visual information and a fixed-k Huber loss (comparison row)."""
+
+    name = preset = "vins-huber"
+
+
+class VinsOracle(VinsEstimator):
+    """VINS (fixed information, Cauchy) without the features on moving objects, by the true segmentation."""
+
+    name, preset, remove_dynamic = "vins-oracle", "vins", True

@@ -1,0 +1,110 @@
+"""VINS-Mono style monocular front-end (seed 002 §3.3): Shi-Tomasi corners tracked by pyramidal KLT,
+F-matrix RANSAC outlier rejection on undistorted points, new corners outside a minimum-distance mask around
+the tracked ones (longest-tracked first), and the number of times each feature was tracked (N, eq. 26).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class FeatureFrame:
+    """Features of one image: ``ids`` (n,) int64, ``px`` (n,2) raw pixels, ``xy`` (n,2) undistorted
+    normalized coordinates (z = 1 plane of the camera), ``count`` (n,) times tracked N (1 = new)."""
+
+    t_ns: int
+    ids: np.ndarray
+    px: np.ndarray
+    xy: np.ndarray
+    count: np.ndarray
+
+    @property
+    def id_set(self) -> frozenset:
+        s = self.__dict__.get("_id_set")
+        if s is None:
+            s = frozenset(int(i) for i in self.ids)
+            object.__setattr__(self, "_id_set", s)
+        return s
+
+
+class KltFrontend:
+    """``track(img, t_ns)`` -> :class:`FeatureFrame`. ``camera``: :class:`rigs.model.Camera` (left)."""
+
+    def __init__(self, camera, max_features: int = 150, min_distance_px: int = 30, f_threshold_px: float = 1.0):
+        self.K, self.dist = camera.K, camera.dist_coeffs
+        self.size = (camera.width, camera.height)
+        self.max_features, self.min_dist, self.f_thr = max_features, int(min_distance_px), f_threshold_px
+        self.prev_img = None
+        self.px = np.zeros((0, 2), np.float32)
+        self.ids = np.zeros(0, np.int64)
+        self.count = np.zeros(0, np.int64)
+        self.next_id = 0
+
+    def undistort(self, px: np.ndarray) -> np.ndarray:
+        """Raw pixels (n,2) -> normalized undistorted coordinates (n,2)."""
+        if len(px) == 0:
+            return np.zeros((0, 2))
+        return cv2.undistortPoints(px.reshape(-1, 1, 2).astype(np.float64), self.K, self.dist).reshape(-1, 2)
+
+    def track(self, img: np.ndarray, t_ns: int) -> FeatureFrame:
+        if self.prev_img is not None and len(self.px):
+            self._track_klt(img)
+        self.count = self.count + 1
+        self._detect(img)
+        self.prev_img = img
+        return FeatureFrame(int(t_ns), self.ids.copy(), self.px.astype(float), self.undistort(self.px),
+                            self.count.copy())
+
+    def _keep(self, mask: np.ndarray) -> None:
+        self.px, self.ids, self.count = self.px[mask], self.ids[mask], self.count[mask]
+
+    def _track_klt(self, img: np.ndarray) -> None:
+        p1, st, _ = cv2.calcOpticalFlowPyrLK(self.prev_img, img, self.px.reshape(-1, 1, 2), None,
+                                             winSize=(21, 21), maxLevel=3)
+        p1 = p1.reshape(-1, 2)
+        w, h = self.size
+        ok = (st.ravel() == 1) & (p1[:, 0] >= 1) & (p1[:, 1] >= 1) & (p1[:, 0] < w - 1) & (p1[:, 1] < h - 1)
+        p0 = self.px
+        self.px = p1
+        self._keep(ok)
+        p0 = p0[ok]
+        if len(p0) >= 8:                     # F-matrix RANSAC on undistorted points, threshold in pixels
+            f = float(self.K[0, 0])
+            u0, u1 = self.undistort(p0) * f, self.undistort(self.px) * f
+            _, inl = cv2.findFundamentalMat(u0, u1, cv2.FM_RANSAC, self.f_thr, 0.99)
+            if inl is not None:
+                self._keep(inl.ravel() == 1)
+
+    def _detect(self, img: np.ndarray) -> None:
+        order = np.argsort(-self.count, kind="stable")           # longest tracks claim their area first
+        self._keep(order)
+        w, h = self.size
+        mask = np.full((h, w), 255, np.uint8)
+        keep = np.zeros(len(self.px), bool)
+        for k, (x, y) in enumerate(self.px):
+            if mask[int(y), int(x)]:
+                keep[k] = True
+                cv2.circle(mask, (int(x), int(y)), self.min_dist, 0, -1)
+        self._keep(keep)
+        n_new = self.max_features - len(self.px)
+        if n_new <= 0:
+            return
+        pts = cv2.goodFeaturesToTrack(img, n_new, 0.01, self.min_dist, mask=mask)
+        if pts is None:
+            return
+        pts = pts.reshape(-1, 2).astype(np.float32)
+        self.px = np.vstack([self.px, pts])
+        self.ids = np.concatenate([self.ids, np.arange(self.next_id, self.next_id + len(pts), dtype=np.int64)])
+        self.count = np.concatenate([self.count, np.ones(len(pts), np.int64)])
+        self.next_id += len(pts)
+
+
+def parallax_px(a: FeatureFrame, b: FeatureFrame, virtual_focal: float) -> tuple:
+    """(mean displacement of common features in normalized coordinates * ``virtual_focal``, n common)."""
+    common, ia, ib = np.intersect1d(a.ids, b.ids, assume_unique=True, return_indices=True)
+    if len(common) == 0:
+        return 0.0, 0
+    return float(np.linalg.norm(a.xy[ia] - b.xy[ib], axis=1).mean() * virtual_focal), len(common)

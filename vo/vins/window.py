@@ -1,0 +1,249 @@
+"""Sliding-window visual-inertial factor graph (seed 002 §3.4-3.5, eq. 20/31) on gtsam.
+
+States per frame (eq. 2): ``X(k)`` Pose3 ``T_w_i`` (IMU = body), ``V(k)`` velocity in w, ``B(k)`` the
+accelerometer and gyro biases. Camera-IMU extrinsics (eq. 3) are fixed from the calibration (the
+projection factor's ``body_P_sensor``). Features are gtsam ``Point3`` landmarks ``L(j)`` in w.
+
+Deviation from the paper: eq. 14-19 parametrize a feature by its inverse depth in the first observing
+frame and measure on the unit sphere. Both need a Python ``CustomFactor`` (about 10x the cost of a built-in
+factor), so the landmarks are Point3 and the residual is gtsam's image-plane reprojection
+(``GenericProjectionFactorCal3_S2`` on undistorted pixels). For the same noise the image-plane and
+tangent-plane residuals agree to first order near the image centre; they differ for wide fields of view
+(the cameras here are < 100 deg). The adaptive weights and the Huber loss are carried per factor.
+
+Window (n = ``window_size`` states, the two strategies of §3.4): when a frame arrives and the previous
+newest frame is not a keyframe, that frame is dropped with its visual measurements and the IMU is
+pre-integrated from the keyframe before it (the IMU information is kept); when it is a keyframe and the
+window is full, the oldest state is marginalized with the landmarks it observes by the Schur complement
+(``eliminatePartialSequential``) into a ``LinearContainerFactor`` prior. As in VINS-Mono, a track whose
+landmark was marginalized continues as a new landmark.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import gtsam
+import numpy as np
+from gtsam.symbol_shorthand import B, L, V, X
+
+from vo.vins.adaptive import geometry_factor, noise_model
+from vo.vins.imu import preintegrate
+
+LANDMARK_PRIOR_M = 1e3      # std of the regularising landmark prior of pose_covariance
+
+
+@dataclass
+class State:
+    k: int                     # key index
+    t_ns: int
+    feats: object              # FeatureFrame
+    is_kf: bool
+    g_f: float = float("nan")      # eq. 25 of this image, fixed when the state is added
+
+
+class Window:
+    def __init__(self, config, camera, T_i_c: np.ndarray, imu_stream, imu_params):
+        self.cfg, self.stream, self.params = config, imu_stream, imu_params
+        self.K = gtsam.Cal3_S2(camera.fx, camera.fy, 0.0, camera.cx, camera.cy)
+        self.fx = camera.fx
+        self.P_i_c = gtsam.Pose3(np.asarray(T_i_c, float))
+        self.states: list[State] = []
+        self.values = gtsam.Values()
+        self.priors: list = []
+        self.lm: dict = {}              # track id -> landmark key index
+        self.next_lm = 0
+        self.next_k = 0
+        self.cache: dict = {}           # state k -> {landmark key: (N, factor)}
+        self.noise_cache: dict = {}     # (state k, N) -> noise model
+        self.pims: dict = {}            # (state k, state k') -> pre-integration, bias-corrected to first order
+        self.counts: dict = {}          # track id -> N, times tracked up to the newest frame (eq. 26, 30)
+
+    # ------------------------------------------------------------------ state management
+    def add_state(self, t_ns: int, feats, is_kf: bool, T_w_i=None, v_w=None, bias=None) -> State:
+        """Append a state; without a given pose it is predicted from the newest state by the IMU."""
+        st = State(self.next_k, int(t_ns), feats, is_kf)
+        self.next_k += 1
+        if T_w_i is None:
+            prev = self.states[-1]
+            b = self.values.atConstantBias(B(prev.k))
+            pim = preintegrate(self.stream, self.params, prev.t_ns, st.t_ns, b)
+            nav = pim.predict(gtsam.NavState(self.values.atPose3(X(prev.k)), self.values.atVector(V(prev.k))), b)
+            pose, vel, bias = nav.pose(), nav.velocity(), b
+        else:
+            pose, vel = gtsam.Pose3(np.asarray(T_w_i, float)), np.asarray(v_w, float)
+        self.values.insert(X(st.k), pose)
+        self.values.insert(V(st.k), vel)
+        self.values.insert(B(st.k), bias)
+        self.states.append(st)
+        self.counts.update(zip(feats.ids.tolist(), feats.count.tolist()))
+        self.set_geometry(st)
+        return st
+
+    def drop_second_newest(self) -> None:
+        """§3.4 strategy 2: remove the second-newest (non-keyframe) state and its visual measurements."""
+        st = self.states.pop(-2)
+        for key in (X(st.k), V(st.k), B(st.k)):
+            self.values.erase(key)
+        self._forget(st.k)
+
+    def _forget(self, k: int) -> None:
+        self.cache.pop(k, None)
+        self.noise_cache = {nk: m for nk, m in self.noise_cache.items() if nk[0] != k}
+        self.pims = {pk: p for pk, p in self.pims.items() if k not in pk}
+
+    def set_geometry(self, st: State) -> None:
+        """g_f of the image (eq. 22-25) from the landmarks it sees and its (predicted) camera position."""
+        p_w = [self.values.atPoint3(L(self.lm[i])) for i in st.feats.ids.tolist() if i in self.lm]
+        T_w_c = self.values.atPose3(X(st.k)).compose(self.P_i_c)
+        st.g_f = geometry_factor(np.array(p_w).reshape(-1, 3), T_w_c.translation())
+
+    # ------------------------------------------------------------------ landmarks
+    def add_landmark(self, track: int, p_w: np.ndarray) -> None:
+        key = self.next_lm
+        self.next_lm += 1
+        self.lm[int(track)] = key
+        self.values.insert(L(key), gtsam.Point3(*np.asarray(p_w, float)))
+
+    def remove_landmark(self, track: int) -> None:
+        key = self.lm.pop(int(track))
+        self.values.erase(L(key))
+        for per_state in self.cache.values():
+            per_state.pop(key, None)
+
+    def _factor(self, st: State, track: int, xy: np.ndarray):
+        """Reprojection factor of ``track`` in ``st``; its noise uses the image's g_f and the feature's current
+        N (eq. 26: N_{f,t,l} at the optimisation epoch t), so it is rebuilt when N changes."""
+        key, n = self.lm[track], self.counts.get(track, 1)
+        per_state = self.cache.setdefault(st.k, {})
+        hit = per_state.get(key)
+        if hit is None or hit[0] != n:
+            noise = self.noise_cache.get((st.k, n))
+            if noise is None:
+                noise = self.noise_cache[(st.k, n)] = noise_model(self.cfg, st.g_f, n, self.fx)
+            uv = np.array([self.K.fx() * xy[0] + self.K.px(), self.K.fy() * xy[1] + self.K.py()])
+            hit = (n, gtsam.GenericProjectionFactorCal3_S2(uv, noise, X(st.k), L(key), self.K, False, False,
+                                                           self.P_i_c))
+            per_state[key] = hit
+        return hit[1]
+
+    # ------------------------------------------------------------------ graph
+    def imu_factor(self, a: State, b: State):
+        """CombinedImuFactor a -> b; the pre-integration is computed once per pair at the bias estimate of that
+        time and corrected to first order for later bias estimates (gtsam, as VINS-Mono's Jacobians)."""
+        pim = self.pims.get((a.k, b.k))
+        if pim is None:
+            pim = self.pims[(a.k, b.k)] = preintegrate(self.stream, self.params, a.t_ns, b.t_ns,
+                                                       self.values.atConstantBias(B(a.k)))
+        return gtsam.CombinedImuFactor(X(a.k), V(a.k), X(b.k), V(b.k), B(a.k), B(b.k), pim)
+
+    def visual_factors(self, states=None, tracks=None):
+        out = []
+        for st in (self.states if states is None else states):
+            for i, xy in zip(st.feats.ids, st.feats.xy):
+                i = int(i)
+                if i in self.lm and (tracks is None or i in tracks):
+                    out.append(self._factor(st, i, xy))
+        return out
+
+    def graph(self) -> gtsam.NonlinearFactorGraph:
+        g = gtsam.NonlinearFactorGraph()
+        for p in self.priors:
+            g.add(p)
+        for a, b in zip(self.states[:-1], self.states[1:]):
+            g.add(self.imu_factor(a, b))
+        for f in self.visual_factors():
+            g.add(f)
+        return g
+
+    def optimize(self) -> None:
+        g = self.graph()
+        params = gtsam.LevenbergMarquardtParams()
+        params.setMaxIterations(self.cfg.lm_iterations)
+        self.values = gtsam.LevenbergMarquardtOptimizer(g, self.values, params).optimize()
+        self._reject_bad_landmarks()
+
+    def _reject_bad_landmarks(self) -> None:
+        """Drop landmarks behind or too close to any observing camera (VINS-Mono's failed-depth removal)."""
+        bad = set()
+        for st in self.states:
+            T_c_w = self.values.atPose3(X(st.k)).compose(self.P_i_c).inverse()
+            for i in st.feats.ids:
+                i = int(i)
+                if i in self.lm and i not in bad:
+                    z = T_c_w.transformFrom(self.values.atPoint3(L(self.lm[i])))[2]
+                    if not 0.1 < z < 1e4:
+                        bad.add(i)
+        for i in bad:
+            self.remove_landmark(i)
+
+    # ------------------------------------------------------------------ marginalization
+    def marginalize_oldest(self) -> None:
+        """§3.4 strategy 1: Schur complement of the oldest state and the landmarks it observes."""
+        old = self.states[0]
+        keep_states = self.states if self.states[-1].is_kf else self.states[:-1]
+        seen = {int(i) for i in old.feats.ids if int(i) in self.lm}
+        n_obs = {i: sum(i in st.feats.id_set for st in keep_states) for i in seen}
+        tracks = {i for i in seen if n_obs[i] >= 2}
+        for i in seen - tracks:                 # a single observation carries no information on a point
+            self.remove_landmark(i)
+        lm_keys = [L(self.lm[i]) for i in tracks]
+        marg = [X(old.k), V(old.k), B(old.k)] + lm_keys
+        mset = set(marg)
+        g = gtsam.NonlinearFactorGraph()
+        rest = []
+        for p in self.priors:
+            (g.add(p) if mset.intersection(p.keys()) else rest.append(p))
+        g.add(self.imu_factor(self.states[0], self.states[1]))
+        for f in self.visual_factors(keep_states, tracks):
+            g.add(f)
+        lin = g.linearize(self.values)
+        _, remaining = lin.eliminatePartialSequential(gtsam.Ordering(marg))
+        factors = [f for f in (remaining.at(j) for j in range(remaining.size())) if f is not None]
+        sub = gtsam.Values()
+        for key in {k for f in factors for k in f.keys()}:
+            c = gtsam.Symbol(key).chr()
+            sub.insert(key, self.values.atPose3(key) if c == ord("x") else
+                       self.values.atVector(key) if c == ord("v") else self.values.atConstantBias(key))
+        self.priors = rest + [gtsam.LinearContainerFactor(f, sub) for f in factors]
+        for i in tracks:
+            self.remove_landmark(i)
+        self.states.pop(0)
+        for key in (X(old.k), V(old.k), B(old.k)):
+            self.values.erase(key)
+        self._forget(old.k)
+
+    # ------------------------------------------------------------------ outputs
+    def T_w_c(self, st: State) -> np.ndarray:
+        return self.values.atPose3(X(st.k)).compose(self.P_i_c).matrix()
+
+    def pose_covariance(self, st: State):
+        """6x6 marginal covariance of X(k) (gtsam's tangent [rotation, translation], body frame).
+
+        The window's Gauss-Newton information ``H`` (gtsam's linearization at the estimate, robust weights
+        included) is inverted for the X(k) block by a dense solve (numpy). gtsam's ``Marginals`` refuses
+        the window: landmarks seen with little parallax make the system nearly singular along their depth,
+        where LM's damping does not mind. Each landmark gets a weak prior (``LANDMARK_PRIOR_M`` std at its
+        estimate; 1e-6 m^-2 of information) so that ``H`` is invertible; it changes the pose marginal by far
+        less than its own size."""
+        g = self.graph()
+        noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_PRIOR_M)
+        for key in self.lm.values():
+            g.add(gtsam.PriorFactorPoint3(L(key), self.values.atPoint3(L(key)), noise))
+        lm_keys = [L(key) for key in self.lm.values()]
+        lm_set = set(lm_keys)
+        keys = list(dict.fromkeys([X(st.k)] + [k for k in g.keyVector() if k not in lm_set])) + lm_keys
+        H, _ = g.linearize(self.values).hessian(gtsam.Ordering(keys))
+        return _pose_block_marginal(H, H.shape[0] - 3 * len(lm_keys))
+
+
+def _pose_block_marginal(H: np.ndarray, n_s: int) -> np.ndarray:
+    """Covariance of the first 6 variables of information ``H`` whose variables after ``n_s`` are 3-vectors
+    coupled only to the first ``n_s`` (landmarks): Schur complement of the 3x3 landmark blocks, then a solve."""
+    m = (H.shape[0] - n_s) // 3
+    H_ss, H_sl = H[:n_s, :n_s], H[:n_s, n_s:].reshape(n_s, m, 3)
+    blocks = np.stack([H[n_s + 3 * j:n_s + 3 * j + 3, n_s + 3 * j:n_s + 3 * j + 3] for j in range(m)]) if m else \
+        np.zeros((0, 3, 3))
+    Y = np.einsum("iak,akl->ial", H_sl, np.linalg.inv(blocks), optimize=True)
+    S = H_ss - Y.reshape(n_s, -1) @ H_sl.reshape(n_s, -1).T
+    P = np.linalg.solve(S, np.eye(n_s)[:, :6])[:6]
+    return 0.5 * (P + P.T)
