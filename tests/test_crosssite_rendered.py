@@ -129,7 +129,7 @@ def test_localizer_recovers_the_site_pose(rendered, use_asift):
     assert e @ np.linalg.solve(res.cov, e) < chi2.ppf(0.999, 6)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_stage_report(rendered):
     """Per stage against the exact correspondences (run with -s to see the table): ASIFT finds more
     true ties than SIFT; the prior gate + eq. 2 raise the true-tie share of what is kept; without the

@@ -131,11 +131,15 @@ def test_asift_tilt_set_follows_the_predicted_transition_tilt():
 
 
 def test_config_names_the_bad_field():
-    with pytest.raises(VoError, match=r"crosssite\.mode: expected 'ff' or 'fb', got 'xx'"):
+    with pytest.raises(VoError, match=r"crosssite\.mode: unknown 'xx'; valid: ff, fb"):
         CrossSiteConfig(mode="xx")
-    with pytest.raises(VoError, match=r"crosssite\.inflate"):
+    with pytest.raises(VoError, match=r"crosssite\.inflate: must be >= 1, got 0\.5"):
         CrossSiteConfig(inflate=0.5)
-    with pytest.raises(VoError, match=r"unknown key 'foo'"):
+    with pytest.raises(VoError, match=r"crosssite\.wallis_window_px: must be odd, got 30"):
+        CrossSiteConfig(wallis_window_px=30)
+    with pytest.raises(VoError, match=r"crosssite\.range_min_m: must be below range_max_m \(20\.0\), got 30\.0"):
+        CrossSiteConfig(range_min_m=30.0)
+    with pytest.raises(VoError, match=r"crosssite\.foo: unknown key; valid keys: mode, "):
         CrossSiteConfig.from_dict({"foo": 1})
     assert CrossSiteConfig.from_dict({"ratio": 0.7}).ratio == 0.7
 

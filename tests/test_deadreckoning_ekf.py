@@ -12,7 +12,7 @@ from sim.motion import MotionConfig, VehicleTrajectory
 from sim.rng import stream
 from sim.sensors.imu import imu_times_ns, measure_imu
 from sim.sensors.imu_noise import add_imu_noise
-from sim.sensors.wheels import add_slip_noise, encoder_ticks, measure
+from sim.sensors.wheels import WheelTravel, add_slip_noise, encoder_ticks, measure
 from sim.vehicles import CART
 from vo.deadreckoning import DeadReckoningConfig, dead_reckon
 from vo.errors import VoError
@@ -30,7 +30,7 @@ def traj():
     return VehicleTrajectory.from_route(ROUTE, hills, MotionConfig(), stream(3, "motion"), duration_s=40.0)
 
 
-def run(traj, seed, slip, gyro_noise):
+def run(traj, seed, slip, gyro_noise, slip_bias=0.0, bias_std=0.0):
     t = imu_times_ns(traj.t0_ns, traj.t1_ns, IMU.rate_hz)
     imu = measure_imu(traj, IMU, t)
     if gyro_noise:
@@ -38,10 +38,11 @@ def run(traj, seed, slip, gyro_noise):
     travel = measure(traj, CART, t[::2])
     if slip:
         travel = add_slip_noise(travel, slip, np.random.default_rng(seed))
+    travel = WheelTravel(travel.t_ns, travel.dist_m / (1.0 - slip_bias))     # the wheels turn more than travelled
     wheels = encoder_ticks(travel, CART.wheel_radius_m, 4096)
     truth = traj.states(t).T_w_b
     cfg = DeadReckoningConfig(CART.wheel_radius_m, 4096, gyro_noise_density=IMU.gyro_noise_density if gyro_noise
-                              else 1e-6, slip_std=max(slip, 1e-4))
+                              else 1e-6, slip_std=max(slip, 1e-4), slip_bias_std=bias_std, slip_bias_walk=0.0)
     dr = dead_reckon(imu, wheels, np.eye(3), truth[0], np.diag([1e-8] * 3 + [1e-8] * 3), cfg)
     path = np.sum(np.linalg.norm(np.diff(truth[:, :3, 3], axis=0), axis=1))
     return dr, truth, path
@@ -71,6 +72,23 @@ def test_noisy_covariance_is_consistent_with_the_error(traj):
     lo, hi = chi2.ppf([0.0005, 0.9995], 24) / 8
     assert lo < np.mean(nees) < hi, (np.mean(nees), lo, hi)
     assert np.mean(rel) > 0.002
+
+
+@pytest.mark.slow
+def test_common_slip_bias_is_in_the_covariance(traj):
+    """A common slip drawn per seed from N(0, 0.1^2) (the filter's slip-bias prior) on top of 5 %
+    white slip and gyro noise, 8 seeds: mean final-position NEES inside the 99.9 % interval of
+    chi2(24)/8; the error is several % of the distance (the bias is not observable)."""
+    nees, rel = [], []
+    for seed in range(8):
+        b = 0.1 * np.random.default_rng(100 + seed).standard_normal()
+        dr, truth, path = run(traj, seed, 0.05, True, slip_bias=b, bias_std=0.1)
+        e = dr.T_w_b[-1, :3, :3].T @ (truth[-1, :3, 3] - dr.T_w_b[-1, :3, 3])
+        nees.append(e @ np.linalg.solve(dr.cov[-1][3:, 3:], e))
+        rel.append(np.linalg.norm(e) / path)
+    lo, hi = chi2.ppf([0.0005, 0.9995], 24) / 8
+    assert lo < np.mean(nees) < hi, (np.mean(nees), lo, hi)
+    assert np.mean(rel) > 0.02
 
 
 def test_dead_reckoning_output_at_times_and_bad_input(traj):

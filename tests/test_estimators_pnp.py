@@ -114,8 +114,10 @@ def test_options_validated():
         OrbPnpEstimator(rig, frontend="klt")
     with pytest.raises(EstimatorError, match="valid: klt"):
         KltPnpEstimator(rig, frontend="orb")
-    with pytest.raises(EstimatorError, match="method"):
+    with pytest.raises(EstimatorError, match=r"pnp\.method: unknown 'p3p-magic'; valid: iterative, epnp"):
         PnpConfig(method="p3p-magic")
+    with pytest.raises(EstimatorError, match=r"pnp\.min_pnp_inliers: must be >= 4, got 3"):
+        PnpConfig(min_pnp_inliers=3)
     mono = Rig("mono", (rig.cameras[0],))
     with pytest.raises(EstimatorError, match="stereo"):
         KltPnpEstimator(mono)

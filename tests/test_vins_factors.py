@@ -79,10 +79,17 @@ def test_huber_thresholds():
 
 
 @pytest.mark.parametrize("options, match", [
-    ({"window_size": 2}, "window_size"), ({"robust": "tukey"}, "robust"), ({"s": 0}, r"option s\b"),
-    ({"imu_noise": "fast"}, "imu_noise"), ({"init_keyframes": 20}, "init_keyframes"), ({"bogus": 1}, "bogus"),
-    ({"init": "gps"}, r"option init\b"), ({"covariance": "every"}, "covariance"),
-    ({"init_min_keyframes": 12}, "init_min_keyframes"),
+    ({"window_size": 2}, r"vins\.window_size: must be >= 3, got 2"),
+    ({"robust": "tukey"}, r"vins\.robust: unknown 'tukey'; valid: none, cauchy, huber, adaptive-huber"),
+    ({"s": 0}, r"vins\.s: must be a positive number, got 0"),
+    ({"imu_noise": "fast"}, r"vins\.imu_noise: unknown 'fast'; valid: rig, table1"),
+    ({"init_keyframes": 20}, r"vins\.init_keyframes: must be <= window_size \(11\), got 20"),
+    ({"bogus": 1}, r"vins\.bogus: unknown key; valid keys: use_gf, "),
+    ({"init": "gps"}, r"vins\.init: unknown 'gps'; valid: vi, truth"),
+    ({"covariance": "every"}, r"vins\.covariance: unknown 'every'; valid: frame, off"),
+    ({"init_min_keyframes": 12}, r"vins\.init_min_keyframes: must be <= init_keyframes \(11\), got 12"),
+    ({"weight_max": True}, r"vins\.weight_max: must be a positive number or \.inf, got True"),
+    ({"weight_min": 2.0, "weight_max": 1.0}, r"vins\.weight_min: must be below weight_max \(1\.0\), got 2\.0"),
 ])
 def test_bad_options_are_one_line_errors(options, match):
     with pytest.raises(EstimatorError, match=match) as e:

@@ -38,7 +38,11 @@ def run_demo(scenario: str = "campus", estimators=DEFAULT_ESTIMATORS, out_dir="o
     """Generate (cached) ``scenario``, run each estimator, evaluate, and plot all against the truth.
 
     Unknown estimator names and an unwritable ``out_dir`` raise before anything is generated; an
-    estimator that fails on the data is reported in ``errors`` and the others still run."""
+    estimator that fails on the data is reported in ``errors`` and the others still run. A traverse
+    scenario (``yutu-traverse``) is localized site by site instead (:func:`run_traverse_demo`)."""
+    from sim.scenarios import traverse_scenarios
+    if scenario in traverse_scenarios():
+        return run_traverse_demo(scenario, out_dir, progress)
     from sim.app.check import scenario_dataset
     from vo.dataset import open_dataset
     from vo.errors import VoError
@@ -66,3 +70,32 @@ def run_demo(scenario: str = "campus", estimators=DEFAULT_ESTIMATORS, out_dir="o
         demo.plots.append(str(plot_topdown(ests, ds.groundtruth_cam0(), ds.gcps, out / "topdown.png")))
         demo.plots.append(str(plot_error_vs_distance(gt, ests, out / "error_vs_distance.png")))
     return demo
+
+
+@dataclass
+class TraverseDemo:
+    """Summary of ``vo-testbed localize`` on a cached traverse (:func:`vo.crosssite.traverse.summary`)."""
+    summary: dict
+    errors: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return self.summary
+
+    def text(self) -> str:
+        from vo.crosssite.traverse import format_table
+        s = self.summary
+        return "\n".join([f"traverse {s['dataset']} (cross-site BA, {s['mode']})", format_table(s["sites"]),
+                          f"mean per-site error: DR {s['dr_mean_err_pct']:.2f} %, BA {s['ba_mean_err_pct']:.2f} % "
+                          f"of distance", "plots: " + ", ".join(s["files"].values())])
+
+
+def run_traverse_demo(scenario: str, out_dir, progress: bool = True) -> TraverseDemo:
+    """Generate the traverse ``scenario`` into the scenario cache (once), then localize it."""
+    from sim.dataset.traverse_writer import generate_traverse
+    from sim.scenarios import cache_root, get_scenario, traverse_scenarios
+    from vo.crosssite.traverse import run_and_write
+    config = get_scenario(scenario)
+    path = cache_root() / f"traverse-{scenario}-{config.config_hash()}"
+    if not (path / "sites" / "groundtruth_tum.txt").is_file():
+        generate_traverse(config, traverse_scenarios()[scenario], path, progress=progress, overwrite=True)
+    return TraverseDemo(run_and_write(path, out_dir, progress=progress))

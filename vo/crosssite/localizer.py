@@ -27,7 +27,7 @@ from vo.crosssite.types import Site, SiteResult
 def _fallback(cur: Site, status: str, cfg, ties: Optional[TieSet], reason: str, timings) -> SiteResult:
     return SiteResult(cur.index, status, cur.T_w_b_prior.copy(), cur.cov_prior * cfg.inflate,
                       int(ties.inlier.sum()) if ties is not None and ties.inlier is not None else 0,
-                      dict(ties.stats) if ties is not None else {}, timings, reason)
+                      dict(ties.stats) if ties is not None else {}, timings, reason, ties)
 
 
 def initial_pose(cur: Site, T_w_b_prev, prev: Site, ties: TieSet, idx, cfg) -> tuple:
@@ -123,19 +123,38 @@ def localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSiteC
         return _fallback(cur, "few_tie_points", cfg, ties, f"BA pose disagrees with the prior (chi2 {d2:.1f} > "
                          f"{cfg.prior_gate_chi2})", timings)
     stats = dict(ties.stats, n_ba_points=len(idx), prior_chi2=round(d2, 2), ba_rms_px=round(res.rms_px, 4), ba_iterations=res.iterations)
-    return SiteResult(cur.index, "ok", res.T_w_b, res.cov, int(ties.inlier.sum()), stats, timings)
+    return SiteResult(cur.index, "ok", res.T_w_b, res.cov, int(ties.inlier.sum()), stats, timings, ties=ties)
 
 
-def localize_traverse(sites: Sequence[Site], T_w_b0: np.ndarray, cfg: CrossSiteConfig = CrossSiteConfig()) -> list:
+def relative_prior_cov(prev: Site, cur: Site, floor: float = 1e-8) -> np.ndarray:
+    """Covariance of the dead-reckoning motion from ``prev`` to ``cur`` in ``cur``'s body tangent: the
+    cumulative covariances' difference ``C_cur - Ad C_prev Ad^T`` (``Ad`` the adjoint of the drive's
+    inverse motion, which carries a perturbation of the previous pose to the current one), with
+    eigenvalues clipped at ``floor``. Exact for independent increments; with a common slip bias it
+    is larger than the leg's own covariance (conservative). The previous site is held fixed, so only
+    this part of the dead reckoning's uncertainty widens the regions and gates the BA."""
+    import gtsam
+    D = gtsam.Pose3(inv_T(prev.T_w_b_prior) @ cur.T_w_b_prior)
+    Ad = D.inverse().AdjointMap()
+    C = cur.cov_prior - Ad @ prev.cov_prior @ Ad.T
+    w, V = np.linalg.eigh(0.5 * (C + C.T))
+    return (V * np.maximum(w, floor)) @ V.T
+
+
+def localize_traverse(sites: Sequence[Site], T_w_b0: np.ndarray, cfg: CrossSiteConfig = CrossSiteConfig(),
+                      on_site=None) -> list:
     """Sites in driving order, site 0 at the known ``T_w_b0``: each site against the previous one's
     estimate (or kept prior). The dead-reckoning prior of site k is moved with the previous site's
     correction, ``T_prev_est @ inv(T_prev_prior) @ T_k_prior`` (the drive's relative motion is the
-    dead reckoning's; its covariance is kept). -> [SiteResult] for sites 1..n-1."""
+    dead reckoning's), with the covariance of that motion (:func:`relative_prior_cov`).
+    ``on_site(result)`` is called after each site. -> [SiteResult] for sites 1..n-1."""
     out, T_prev = [], np.asarray(T_w_b0, float)
     for prev, cur in zip(sites[:-1], sites[1:]):
         shift = T_prev @ inv_T(prev.T_w_b_prior)
-        cur_c = dataclasses.replace(cur, T_w_b_prior=shift @ cur.T_w_b_prior)
+        cur_c = dataclasses.replace(cur, T_w_b_prior=shift @ cur.T_w_b_prior, cov_prior=relative_prior_cov(prev, cur))
         r = localize_site(prev, T_prev, cur_c, cfg)
+        if on_site is not None:
+            on_site(r)
         out.append(r)
         T_prev = r.T_w_b
     return out

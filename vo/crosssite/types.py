@@ -107,7 +107,8 @@ STATUSES = ("ok", "no_tie_points", "few_tie_points")
 class SiteResult:
     """Localization of one site: ``status`` (one of :data:`STATUSES`), ``T_w_b`` (4,4) and ``cov``
     (6,6); on a status other than ``ok`` they are the dead-reckoning prior with the covariance
-    inflated. ``n_tie_points`` after the outlier test; ``stats`` per-stage counts; ``timings_s``."""
+    inflated. ``n_tie_points`` after the outlier test; ``stats`` per-stage counts; ``timings_s``;
+    ``ties`` the stage records (:class:`vo.crosssite.ties.TieSet`, regions and tie pixels) for figures."""
 
     index: int
     status: str
@@ -117,6 +118,7 @@ class SiteResult:
     stats: dict = field(default_factory=dict)
     timings_s: dict = field(default_factory=dict)
     reason: str = ""
+    ties: object = field(default=None, repr=False, compare=False)
 
 
 def mast_T_b_c(T_b_mast: np.ndarray, pan_rad: float, tilt_rad: float, T_head_c: np.ndarray) -> np.ndarray:

@@ -6,12 +6,14 @@ Poses: ``T_o_c0`` left camera in the frame ``o`` of the first left camera; PnP r
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import cv2
 import numpy as np
 
 from rigs.geometry import inv_T, make_T, transform_points
 from rigs.geometry.pinhole import project
+from rigs.typed_config import check_fields, knob
 from vo.errors import EstimatorError
 from vo.frontend.image import to_gray  # noqa: F401  (re-exported: the estimators' grey conversion)
 
@@ -26,29 +28,19 @@ class PnpConfig:
     landmarks needed to (re)initialise; ``max_depth`` m and ``max_triangulation_px`` triangulation checks;
     ``max_step_m`` largest believable camera motion between frames (m) before the frame is declared lost."""
 
-    method: str = "epnp"
-    ransac_reproj_px: float = 2.0
-    ransac_iters: int = 200
-    confidence: float = 0.999
-    min_features: int = 15
-    min_pnp_inliers: int = 10
-    min_init_landmarks: int = 20
-    max_depth: float = 80.0
-    max_triangulation_px: float = 1.0
-    max_step_m: float = 5.0
+    method: Literal[tuple(PNP_METHODS)] = "epnp"
+    ransac_reproj_px: float = knob(2.0, gt=0)
+    ransac_iters: int = knob(200, ge=1)
+    confidence: float = knob(0.999, gt=0, lt=1)
+    min_features: int = knob(15, ge=6)
+    min_pnp_inliers: int = knob(10, ge=4)
+    min_init_landmarks: int = knob(20, ge=6)
+    max_depth: float = knob(80.0, gt=0)
+    max_triangulation_px: float = knob(1.0, gt=0)
+    max_step_m: float = knob(5.0, gt=0)
 
     def __post_init__(self):
-        if self.method not in PNP_METHODS:
-            raise EstimatorError(f"PnpConfig.method: {self.method!r} unknown; valid: {', '.join(PNP_METHODS)}")
-        checks = {"ransac_reproj_px": self.ransac_reproj_px > 0, "ransac_iters": self.ransac_iters >= 1,
-                  "confidence": 0 < self.confidence < 1, "min_features": self.min_features >= 6,
-                  "min_pnp_inliers": self.min_pnp_inliers >= 4, "min_init_landmarks": self.min_init_landmarks >= 6,
-                  "max_depth": self.max_depth > 0, "max_triangulation_px": self.max_triangulation_px > 0,
-                  "max_step_m": self.max_step_m > 0}
-        for name, good in checks.items():
-            if not good:
-                raise EstimatorError(f"PnpConfig.{name}: invalid value {getattr(self, name)!r} "
-                                     "(min_features>=6, min_pnp_inliers>=4, thresholds > 0, 0<confidence<1)")
+        check_fields(self, EstimatorError, "pnp.")
 
 
 def solve_pnp(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: PnpConfig) -> tuple:

@@ -7,8 +7,11 @@ minimum distance, F-matrix RANSAC at 1 px, keyframe parallax 10 px at the virtua
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
+from numbers import Real
+from typing import Literal
 
+from rigs.typed_config import check_fields, from_mapping, knob
 from vo.errors import EstimatorError
 
 ROBUST = ("none", "cauchy", "huber", "adaptive-huber")
@@ -25,6 +28,15 @@ PRESETS = {
     "vins-ac-me": dict(use_gf=True, use_track_count=True, robust="adaptive-huber"),
     "vins-huber": dict(use_gf=False, use_track_count=False, robust="huber"),
 }
+
+
+
+def _positive_or_inf(value):
+    """``weight_max`` is the one field where ``inf`` (no upper bound) is valid, so it is annotated
+    :class:`numbers.Real` rather than ``float`` (whose check rejects inf) and checked here."""
+    if isinstance(value, bool) or not isinstance(value, Real) or not value > 0:
+        raise EstimatorError(f"vins.weight_max: must be a positive number or .inf, got {value!r}")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -52,75 +64,49 @@ class VinsConfig:
 
     use_gf: bool = False
     use_track_count: bool = False
-    robust: str = "cauchy"
-    robust_k: float = 1.0
-    pixel_sigma: float = 1.5
-    virtual_focal: float = 460.0
-    s: float = 0.02
-    m_s: float = 0.02
-    weight_min: float = 0.0
-    weight_max: float = math.inf
-    window_size: int = 11
-    lm_iterations: int = 6
-    max_features: int = 150
-    min_distance_px: int = 30
-    f_threshold_px: float = 1.0
-    min_parallax_px: float = 10.0
-    min_tracked: int = 20
-    imu_noise: str = "rig"
-    acc_n: float = 0.1
-    gyr_n: float = 0.01
-    acc_w: float = 0.001
-    gyr_w: float = 0.0001
-    init_keyframes: int = 11
-    init_min_keyframes: int = 11
-    init_min_parallax_px: float = 30.0
-    init_max_scale_std: float = 0.05
-    covariance: str = "frame"
-    init: str = "vi"
+    robust: Literal[ROBUST] = "cauchy"
+    robust_k: float = knob(1.0, gt=0)
+    pixel_sigma: float = knob(1.5, gt=0)
+    virtual_focal: float = knob(460.0, gt=0)
+    s: float = knob(0.02, gt=0)
+    m_s: float = knob(0.02, gt=0)
+    weight_min: float = knob(0.0, ge=0)
+    weight_max: Real = knob(math.inf, gt=0, parse=_positive_or_inf)
+    window_size: int = knob(11, ge=3)
+    lm_iterations: int = knob(6, ge=1)
+    max_features: int = knob(150, ge=8)
+    min_distance_px: int = knob(30, ge=1)
+    f_threshold_px: float = knob(1.0, gt=0)
+    min_parallax_px: float = knob(10.0, gt=0)
+    min_tracked: int = knob(20, ge=0)
+    imu_noise: Literal[IMU_NOISE] = "rig"
+    acc_n: float = knob(0.1, gt=0)
+    gyr_n: float = knob(0.01, gt=0)
+    acc_w: float = knob(0.001, gt=0)
+    gyr_w: float = knob(0.0001, gt=0)
+    init_keyframes: int = knob(11, ge=3)
+    init_min_keyframes: int = knob(11, ge=3)
+    init_min_parallax_px: float = knob(30.0, gt=0)
+    init_max_scale_std: float = knob(0.05, gt=0)
+    covariance: Literal[COVARIANCE] = "frame"
+    init: Literal[INIT] = "vi"
 
     def __post_init__(self):
-        positive = ("robust_k", "pixel_sigma", "virtual_focal", "s", "m_s", "weight_max", "f_threshold_px",
-                    "min_parallax_px", "acc_n", "gyr_n", "acc_w", "gyr_w", "init_min_parallax_px", "init_max_scale_std")
-        for name in positive:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0 or math.isnan(v):
-                raise EstimatorError(f"vins option {name}: must be a positive number, got {v!r}")
-        if not (isinstance(self.weight_min, (int, float)) and 0 <= self.weight_min < self.weight_max):
-            raise EstimatorError(f"vins option weight_min: must be in [0, weight_max), got {self.weight_min!r}")
-        ints = {"window_size": 3, "lm_iterations": 1, "max_features": 8, "min_distance_px": 1, "min_tracked": 0,
-                "init_keyframes": 3, "init_min_keyframes": 3}
-        for name, lo in ints.items():
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise EstimatorError(f"vins option {name}: must be an integer >= {lo}, got {v!r}")
+        check_fields(self, EstimatorError, "vins.")
+        object.__setattr__(self, "weight_max", _positive_or_inf(self.weight_max))
+        if not self.weight_min < self.weight_max:
+            raise EstimatorError(f"vins.weight_min: must be below weight_max ({self.weight_max!r}), "
+                                 f"got {self.weight_min!r}")
         if self.init_min_keyframes > self.init_keyframes:
-            raise EstimatorError(f"vins option init_min_keyframes: must be <= init_keyframes ({self.init_keyframes}), "
+            raise EstimatorError(f"vins.init_min_keyframes: must be <= init_keyframes ({self.init_keyframes}), "
                                  f"got {self.init_min_keyframes!r}")
         if self.init_keyframes > self.window_size:
-            raise EstimatorError(f"vins option init_keyframes: must be <= window_size ({self.window_size}), "
+            raise EstimatorError(f"vins.init_keyframes: must be <= window_size ({self.window_size}), "
                                  f"got {self.init_keyframes!r}")
-        for name in ("use_gf", "use_track_count"):
-            if not isinstance(getattr(self, name), bool):
-                raise EstimatorError(f"vins option {name}: must be true or false, got {getattr(self, name)!r}")
-        if self.robust not in ROBUST:
-            raise EstimatorError(f"vins option robust: must be one of {', '.join(ROBUST)}, got {self.robust!r}")
-        if self.init not in INIT:
-            raise EstimatorError(f"vins option init: must be one of {', '.join(INIT)}, got {self.init!r}")
-        if self.covariance not in COVARIANCE:
-            raise EstimatorError(f"vins option covariance: must be one of {', '.join(COVARIANCE)}, "
-                                 f"got {self.covariance!r}")
-        if self.imu_noise not in IMU_NOISE:
-            raise EstimatorError(f"vins option imu_noise: must be one of {', '.join(IMU_NOISE)}, "
-                                 f"got {self.imu_noise!r}")
 
     @classmethod
     def from_options(cls, preset: str, options: dict) -> "VinsConfig":
-        """``PRESETS[preset]`` updated by ``options``; unknown keys -> EstimatorError naming them."""
-        names = {f.name for f in fields(cls)}
-        bad = sorted(set(options) - names)
-        if bad:
-            raise EstimatorError(f"vins: unknown option(s) {', '.join(bad)}; valid: {', '.join(sorted(names))}")
+        """``PRESETS[preset]`` updated by ``options``; unknown keys -> EstimatorError naming the valid ones."""
         if preset not in PRESETS:
             raise EstimatorError(f"vins: unknown configuration {preset!r}; valid: {', '.join(PRESETS)}")
-        return cls(**{**PRESETS[preset], **options})
+        return from_mapping(cls, {**PRESETS[preset], **options}, EstimatorError, "vins")

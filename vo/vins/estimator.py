@@ -269,19 +269,19 @@ def _rotation_to_down(g_v: np.ndarray) -> np.ndarray:
 
 
 class VinsAcGf(VinsEstimator):
-    """Seed 002 VINS-AC (g_f): visual information scaled by 1/g_f (eq. 22-26), Cauchy loss."""
+    """Seed 002 VINS-AC (g_f): visual information scaled by 1/g_f (equations 22-26), Cauchy loss."""
 
     name = preset = "vins-ac-gf"
 
 
 class VinsAc(VinsEstimator):
-    """Seed 002 VINS-AC (g_f, N): visual information scaled by N s / g_f (eq. 26), Cauchy loss."""
+    """Seed 002 VINS-AC (g_f, N): visual information scaled by N s / g_f (equation 26), Cauchy loss."""
 
     name = preset = "vins-ac"
 
 
 class VinsAcMe(VinsEstimator):
-    """Seed 002 VINS-AC-ME: adaptive covariance (eq. 26) and adaptive Huber k_t = M_s N (eq. 28-30)."""
+    """Seed 002 VINS-AC-ME: adaptive covariance (equation 26) and adaptive Huber k_t = M_s N (equations 28-30)."""
 
     name = preset = "vins-ac-me"
 

@@ -25,6 +25,7 @@ COMMANDS = {
     "consistency": "sim.app.cli.cmd_consistency:consistency",
     "validate": "sim.app.cli.cmd_validate:validate",
     "sweep": "sim.app.cli.cmd_sweep:sweep",
+    "localize": "sim.app.cli.cmd_localize:localize",
 }
 
 

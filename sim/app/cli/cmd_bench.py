@@ -48,3 +48,20 @@ def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, estimator_
                             progress=not (no_progress or as_json), max_frames=max_frames,
                             options=parse_opts(estimator_opts))
     echo_json([r.to_dict() for r in rows]) if as_json else click.echo(format_rows(rows))
+
+
+@bench.command("localize")
+@click.option("--dataset", required=True, type=click.Path(), help="Traverse dataset folder.")
+@click.option("--mode", type=click.Choice(["ff", "fb"]), default="ff", show_default=True)
+@click.option("--max-sites", type=click.IntRange(min=0), default=3, show_default=True,
+              help="Only the first N sites (0: all); N-1 site pairs are timed.")
+@click.option("--set", "items", multiple=True, metavar="FIELD=VALUE", help="A CrossSiteConfig field (repeatable).")
+@json_option
+def localize_cmd(dataset, mode, max_sites, items, as_json):
+    """Stage timings (s) of the cross-site localizer per site pair (target: <= 120 s per pair)."""
+    from sim.app.cli.cmd_localize import crosssite_config
+    from vo.crosssite.traverse import localize_dataset, site_table, timing_table
+    run = localize_dataset(dataset, crosssite_config(mode, items), max_sites, progress=not as_json)
+    rows = site_table(run)[1:]
+    echo_json([{k: r[k] for k in ("site", "status", "tie_points", "time_s", "timings_s")} for r in rows]) if as_json \
+        else click.echo(timing_table(rows))

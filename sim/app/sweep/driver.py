@@ -104,8 +104,9 @@ def _run_cells(client, as_completed, todo, spec, out_dir, keep_datasets, progres
     bar = tqdm(total=n_total, initial=n_total - len(todo), unit="cell", disable=not progress, desc="sweep")
     try:
         for future in as_completed(futures):
+            cell = futures.pop(future)                 # release the result held by the worker
             if future.status != "finished":            # the task itself died (e.g. its worker was killed)
-                _record_crash(out_dir, futures[future], future)
+                _record_crash(out_dir, cell, future)
             bar.update(1)
     finally:
         bar.close()
