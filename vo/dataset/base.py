@@ -93,6 +93,12 @@ class Dataset:
     def gcps(self) -> list:
         return []
 
+    def image_files(self, k: int) -> tuple:
+        """``(left, right)`` paths of frame ``k`` as stored (exporters copy the file contents as they are)."""
+        if not 0 <= k < len(self):
+            raise DatasetError(f"{self.path}: frame index {k} out of range [0, {len(self)})")
+        return self._image_paths[k]
+
     @functools.cached_property
     def metadata(self) -> dict:
         return {}

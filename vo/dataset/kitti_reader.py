@@ -96,9 +96,3 @@ class KittiDataset(Dataset):
     @functools.cached_property
     def gcps(self) -> list:
         return read_gcps_csv(self.root / "gcps.csv") if self.ours else []
-
-    def image_files(self, k: int) -> tuple:
-        """``(left, right)`` paths of frame ``k`` as stored (exporters copy the file contents as they are)."""
-        if not 0 <= k < len(self):
-            raise DatasetError(f"{self.path}: frame index {k} out of range [0, {len(self)})")
-        return self._image_paths[k]
