@@ -5,6 +5,7 @@ A scene outside the package needs no edit here: ``"package.module:SceneClass"`` 
 (``--scene``, ``scene.name`` in a config file); see docs/extending.md."""
 from __future__ import annotations
 
+from rigs.plugins import load_plugin_class
 from scenes.base import Scene, SceneConfig
 from scenes.campus import CampusScene
 from scenes.errors import SceneError
@@ -31,17 +32,7 @@ def scene_class(name: str) -> type:
         return SCENES[name]
     if not isinstance(name, str) or ":" not in name:
         raise SceneError(f"unknown scene {name!r}; valid: {', '.join(scene_names())}, or 'package.module:SceneClass'")
-    import importlib
-    module, _, attr = name.partition(":")
-    try:
-        cls = getattr(importlib.import_module(module), attr)
-    except ImportError as e:
-        raise SceneError(f"scene {name!r}: cannot import module {module!r} ({e})") from None
-    except AttributeError:
-        raise SceneError(f"scene {name!r}: module {module!r} has no attribute {attr!r}") from None
-    if not (isinstance(cls, type) and issubclass(cls, Scene)):
-        raise SceneError(f"scene {name!r}: not a subclass of scenes.base.Scene")
-    return cls
+    return load_plugin_class(name, Scene, "scene", SceneError)
 
 
 def make_scene(config: SceneConfig, streams, dynamic=None) -> Scene:

@@ -6,11 +6,11 @@ Accepted specs: a registered name (:data:`ESTIMATORS`), ``"package.module:Class"
 """
 from __future__ import annotations
 
-import importlib
 import shlex
 import subprocess
 from pathlib import Path
 
+from rigs.plugins import load_plugin_class
 from vo.errors import EstimatorError
 from vo.estimators.base import Estimator
 
@@ -51,18 +51,7 @@ def describe(name: str) -> str:
 
 def load_class(path: str) -> type:
     """``"package.module:Class"`` -> the class (must subclass Estimator)."""
-    module, _, attr = path.partition(":")
-    if not module or not attr:
-        raise EstimatorError(f"estimator {path!r}: expected 'package.module:Class'")
-    try:
-        cls = getattr(importlib.import_module(module), attr)
-    except ImportError as e:
-        raise EstimatorError(f"estimator {path!r}: cannot import module {module!r} ({e})") from None
-    except AttributeError:
-        raise EstimatorError(f"estimator {path!r}: module {module!r} has no attribute {attr!r}") from None
-    if not (isinstance(cls, type) and issubclass(cls, Estimator)):
-        raise EstimatorError(f"estimator {path!r}: not a subclass of vo.estimators.base.Estimator")
-    return cls
+    return load_plugin_class(path, Estimator, "estimator", EstimatorError)
 
 
 class ExternalCommandError(EstimatorError):
