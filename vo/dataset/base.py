@@ -129,20 +129,17 @@ def _check_listed_images(image_paths: list) -> None:
 
 def read_gcps_csv(path: Path) -> list:
     """``#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z`` -> list of Gcp (empty if no file)."""
-    from vo.dataset.csvio import data_lines
+    from vo.dataset.csvio import data_rows
     import math
     path = Path(path)
     if not path.is_file():
         return []
     out = []
-    for n, line in data_lines(path, "gcps"):
-        parts = line.split(",")
-        if len(parts) != 8:
-            raise DatasetError(f"{path}: line {n}: expected 8 comma-separated values, got {len(parts)}")
+    for n, parts in data_rows(path, "gcps", 8):
         try:
             t_ns, vals = int(parts[1]), [float(x) for x in parts[2:]]
         except ValueError:
-            raise DatasetError(f"{path}: line {n}: expected name,t_ns and 6 numbers, got {line[:60]!r}") from None
+            raise DatasetError(f"{path}: line {n}: expected name,t_ns and 6 numbers, got {','.join(parts)[:60]!r}") from None
         if not all(math.isfinite(v) for v in vals):
             raise DatasetError(f"{path}: line {n}: NaN or inf in coordinates")
         out.append(Gcp(parts[0], t_ns, np.array(vals[:3]), np.array(vals[3:])))

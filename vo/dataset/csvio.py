@@ -31,6 +31,16 @@ def data_lines(path: Path, what: str):
             yield n, line
 
 
+def data_rows(path: Path, what: str, n_fields: int):
+    """Yield ``(line_number, fields)`` of the data lines, each split at commas into exactly ``n_fields``
+    fields (else a one-line DatasetError naming the file and line)."""
+    for n, line in data_lines(path, what):
+        parts = line.split(",")
+        if len(parts) != n_fields:
+            raise DatasetError(f"{path}: line {n}: expected {n_fields} comma-separated values, got {len(parts)}")
+        yield n, parts
+
+
 def _timestamp(tok: str, path, n: int) -> int:
     try:
         return int(tok)
@@ -42,15 +52,12 @@ def read_numeric_csv(path, n_values: int, what: str, names=None) -> tuple[np.nda
     """``t_ns, v1..v_n`` rows -> ``(t_ns (N,) int64 strictly increasing, values (N, n_values) float)``."""
     path = Path(path)
     t, rows = [], []
-    for n, line in data_lines(path, what):
-        parts = line.split(",")
-        if len(parts) != n_values + 1:
-            raise DatasetError(f"{path}: line {n}: expected {n_values + 1} comma-separated values, got {len(parts)}")
+    for n, parts in data_rows(path, what, n_values + 1):
         ts = _timestamp(parts[0].strip(), path, n)
         try:
             vals = [float(p) for p in parts[1:]]
         except ValueError:
-            raise DatasetError(f"{path}: line {n}: expected numbers, got {line[:60]!r}") from None
+            raise DatasetError(f"{path}: line {n}: expected numbers, got {','.join(parts)[:60]!r}") from None
         bad = [j for j, v in enumerate(vals) if not math.isfinite(v)]
         if bad:
             col = names[bad[0]] if names else f"column {bad[0] + 2}"

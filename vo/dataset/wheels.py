@@ -12,20 +12,17 @@ from vo.errors import DatasetError
 
 def read_wheels_csv(path: Path) -> Optional[WheelData]:
     """Strictly parsed wheel ticks; None when the file does not exist (no wheels recorded)."""
-    from vo.dataset.csvio import data_lines
+    from vo.dataset.csvio import data_rows
     path = Path(path)
     if not path.is_file():
         return None
     rows = []
-    for n, line in data_lines(path, "wheels"):
-        parts = line.split(",")
-        if len(parts) != 3:
-            raise DatasetError(f"{path}: line {n}: expected 3 comma-separated values, got {len(parts)}")
+    for n, parts in data_rows(path, "wheels", 3):
         try:
             rows.append([int(p) for p in parts])
         except ValueError:
             raise DatasetError(f"{path}: line {n}: expected t_ns,left_ticks,right_ticks integers, "
-                               f"got {line[:60]!r}") from None
+                               f"got {','.join(parts)[:60]!r}") from None
     a = np.array(rows, dtype=np.int64).reshape(-1, 3)
     if a.shape[0] > 1 and np.any(np.diff(a[:, 0]) <= 0):
         k = int(np.argmax(np.diff(a[:, 0]) <= 0))
