@@ -26,6 +26,12 @@ CAL = StereoCal(RIG.cameras[0].K, RIG.T_c0_c1, 1024, 1024)
 COV = np.diag([0.01 ** 2, 0.01 ** 2, 0.03 ** 2, 0.2 ** 2, 0.2 ** 2, 0.05 ** 2])
 
 
+# The campus figures of docs/crosssite.md: 6 m between sites, small scale changes: no zoom, the
+# Wallis filter on, OpenCV's SIFT defaults, ASIFT without the SIFT-first pass.
+CAMPUS = dict(zoom="none", use_wallis=True, sift_contrast=0.04, sift_features=1000, range_max_m=20.0,
+              region_max_range_m=25.0, asift_fallback_ties=0)
+
+
 @pytest.fixture(scope="module")
 def rendered():
     sc = make_scene(SceneConfig(name="campus", seed=0), scene_streams(0))
@@ -59,7 +65,7 @@ def test_rendered_stereo_disparity_error_is_below_a_third_pixel(rendered):
     sc, r = rendered
     (pair, depth), = render_site(r, site_pose(sc, 2.0), [0.0])
     pts = cv2.goodFeaturesToTrack(pair.left, 400, 0.01, 15).reshape(-1, 2).astype(float)
-    m = match_stereo(pair.left, pair.right, pts, CAL.f, CAL.baseline, CrossSiteConfig())
+    m = match_stereo(pair.left, pair.right, pts, CAL.f, CAL.baseline, CrossSiteConfig(**CAMPUS))
     z = depth[np.rint(pts[:, 1]).astype(int), np.rint(pts[:, 0]).astype(int)]
     err = (pts[:, 0] - m.uv_r[:, 0] - CAL.f * CAL.baseline / z)[m.ok & np.isfinite(z)]
     sigma = 1.4826 * np.median(np.abs(err - np.median(err)))
@@ -122,7 +128,7 @@ def test_localizer_recovers_the_site_pose(rendered, use_asift):
     from scipy.stats import chi2
     sc, r = rendered
     prev, cur, T0, T1, _ = two_sites(sc, r)
-    res = localize_site(prev, T0, cur, CrossSiteConfig(use_asift=use_asift))
+    res = localize_site(prev, T0, cur, CrossSiteConfig(**dict(CAMPUS, use_asift=use_asift)))
     assert res.status == "ok", res.reason
     e = pose_error(res.T_w_b, T1)
     assert np.linalg.norm(e[3:]) < 0.02 and np.degrees(np.linalg.norm(e[:3])) < 0.1, e
@@ -141,7 +147,7 @@ def test_stage_report(rendered):
     rows = {}
     for name, kw in (("sift", dict(use_asift=False)), ("asift", {}), ("asift-no-wallis", dict(use_wallis=False)),
                      ("asift-no-regions", dict(use_regions=False))):
-        cfg = CrossSiteConfig(**kw)
+        cfg = CrossSiteConfig(**dict(CAMPUS, **kw))
         ties = stereo_and_consistency(prev, cur, candidate_ties(prev, T0, cur, cfg), cfg, T0)
         good = true_ties(ties, prev, T0, cur, T1, depths)
         rows[name] = (len(good), int(good.sum()), int(ties.inlier.sum()), int((good & ties.inlier).sum()),

@@ -138,7 +138,7 @@ def test_config_names_the_bad_field():
     with pytest.raises(VoError, match=r"crosssite\.wallis_window_px: must be odd, got 30"):
         CrossSiteConfig(wallis_window_px=30)
     with pytest.raises(VoError, match=r"crosssite\.range_min_m: must be below range_max_m \(20\.0\), got 30\.0"):
-        CrossSiteConfig(range_min_m=30.0)
+        CrossSiteConfig(range_min_m=30.0, range_max_m=20.0)
     with pytest.raises(VoError, match=r"crosssite\.foo: unknown key; valid keys: mode, "):
         CrossSiteConfig.from_dict({"foo": 1})
     assert CrossSiteConfig.from_dict({"ratio": 0.7}).ratio == 0.7
@@ -161,3 +161,22 @@ def test_records_reject_bad_input_and_mast_convention():
     assert np.allclose(T[:3, 0], [0, 1, 0]) and np.allclose(T[:3, 3], [0.3, 0, 1.5])
     T = mast_T_b_c(np.eye(4), 0.0, 0.3, np.eye(4))
     assert np.allclose(T[:3, :3], rot_y(0.3))
+
+
+def test_point_margins_propagate_the_prior_per_point():
+    """Per-point region margins (§2.1): a body-x translation sigma s moves a point at depth z by
+    f s / z pixels (camera x = body x), so near points get wide margins and far ones narrow; a yaw
+    sigma about the camera's vertical axis moves a pixel by f (1 + x^2) s_rot at normalized x.
+    Checked against the closed forms (first order; the Jacobian is numerical)."""
+    from vo.crosssite.regions import point_margins_px, project
+    K = np.array([[800.0, 0, 400], [0, 800.0, 300], [0, 0, 1]])
+    T_b_c = np.eye(4)                         # camera = body
+    P_w = np.array([[0.0, 0, 2.0], [0.0, 0, 10.0], [1.0, 0, 5.0]])
+    fn = lambda T: project(T @ T_b_c, K, P_w)[0]  # noqa: E731
+    C = np.diag([0, 0, 0, 0.2 ** 2, 0, 0])
+    m = point_margins_px(fn, np.eye(4), C, 3.0)
+    assert np.allclose(m, 3.0 * 800.0 * 0.2 / P_w[:, 2], rtol=1e-4)
+    C = np.diag([0, 0.01 ** 2, 0, 0, 0, 0])   # rotation about camera y
+    m = point_margins_px(fn, np.eye(4), C, 1.0)
+    x = P_w[:, 0] / P_w[:, 2]
+    assert np.allclose(m, 800.0 * (1 + x ** 2) * 0.01, rtol=1e-4)

@@ -106,3 +106,43 @@ def test_registered_and_needs_imu():
         est.set_imu(None)
     with pytest.raises(EstimatorError, match="imu0"):          # process() before any IMU was given
         est.process(None)
+
+
+def test_n_count_track_or_window():
+    """N of eq. 26/30: ``track`` = the front-end's times tracked (uncapped), ``window`` = the number of window
+    states observing the feature (VINS-Mono's used_num). A feature tracked 40 times and seen by 2 of the 3
+    states gets sigma 1.5/460*fx/(40*0.02) resp. 1.5/460*fx/(2*0.02) (vins-ac, no g_f: fewer than 3 points)."""
+    T_i_c = inv_T(IMU.T_b_i_array) @ CAM.T_b_c_array
+    sig = {}
+    for mode in ("track", "window"):
+        cfg = VinsConfig(use_gf=True, use_track_count=True, robust="none", n_count=mode)
+        w = Window(cfg, CAM, T_i_c, None, None)
+        for k, ids in enumerate(([5, 7], [7], [5, 7])):
+            n = len(ids)
+            ff = FeatureFrame(k, np.array(ids), np.zeros((n, 2)), np.zeros((n, 2)), np.array([38 + k] * n))
+            w.add_state(k, ff, True, make_T(np.eye(3), [0, 0, k]), np.zeros(3), gtsam.imuBias.ConstantBias())
+        w.add_landmark(5, [0.0, 0.0, 10.0])
+        fs = w.visual_factors(states=w.states[-1:], tracks={5})
+        assert len(fs) == 1
+        sig[mode] = fs[0].noiseModel().sigmas()[0]
+    base = 1.5 / 460 * CAM.fx
+    assert sig["track"] == pytest.approx(base / (40 * 0.02), rel=1e-9)
+    assert sig["window"] == pytest.approx(base / (2 * 0.02), rel=1e-9)
+    with pytest.raises(EstimatorError, match="n_count"):
+        VinsConfig(n_count="frames")
+
+
+def test_landmarks_seen_once_in_the_window_are_dropped():
+    """A landmark observed by a single window state (its other observer was dropped) carries no depth
+    information and would make the linear system indeterminate: it is removed before optimising."""
+    T_i_c = inv_T(IMU.T_b_i_array) @ CAM.T_b_c_array
+    w = Window(VinsConfig(), CAM, T_i_c, None, None)
+    for k, ids in enumerate(([5, 7], [7])):
+        n = len(ids)
+        ff = FeatureFrame(k, np.array(ids), np.zeros((n, 2)), np.zeros((n, 2)), np.ones(n, np.int64))
+        w.add_state(k, ff, True, make_T(np.eye(3), [0, 0, k]), np.zeros(3), gtsam.imuBias.ConstantBias())
+    w.add_landmark(5, [0.0, 0.0, 10.0])
+    w.add_landmark(7, [1.0, 0.0, 10.0])
+    w._drop_single_observations()
+    assert set(w.lm) == {7}
+    assert not w.values.exists(L(0)) and w.values.exists(L(1))

@@ -39,10 +39,16 @@ def run_demo(scenario: str = "campus", estimators=DEFAULT_ESTIMATORS, out_dir="o
 
     Unknown estimator names and an unwritable ``out_dir`` raise before anything is generated; an
     estimator that fails on the data is reported in ``errors`` and the others still run. A traverse
-    scenario (``yutu-traverse``) is localized site by site instead (:func:`run_traverse_demo`)."""
+    scenario (``yutu-traverse``) is localized site by site instead (:func:`run_traverse_demo`); ``urban-static``
+    and ``urban-dynamic`` print seed 002's Tables 2/3 for the VINS configurations
+    (:func:`sim.app.demo_vins.run_vins_demo`)."""
+    from sim.app.demo_vins import VINS_SCENARIOS, run_vins_demo
     from sim.scenarios import traverse_scenarios
     if scenario in traverse_scenarios():
         return run_traverse_demo(scenario, out_dir, progress)
+    if scenario in VINS_SCENARIOS:       # the stereo default list means "the paper's configurations"
+        configs = None if tuple(estimators) == DEFAULT_ESTIMATORS else estimators
+        return run_vins_demo(scenario, configs, out_dir, progress, max_frames)
     from sim.app.check import scenario_dataset
     from vo.dataset import open_dataset
     from vo.errors import VoError

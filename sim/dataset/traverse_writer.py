@@ -103,7 +103,7 @@ def _dead_reckoning(tp, tcfg, config, imu):
     angle and the white-noise density), started from the true initial pose. Its white slip noise is
     the random part of the slip model (``traverse.slip_random_std``); the mean slip is not corrected
     (an on-board filter does not know it) but is in its covariance: a slip-bias state of prior std
-    ``traverse.slip`` (at least 0.02); the gyro bias random walk is the rig IMU's."""
+    ``traverse.slip`` (at least 0.02); the gyro and accelerometer bias random walks are the rig IMU's."""
     from sim.sensors.imu import ImuSamples
     from vo.deadreckoning import DeadReckoningConfig, dead_reckon
     n = max(1, int(round(config.rig.imu.rate_hz / DR_RATE_HZ)))
@@ -113,7 +113,8 @@ def _dead_reckoning(tp, tcfg, config, imu):
     enc = tp.wheel_encoder
     cfg = DeadReckoningConfig(enc.wheel_radius, enc.ticks_per_rev, gyro_noise_density=config.rig.imu.gyro_noise_density,
                               slip_std=max(tcfg.slip_random_std, 1e-4), slip_bias_std=max(tcfg.slip, 0.02),
-                              gyro_bias_walk=config.rig.imu.gyro_random_walk)
+                              gyro_bias_walk=config.rig.imu.gyro_random_walk,
+                              accel_bias_walk=config.rig.imu.accel_random_walk)
     T_w_b0 = tp.trajectory.states(np.array([tp.trajectory.t0_ns])).T_w_b[0]
     T_i_b = np.linalg.inv(config.rig.imu.T_b_i_array)
     dr = dead_reckon(dec, tp.wheel_ticks, T_i_b[:3, :3].T, T_w_b0, np.diag([1e-8] * 6), cfg)

@@ -59,10 +59,11 @@ def view_params(tilts) -> tuple:
     return vt, vr
 
 
-def detect(img: np.ndarray, mask, tilts, n_features: int, asift: bool = True) -> tuple:
+def detect(img: np.ndarray, mask, tilts, n_features: int, asift: bool = True, contrast: float = 0.04) -> tuple:
     """(keypoints uv (N,2), descriptors (N,128) float32) of ASIFT with ``tilts`` (plain SIFT when
-    ``asift`` is False) inside ``mask``."""
-    sift = cv2.SIFT_create(nfeatures=int(n_features))
+    ``asift`` is False) inside ``mask``; ``contrast`` is SIFT's contrast threshold (low-contrast
+    regolith needs less than OpenCV's 0.04)."""
+    sift = cv2.SIFT_create(nfeatures=int(n_features), contrastThreshold=float(contrast))
     if asift:
         det = cv2.AffineFeature.create(sift)
         det.setViewParams(*view_params(tilts))

@@ -15,25 +15,32 @@ class CrossSiteConfig:
     :func:`rigs.typed_config.check_fields`: bad values raise one-line :class:`VoError` naming ``crosssite.<field>``."""
 
     mode: Literal["ff", "fb"] = "ff"
+    # prior of a leg (added to the dead reckoning's own leg covariance)
+    prior_leg_fraction: float = knob(0.15, ge=0)     # translation sigma per axis, fraction of the leg length
+    prior_rot_sigma_rad: float = knob(0.03, ge=0)    # rotation sigma per axis
     # regions (§2.1)
     region_sigma: float = knob(3.0, ge=0)            # extend predicted regions by this many prior sigmas
-    region_max_range_m: float = knob(25.0, gt=0)     # ground coverage of an image: rays cut at this range
+    region_max_range_m: float = knob(40.0, gt=0)     # ground coverage of an image: rays cut at this range
     use_regions: bool = True
     # Wallis filter (eq. 1)
-    use_wallis: bool = True
+    use_wallis: bool = False                         # off by default: costs true ties under equal lighting (docs)
     wallis_window_px: int = knob(31, ge=3, odd=True)
     wallis_b: float = knob(1.0, ge=0)                # brightness forcing constant
     wallis_c: float = knob(4.0, gt=0)                # contrast expansion constant
+    # zoom of the previous images (§2.2): none, scale (the paper's), plane (ground-plane homography)
+    zoom: Literal["none", "scale", "plane"] = "plane"
     # ASIFT (§2.2)
     use_asift: bool = True
+    asift_fallback_ties: int = knob(20, ge=0)        # SIFT first; ASIFT only below this many eq. 2 ties (0: ASIFT only)
     asift_max_tilt: float = knob(4.0, ge=0)          # the full ASIFT set goes to tilt 4 (sqrt 2 ** 4)
-    sift_features: int = knob(1000, ge=1)
+    sift_features: int = knob(0, ge=0)               # SIFT nfeatures, 0: all
+    sift_contrast: float = knob(0.01, gt=0)          # SIFT contrast threshold (OpenCV's default 0.04)
     ratio: float = knob(0.8, gt=0)                   # Lowe's ratio test
     # stereo ZNCC + LSM (§2.2)
     zncc_half_px: int = knob(7, ge=1)
     zncc_min: float = knob(0.8, ge=0)
     range_min_m: float = knob(1.5, gt=0)
-    range_max_m: float = knob(20.0, ge=0)
+    range_max_m: float = knob(40.0, ge=0)            # the overlap lies 10-35 m from the previous site
     median_k: int = knob(8, ge=1)
     median_abs_px: float = knob(2.0, ge=0)
     median_rel: float = knob(0.15, ge=0)

@@ -81,7 +81,7 @@ def matching_figure(run, path):
         ax.imshow(img, cmap="gray")
         if box is not None:
             ax.add_patch(Rectangle((box[0], box[1]), box[2] - box[0], box[3] - box[1], fill=False, ls="--", ec="yellow", lw=1.5))
-        ax.plot(uv[sel, 0], uv[sel, 1], ".", color="orange", ms=2, label="ASIFT candidates")
+        ax.plot(uv[sel, 0], uv[sel, 1], ".", color="orange", ms=2, label="candidates (SIFT/ASIFT on the zoomed image)")
         ax.plot(uv[sel & t.inlier, 0], uv[sel & t.inlier, 1], "c+", ms=6, label="tie points (eq. 2 inliers)")
         ax.set_title(title)
         ax.set_axis_off()

@@ -81,17 +81,43 @@ def _subsample(idx: np.ndarray, n_max: int) -> np.ndarray:
     return idx[np.linspace(0, len(idx) - 1, n_max).round().astype(int)]
 
 
+def _ties(prev: Site, T_w_b_prev, cur: Site, cfg: CrossSiteConfig) -> tuple:
+    """Stages 1-5 with the matcher ``cfg.use_asift`` says. -> (TieSet, timings)."""
+    ties = candidate_ties(prev, T_w_b_prev, cur, cfg)
+    if len(ties.pair_prev):
+        ties = stereo_and_consistency(prev, cur, ties, cfg, T_w_b_prev)
+    ties.stats["matcher"] = "asift" if cfg.use_asift else "sift"
+    return ties, dict(ties.timings_s)
+
+
 def localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSiteConfig = CrossSiteConfig()) -> SiteResult:
-    """Localize ``cur`` against ``prev`` whose body pose ``T_w_b_prev`` is held fixed."""
+    """Localize ``cur`` against ``prev`` whose body pose ``T_w_b_prev`` is held fixed. With
+    ``use_asift`` and ``asift_fallback_ties > 0``, plain SIFT first and ASIFT only when the SIFT ties
+    do not give an ``ok`` pose or number fewer than ``asift_fallback_ties``. Timings: wall seconds
+    per stage (the SIFT pass's prefixed ``sift_`` when ASIFT followed) and ``total``; ``cpu_total``
+    the process CPU seconds (all threads)."""
+    c0, t0 = time.process_time(), time.perf_counter()
+    if not (cfg.use_asift and cfg.asift_fallback_ties > 0):
+        r = _localize_site(prev, T_w_b_prev, cur, cfg)
+    else:
+        r = _localize_site(prev, T_w_b_prev, cur, dataclasses.replace(cfg, use_asift=False))
+        if r.status != "ok" or r.n_tie_points < cfg.asift_fallback_ties:
+            first = {"sift_" + k: v for k, v in r.timings_s.items()}
+            r2 = _localize_site(prev, T_w_b_prev, cur, cfg)
+            if r2.status == "ok" or r.status != "ok":
+                r = r2
+            r.timings_s.update(first)
+    r.timings_s.update(total=time.perf_counter() - t0, cpu_total=time.process_time() - c0)
+    return r
+
+
+def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSiteConfig) -> SiteResult:
     t0 = time.perf_counter()
     T_w_b_prev = np.asarray(T_w_b_prev, float)
-    ties = candidate_ties(prev, T_w_b_prev, cur, cfg)
-    timings = dict(ties.timings_s)
+    ties, timings = _ties(prev, T_w_b_prev, cur, cfg)
     if len(ties.pair_prev) == 0:
         timings["total"] = time.perf_counter() - t0
         return _fallback(cur, "no_tie_points", cfg, ties, "no ASIFT matches in the predicted regions", timings)
-    ties = stereo_and_consistency(prev, cur, ties, cfg, T_w_b_prev)
-    timings.update(ties.timings_s)
     idx = _subsample(np.flatnonzero(ties.inlier), cfg.max_ba_points)
     if len(idx) < cfg.min_tie_points:
         timings["total"] = time.perf_counter() - t0
@@ -141,17 +167,30 @@ def relative_prior_cov(prev: Site, cur: Site, floor: float = 1e-8) -> np.ndarray
     return (V * np.maximum(w, floor)) @ V.T
 
 
+def leg_model_cov(prev: Site, cur: Site, cfg: CrossSiteConfig) -> np.ndarray:
+    """6x6 diagonal floor of the leg's prior covariance: ``prior_rot_sigma_rad`` on each rotation and
+    ``prior_leg_fraction`` of the leg length on each translation axis. Seed 001 states dead
+    reckoning's expected error as up to 15 % of distance; the EKF's own leg covariance
+    (:func:`relative_prior_cov`) can be far smaller than its actual leg error (correlated slip and
+    attitude errors), and a too-small prior cuts the true overlap out of the regions and makes the
+    chi2 gate refuse the true pose."""
+    d = float(np.linalg.norm(cur.T_w_b_prior[:3, 3] - prev.T_w_b_prior[:3, 3]))
+    return np.diag([cfg.prior_rot_sigma_rad ** 2] * 3 + [(cfg.prior_leg_fraction * d) ** 2] * 3)
+
+
 def localize_traverse(sites: Sequence[Site], T_w_b0: np.ndarray, cfg: CrossSiteConfig = CrossSiteConfig(),
                       on_site=None) -> list:
     """Sites in driving order, site 0 at the known ``T_w_b0``: each site against the previous one's
     estimate (or kept prior). The dead-reckoning prior of site k is moved with the previous site's
     correction, ``T_prev_est @ inv(T_prev_prior) @ T_k_prior`` (the drive's relative motion is the
-    dead reckoning's), with the covariance of that motion (:func:`relative_prior_cov`).
+    dead reckoning's), with the covariance of that motion (:func:`relative_prior_cov`) plus the
+    leg-length floor :func:`leg_model_cov`.
     ``on_site(result)`` is called after each site. -> [SiteResult] for sites 1..n-1."""
     out, T_prev = [], np.asarray(T_w_b0, float)
     for prev, cur in zip(sites[:-1], sites[1:]):
         shift = T_prev @ inv_T(prev.T_w_b_prior)
-        cur_c = dataclasses.replace(cur, T_w_b_prior=shift @ cur.T_w_b_prior, cov_prior=relative_prior_cov(prev, cur))
+        cov = relative_prior_cov(prev, cur) + leg_model_cov(prev, cur, cfg)
+        cur_c = dataclasses.replace(cur, T_w_b_prior=shift @ cur.T_w_b_prior, cov_prior=cov)
         r = localize_site(prev, T_prev, cur_c, cfg)
         if on_site is not None:
             on_site(r)

@@ -2,7 +2,7 @@
 
 Forward-forward (same viewing direction): the current image's ground coverage (its pixel rays cut
 with the ground plane of the current site, up to ``max_range_m``) is back-projected into the previous
-site's image; the bounding box is extended by the prior's uncertainty. Forward-backward: both images'
+site's image; each point's box margin is the prior's uncertainty propagated through its projection. Forward-backward: both images'
 ground coverages are intersected on the ground plane, the overlap is extended by the uncertainty and
 projected into each image. Boxes are ``(u0, v0, u1, v1)`` integer pixels, inclusive-exclusive.
 """
@@ -13,7 +13,7 @@ from typing import Optional
 import cv2
 import numpy as np
 
-from rigs.geometry import inv_T
+from rigs.geometry import inv_T, make_T, so3_exp
 
 
 def ground_coverage(T_w_c: np.ndarray, K: np.ndarray, width: int, height: int, T_w_ground: np.ndarray,
@@ -49,37 +49,65 @@ def prior_margin_px(cov6: np.ndarray, f: float, depth_m: float, n_sigma: float) 
     return n_sigma * (f * s_rot + f * s_t / max(depth_m, 1e-3))
 
 
-def box_of(uv: np.ndarray, z: np.ndarray, width: int, height: int, margin_px: float) -> Optional[tuple]:
-    """Bounding box of the points in front of the camera, extended by ``margin_px`` and clipped; None
-    if it misses the image."""
+def box_of(uv: np.ndarray, z: np.ndarray, width: int, height: int, margin_px) -> Optional[tuple]:
+    """Bounding box of the points in front of the camera, each extended by its ``margin_px`` (a
+    scalar or one per point) and clipped; None if it misses the image."""
     ok = z > 0.1
     if not np.any(ok):
         return None
-    lo, hi = uv[ok].min(axis=0) - margin_px, uv[ok].max(axis=0) + margin_px
+    m = np.broadcast_to(np.asarray(margin_px, float), z.shape)[ok][:, None]
+    lo, hi = (uv[ok] - m).min(axis=0), (uv[ok] + m).max(axis=0)
     u0, v0 = max(0, int(np.floor(lo[0]))), max(0, int(np.floor(lo[1])))
     u1, v1 = min(width, int(np.ceil(hi[0])) + 1), min(height, int(np.ceil(hi[1])) + 1)
     return (u0, v0, u1, v1) if u1 - u0 >= 16 and v1 - v0 >= 16 else None
 
 
+def pose_jacobian_px(project_fn, T_w_b: np.ndarray, eps: float = 1e-6) -> np.ndarray:
+    """(M,2,6) numerical d uv / d xi of ``project_fn(T_w_b) -> uv (M,2)`` for the right perturbation
+    ``T_w_b Exp(xi)``, ``xi = (rot, trans)`` (the prior covariance's tangent)."""
+    uv0 = project_fn(T_w_b)
+    J = np.empty((len(uv0), 2, 6))
+    for k in range(6):
+        xi = np.zeros(6)
+        xi[k] = eps
+        J[:, :, k] = (project_fn(T_w_b @ make_T(so3_exp(xi[:3]), xi[3:])) - uv0) / eps
+    return J
+
+
+def point_margins_px(project_fn, T_w_b: np.ndarray, cov6: np.ndarray, n_sigma: float) -> np.ndarray:
+    """(M,) per-point pixel margins: ``n_sigma`` times the largest standard deviation of each point's
+    pixel covariance ``J C J^T``, the prior covariance propagated through the projection point by point."""
+    J = pose_jacobian_px(project_fn, T_w_b)
+    C_uv = np.einsum("mik,kl,mjl->mij", J, cov6, J)
+    lam = np.linalg.eigvalsh(0.5 * (C_uv + np.swapaxes(C_uv, 1, 2)))[:, -1]
+    return n_sigma * np.sqrt(np.maximum(np.nan_to_num(lam, nan=0.0), 0.0))
+
+
 def forward_forward(T_w_c_prev, T_w_c_cur, T_w_b_cur, cov_cur, K, width, height, max_range_m,
                     n_sigma) -> tuple:
     """-> (box in the previous image, box in the current image) or (None, None). The current
-    coverage goes into the previous image; symmetrically the previous coverage into the current one."""
-    T_w_b_prev_ground = T_w_b_cur  # ground plane: the current site's (the sites are near each other)
-    cov_w = ground_coverage(T_w_c_cur, K, width, height, T_w_b_prev_ground, max_range_m)
-    cov_p = ground_coverage(T_w_c_prev, K, width, height, T_w_b_prev_ground, max_range_m)
+    coverage goes into the previous image; symmetrically the previous coverage into the current one.
+    Each point's box margin is the prior covariance propagated through its own projection
+    (:func:`point_margins_px`): the current coverage moves with the current pose in the previous
+    image; the fixed previous coverage moves in the current image with the current camera."""
+    cov_w = ground_coverage(T_w_c_cur, K, width, height, T_w_b_cur, max_range_m)
+    cov_p = ground_coverage(T_w_c_prev, K, width, height, T_w_b_cur, max_range_m)
     if len(cov_w) == 0 or len(cov_p) == 0:
         return None, None
+    P_b = (inv_T(T_w_b_cur) @ np.c_[cov_w, np.ones(len(cov_w))].T)[:3].T
+    T_b_c = inv_T(T_w_b_cur) @ T_w_c_cur
+    into_prev = lambda T: project(T_w_c_prev, K, (T @ np.c_[P_b, np.ones(len(P_b))].T)[:3].T)[0]  # noqa: E731
+    into_cur = lambda T: project(T @ T_b_c, K, cov_p)[0]  # noqa: E731
     uv_p, z_p = project(T_w_c_prev, K, cov_w)
     uv_c, z_c = project(T_w_c_cur, K, cov_p)
-    m_p = prior_margin_px(cov_cur, K[0, 0], float(np.median(z_p[z_p > 0])) if np.any(z_p > 0) else 1.0, n_sigma)
-    m_c = prior_margin_px(cov_cur, K[0, 0], float(np.median(z_c[z_c > 0])) if np.any(z_c > 0) else 1.0, n_sigma)
+    m_p = point_margins_px(into_prev, T_w_b_cur, cov_cur, n_sigma)
+    m_c = point_margins_px(into_cur, T_w_b_cur, cov_cur, n_sigma)
     inside_p = _inside(uv_p, z_p, width, height, m_p)
     inside_c = _inside(uv_c, z_c, width, height, m_c)
     if not np.any(inside_p) or not np.any(inside_c):
         return None, None
-    return (box_of(uv_p[inside_p], z_p[inside_p], width, height, m_p),
-            box_of(uv_c[inside_c], z_c[inside_c], width, height, m_c))
+    return (box_of(uv_p[inside_p], z_p[inside_p], width, height, m_p[inside_p]),
+            box_of(uv_c[inside_c], z_c[inside_c], width, height, m_c[inside_c]))
 
 
 def _inside(uv, z, width, height, margin):

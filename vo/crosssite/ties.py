@@ -2,12 +2,13 @@
 LSM, distance consistency) on :class:`vo.crosssite.types.Site` records."""
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from vo.crosssite import asift, regions, wallis
+from vo.crosssite import asift, regions, wallis, zoom
 from vo.crosssite.consistency import distance_consistency, range_sigma
 from vo.crosssite.initial import intersect_rectified
 from vo.crosssite.zncc import match_stereo
@@ -79,9 +80,48 @@ def _enhanced(prev, cur, boxes, cfg) -> tuple:
     return [f(p.left) for p in prev.pairs], [f(p.left) for p in cur.pairs]
 
 
+def _detect(im, m, tilts, cfg):
+    if m is None or not np.any(m):
+        return np.zeros((0, 2)), np.zeros((0, 128), np.float32)
+    return asift.detect(im, m, tilts, cfg.sift_features, cfg.use_asift, cfg.sift_contrast)
+
+
 def _detect_all(images, masks, tilts, cfg):
-    return [asift.detect(im, m, tilts, cfg.sift_features, cfg.use_asift) if m is not None and np.any(m)
-            else (np.zeros((0, 2)), np.zeros((0, 128), np.float32)) for im, m in zip(images, masks)]
+    return [_detect(im, m, tilts, cfg) for im, m in zip(images, masks)]
+
+
+def _nominal_overlap(prev, T_w_b_prev, cur, i, j, cfg) -> bool:
+    """Whether the two views overlap at the prior pose itself (regions without margins): the pairs
+    that only the prior's 3-sigma margins join are not worth a zoomed matching."""
+    K, W, H = cur.cal.K, cur.cal.width, cur.cal.height
+    bp, bc = regions.forward_forward(T_w_b_prev @ prev.pairs[i].T_b_c0, cur.T_w_b_prior @ cur.pairs[j].T_b_c0,
+                                     cur.T_w_b_prior, cur.cov_prior, K, W, H, cfg.region_max_range_m, 0.0)
+    return bp is not None and bc is not None
+
+
+def _zoomed_rows(prev, T_w_b_prev, cur, boxes, imgs_p, feats_c, tilts, cfg) -> tuple:
+    """Matches per region pair with the previous image zoomed into the current geometry
+    (:mod:`vo.crosssite.zoom`); previous pixels mapped back. -> (rows, n previous features, n warped pairs)."""
+    W, H = cur.cal.width, cur.cal.height
+    rows, n_feat, n_warped = [], 0, 0
+    for (i, j), (bp, bc) in boxes.items():
+        if cfg.mode == "ff" and not _nominal_overlap(prev, T_w_b_prev, cur, i, j, cfg):
+            continue
+        M = zoom.pair_warp(prev, T_w_b_prev, cur, i, j, bp, bc, cfg)
+        if M is None:
+            continue
+        warped, valid = zoom.warp_image(imgs_p[i], M, W, H)
+        uv_w, d_a = _detect(warped, valid & regions.box_mask(bc, W, H), tilts, cfg)
+        n_feat, n_warped = n_feat + len(uv_w), n_warped + 1
+        uv_b, d_b = feats_c[j]
+        ib = np.flatnonzero(regions.in_box(uv_b, bc))
+        ab = asift.match(d_a, d_b[ib], cfg.ratio)
+        if len(ab) == 0:
+            continue
+        uv_a = zoom.unwarp_points(uv_w[ab[:, 0]], M)
+        for a, b in zip(uv_a, ib[ab[:, 1]]):
+            rows.append((i, *a, j, *uv_b[b]))
+    return rows, n_feat, n_warped
 
 
 def candidate_ties(prev, T_w_b_prev, cur, cfg) -> TieSet:
@@ -90,23 +130,30 @@ def candidate_ties(prev, T_w_b_prev, cur, cfg) -> TieSet:
     W, H = cur.cal.width, cur.cal.height
     boxes = pair_regions(prev, T_w_b_prev, cur, cfg)
     tau, scale = predicted_tilt(prev, T_w_b_prev, cur, boxes, cfg)
-    tilts = asift.tilt_set(tau, cfg.asift_max_tilt)
+    tilts = asift.tilt_set(1.0 if cfg.zoom == "plane" else tau, cfg.asift_max_tilt)
     t1 = time.perf_counter()
     imgs_p, imgs_c = _enhanced(prev, cur, boxes, cfg)
     t2 = time.perf_counter()
     mask_p = [_union([bp for (i, _), (bp, _) in boxes.items() if i == k], W, H) for k in range(len(prev.pairs))]
     mask_c = [_union([bc for (_, j), (_, bc) in boxes.items() if j == k], W, H) for k in range(len(cur.pairs))]
-    feats_p, feats_c = _detect_all(imgs_p, mask_p, tilts, cfg), _detect_all(imgs_c, mask_c, tilts, cfg)
-    rows = []
-    for (i, j), (bp, bc) in boxes.items():
-        (uv_a, d_a), (uv_b, d_b) = feats_p[i], feats_c[j]
-        ia, ib = np.flatnonzero(regions.in_box(uv_a, bp)), np.flatnonzero(regions.in_box(uv_b, bc))
-        for a, b in asift.match(d_a[ia], d_b[ib], cfg.ratio):
-            rows.append((i, *uv_a[ia[a]], j, *uv_b[ib[b]]))
+    # with a zoom the previous image is already in the current geometry: the affine views (if any)
+    # are simulated on the zoomed previous image only, the current image keeps plain SIFT
+    cfg_c = dataclasses.replace(cfg, use_asift=False) if cfg.zoom != "none" else cfg
+    feats_c = _detect_all(imgs_c, mask_c, tilts, cfg_c)
+    if cfg.zoom != "none":
+        rows, n_feat_p, n_warped = _zoomed_rows(prev, T_w_b_prev, cur, boxes, imgs_p, feats_c, tilts, cfg)
+    else:
+        feats_p, rows, n_warped = _detect_all(imgs_p, mask_p, tilts, cfg), [], 0
+        n_feat_p = sum(len(f[0]) for f in feats_p)
+        for (i, j), (bp, bc) in boxes.items():
+            (uv_a, d_a), (uv_b, d_b) = feats_p[i], feats_c[j]
+            ia, ib = np.flatnonzero(regions.in_box(uv_a, bp)), np.flatnonzero(regions.in_box(uv_b, bc))
+            for a, b in asift.match(d_a[ia], d_b[ib], cfg.ratio):
+                rows.append((i, *uv_a[ia[a]], j, *uv_b[ib[b]]))
     r = _unique(np.array(rows, float).reshape(-1, 6))
     ties = TieSet(r[:, 0].astype(int), r[:, 1:3], r[:, 3].astype(int), r[:, 4:6], boxes=boxes)
     ties.stats.update(tilts=[round(t, 3) for t in tilts], predicted_tilt=round(tau, 3), predicted_scale=round(scale, 3),
-                      n_region_pairs=len(boxes), n_features_prev=sum(len(f[0]) for f in feats_p),
+                      n_region_pairs=len(boxes), n_zoomed_pairs=n_warped, n_features_prev=n_feat_p,
                       n_features_cur=sum(len(f[0]) for f in feats_c), n_candidates=len(r))
     ties.timings_s.update(regions=t1 - t0, wallis=t2 - t1, asift=time.perf_counter() - t2)
     return ties
@@ -134,13 +181,16 @@ def _unique(r: np.ndarray) -> np.ndarray:
 def prior_gate(prev, T_w_b_prev, cur, ties: TieSet, idx, P_b_prev, cfg) -> np.ndarray:
     """(len(idx),) bool: the tie's current pixel lies within the predicted region of its own point,
     the §2.1 region applied point by point: the previous-site intersection moved into the current
-    image with the prior pose, within ``region_sigma`` prior sigmas (``regions.prior_margin_px``)."""
+    image with the prior pose, within ``region_sigma`` times the prior covariance propagated through
+    that point's projection (``regions.point_margins_px``), plus 3 px."""
     ok = np.zeros(len(idx), bool)
     P_w = P_b_prev @ T_w_b_prev[:3, :3].T + T_w_b_prev[:3, 3]
     for j in np.unique(ties.pair_cur[idx]):
         s = ties.pair_cur[idx] == j
-        uv, z = regions.project(cur.T_w_b_prior @ cur.pairs[j].T_b_c0, cur.cal.K, P_w[s])
-        margin = np.array([regions.prior_margin_px(cur.cov_prior, cur.cal.f, max(d, 0.5), cfg.region_sigma) for d in z])
+        T_b_c = cur.pairs[j].T_b_c0
+        uv, z = regions.project(cur.T_w_b_prior @ T_b_c, cur.cal.K, P_w[s])
+        margin = regions.point_margins_px(lambda T: regions.project(T @ T_b_c, cur.cal.K, P_w[s])[0],  # noqa: B023
+                                          cur.T_w_b_prior, cur.cov_prior, cfg.region_sigma)
         ok[s] = (z > 0) & (np.linalg.norm(uv - ties.uv_cur[idx][s], axis=1) <= margin + 3.0)
     return ok
 

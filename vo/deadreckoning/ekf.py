@@ -1,9 +1,9 @@
 """Dead-reckoning EKF: gyro-integrated attitude with accelerometer tilt updates, wheel odometry for
 the distance travelled along the body x axis.
 
-State ``x = (p_w (3), roll, pitch, yaw, b, b_g (3))`` (Euler ZYX, ``R_w_b = R_z(yaw) R_y(pitch) R_x(roll)``;
+State ``x = (p_w (3), roll, pitch, yaw, b, b_g (3), b_a (2))`` (Euler ZYX, ``R_w_b = R_z(yaw) R_y(pitch) R_x(roll)``;
 ``b`` the slip bias, the fraction of the wheel distance that was not travelled; ``b_g`` the gyro
-bias in b, rad/s), filterpy's
+bias in b, rad/s; ``b_a`` the accelerometer bias along body x and y, m/s^2), filterpy's
 :class:`~filterpy.kalman.ExtendedKalmanFilter` with a nonlinear prediction per IMU interval
 ``[t_k, t_k+1]``: ``R <- R Exp((omega_b - b_g) dt)``, ``p <- p + R ((1 - b) ds, 0, 0)`` with ``ds`` the mean
 of the two wheels' distances over the interval (cumulative ticks interpolated at the IMU times). The
@@ -16,7 +16,19 @@ against a 0.3 deg sigma after 115 m / 990 s with the ADIS16448 model). The slip 
 position covariance grow in proportion to the distance, as the error of a wheel odometer with a
 common slip does (white slip per interval alone averages out and gives a covariance ~40x too small). Update: roll and pitch from the
 accelerometer (gravity direction) when ``| |a| - g |`` is below ``tilt_gate_mps2``. Gyro biases are
-not estimated (a rover calibrates them at rest). Output covariances use the pose tangent of
+not estimated (a rover calibrates them at rest).
+
+Vertical: the height error is the integral of the pitch error over the distance, so the vertical
+covariance is only as right as the tilt covariance. Two tilt-measurement errors are in the model
+(without them the tilt sigma was 0.27 deg while the pitch was off by up to 1.1 deg, and the vertical
+error reached 4 sigma on ``yutu-traverse`` seed 1): (1) the accelerometer bias, which enters the
+tilt measurement as ``roll + b_ay / g``, ``pitch - b_ax / g`` and is as correlated as the bias itself
+(a random walk ``accel_bias_walk``, the IMU's Kalibr ``accelerometer_random_walk``: 1 deg of tilt after
+1000 s with the ADIS16448); averaging many static updates does not remove it; (2) while the rover
+moves, vibration and the mast's lever arm: on the lunar drive the accepted (gated) tilt
+measurements are off by 3 deg (std) while moving against 0.06 deg at rest, so a moving update
+uses ``tilt_sigma_moving_rad`` and a static one (no wheel travel since the last update)
+``tilt_sigma_rad``. Output covariances use the pose tangent of
 :mod:`vo.crosssite.types` (right perturbation, ``rot_b``, ``trans_b``).
 """
 from __future__ import annotations
@@ -30,6 +42,7 @@ from rigs.geometry import make_T, so3_exp, so3_log
 from vo.errors import VoError
 
 G = 9.81
+N_X = 12                               # state size
 
 
 @dataclass(frozen=True)
@@ -40,7 +53,8 @@ class DeadReckoningConfig:
     ticks_per_rev: int
     gyro_noise_density: float = 1e-4   # rad/s/sqrt(Hz)
     slip_std: float = 0.01             # relative distance error per interval (1 sigma)
-    tilt_sigma_rad: float = 0.02       # accelerometer tilt measurement (vehicle accelerations)
+    tilt_sigma_rad: float = 0.005      # accelerometer tilt measurement at rest (white part)
+    tilt_sigma_moving_rad: float = 0.06  # the same while the wheels turn (vibration, lever arm)
     tilt_gate_mps2: float = 0.3
     tilt_update_every: int = 20        # IMU samples between tilt updates
     slip_bias_mean: float = 0.0        # prior slip bias (fraction of wheel distance not travelled)
@@ -48,15 +62,17 @@ class DeadReckoningConfig:
     slip_bias_walk: float = 0.018      # 1/sqrt(s) random-walk density of the bias (slowly varying slip)
     gyro_bias_std: float = 0.0         # rad/s, initial gyro bias 1-sigma (0: calibrated at the start)
     gyro_bias_walk: float = 0.0        # rad/s/sqrt(s), gyro bias random walk (Kalibr gyro_random_walk)
+    accel_bias_std: float = 0.0        # m/s^2, initial accelerometer bias 1-sigma (x, y)
+    accel_bias_walk: float = 0.0       # m/s^2/sqrt(s), its random walk (Kalibr accelerometer_random_walk)
 
     def __post_init__(self):
-        for f in ("wheel_radius_m", "tilt_sigma_rad", "tilt_gate_mps2"):
+        for f in ("wheel_radius_m", "tilt_sigma_rad", "tilt_sigma_moving_rad", "tilt_gate_mps2"):
             if not float(getattr(self, f)) > 0:
                 raise VoError(f"deadreckoning.{f}: must be positive, got {getattr(self, f)!r}")
         if not -1.0 < float(self.slip_bias_mean) < 1.0:
             raise VoError(f"deadreckoning.slip_bias_mean: must be in (-1, 1), got {self.slip_bias_mean!r}")
         for f in ("gyro_noise_density", "slip_std", "slip_bias_std", "slip_bias_walk",
-                  "gyro_bias_std", "gyro_bias_walk"):
+                  "gyro_bias_std", "gyro_bias_walk", "accel_bias_std", "accel_bias_walk"):
             if not float(getattr(self, f)) >= 0:
                 raise VoError(f"deadreckoning.{f}: must be non-negative, got {getattr(self, f)!r}")
         for f in ("ticks_per_rev", "tilt_update_every"):
@@ -79,7 +95,7 @@ def euler_from_R(R) -> np.ndarray:
 def _f(x, omega_b, dt, ds):
     R = R_from_euler(x[3:6])
     R1 = R @ so3_exp((np.asarray(omega_b) - x[7:10]) * dt)
-    return np.r_[x[:3] + R @ np.array([(1.0 - x[6]) * ds, 0.0, 0.0]), euler_from_R(R1), x[6:10]]
+    return np.r_[x[:3] + R @ np.array([(1.0 - x[6]) * ds, 0.0, 0.0]), euler_from_R(R1), x[6:]]
 
 
 def _num_jac(fun, x0, eps=1e-6):
@@ -89,7 +105,7 @@ def _num_jac(fun, x0, eps=1e-6):
         d = np.zeros(x0.size)
         d[k] = eps
         diff = fun(x0 + d) - fun(x0 - d)
-        if f0.size == 10:
+        if f0.size == N_X:
             diff[3:6] = (diff[3:6] + np.pi) % (2 * np.pi) - np.pi
         J[:, k] = diff / (2 * eps)
     return J
@@ -144,15 +160,16 @@ def dead_reckon(imu, wheels, R_b_i: np.ndarray, T_w_b0: np.ndarray, P0: np.ndarr
     per_tick = 2 * np.pi * cfg.wheel_radius_m / cfg.ticks_per_rev
     dist = 0.5 * (np.asarray(wheels.left_ticks) + np.asarray(wheels.right_ticks)) * per_tick
     s = np.interp(t.astype(float), np.asarray(wheels.t_ns, float), dist)
-    ekf = ExtendedKalmanFilter(dim_x=10, dim_z=2)
-    ekf.x = np.r_[T_w_b0[:3, 3], euler_from_R(T_w_b0[:3, :3]), cfg.slip_bias_mean, np.zeros(3)]
-    ekf.P = np.zeros((10, 10))
+    ekf = ExtendedKalmanFilter(dim_x=N_X, dim_z=2)
+    ekf.x = np.r_[T_w_b0[:3, 3], euler_from_R(T_w_b0[:3, :3]), cfg.slip_bias_mean, np.zeros(5)]
+    ekf.P = np.zeros((N_X, N_X))
     ekf.P[:6, :6] = np.asarray(P0, float)
     ekf.P[6, 6] = max(cfg.slip_bias_std ** 2, 1e-12)
-    ekf.P[7:, 7:] = np.eye(3) * max(cfg.gyro_bias_std ** 2, 1e-16)
-    ekf.R = np.eye(2) * cfg.tilt_sigma_rad ** 2
-    H = np.zeros((2, 10))
+    ekf.P[7:10, 7:10] = np.eye(3) * max(cfg.gyro_bias_std ** 2, 1e-16)
+    ekf.P[10:, 10:] = np.eye(2) * max(cfg.accel_bias_std ** 2, 1e-16)
+    H = np.zeros((2, N_X))                  # (roll + b_ay / g, pitch - b_ax / g)
     H[0, 3] = H[1, 4] = 1.0
+    H[0, 11], H[1, 10] = 1.0 / G, -1.0 / G
     out_T, out_P = [make_T(R_from_euler(ekf.x[3:6]), ekf.x[:3])], [_tangent_cov(ekf.x, ekf.P)]
     for k in range(len(t) - 1):
         dt = (t[k + 1] - t[k]) * 1e-9
@@ -160,16 +177,18 @@ def dead_reckon(imu, wheels, R_b_i: np.ndarray, T_w_b0: np.ndarray, P0: np.ndarr
         ds = s[k + 1] - s[k]
         x0 = ekf.x.copy()
         ekf.F = _num_jac(lambda xx: _f(xx, w, dt, ds), x0)
-        G_n = _num_jac(lambda n: _f(x0, w + n[:3], dt, ds + n[3]) + np.r_[np.zeros(6), n[4:8]], np.zeros(8))
+        G_n = _num_jac(lambda n: _f(x0, w + n[:3], dt, ds + n[3]) + np.r_[np.zeros(6), n[4:]], np.zeros(10))
         q = np.r_[[cfg.gyro_noise_density ** 2 / dt] * 3, (cfg.slip_std * ds) ** 2 + per_tick ** 2 / 6,
-                  cfg.slip_bias_walk ** 2 * dt, [cfg.gyro_bias_walk ** 2 * dt] * 3]
+                  cfg.slip_bias_walk ** 2 * dt, [cfg.gyro_bias_walk ** 2 * dt] * 3, [cfg.accel_bias_walk ** 2 * dt] * 2]
         ekf.Q = G_n @ np.diag(q) @ G_n.T
         ekf.predict_x = lambda u=0, x1=_f(x0, w, dt, ds): setattr(ekf, "x", x1)  # filterpy: sets self.x
         ekf.predict()
         a = acc_b[k + 1]
         if (k + 1) % cfg.tilt_update_every == 0 and abs(np.linalg.norm(a) - G) < cfg.tilt_gate_mps2:
+            moving = s[k + 1] - s[max(k + 1 - cfg.tilt_update_every, 0)] > 0.5 * per_tick
+            ekf.R = np.eye(2) * (cfg.tilt_sigma_moving_rad if moving else cfg.tilt_sigma_rad) ** 2
             z = np.array([np.arctan2(a[1], a[2]), np.arctan2(-a[0], np.hypot(a[1], a[2]))])
-            ekf.update(z, lambda xx: H, lambda xx: xx[3:5], residual=lambda p, q2: _wrap(p - q2))
+            ekf.update(z, lambda xx: H, lambda xx: H @ xx, residual=lambda p, q2: _wrap(p - q2))
         ekf.x[3:6] = _wrap(ekf.x[3:6])
         out_T.append(make_T(R_from_euler(ekf.x[3:6]), ekf.x[:3]))
         out_P.append(_tangent_cov(ekf.x, ekf.P))

@@ -11,6 +11,10 @@ Failure handling: too few tracked landmarks -> status ``few_features`` ("N track
 a good stereo pair re-initialises a keyframe anchored at the current estimate -> ``reinit``. Never NaN.
 Timings per frame (ms): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
 
+Moving objects (our extension): each frame's PnP takes, among the rigid motions the landmarks hold, the one
+nearest the constant-velocity prediction (``pnp_config.consensus="prior"``, default;
+:mod:`vo.estimators.pnp_core`), not RANSAC's largest consensus, which in traffic is often a car ahead.
+
 Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on the
 keyframe where they were born; old key points are not re-matched left-right on later keyframes, since those
 extra observations only serve BA); PnP outliers are dropped from the tracks.
@@ -50,7 +54,7 @@ class _StereoPnpEstimator(Estimator):
         super().__init__(rig, **options)
         if not rig.is_stereo:
             raise EstimatorError(f"{self.name}: rig {rig.name!r} has one camera; a stereo rig is required")
-        self.pnp_config = pnp_config or PnpConfig()
+        self.pnp_config = PnpConfig.from_option(pnp_config, f"{self.name}.pnp_config")
         self.T_o_c0 = np.eye(4)
         self._T_prev_curr = np.eye(4)      # last inter-frame motion T_{c(k-1)}_{c(k)}
         self._initialized = False
@@ -102,7 +106,8 @@ class _StereoPnpEstimator(Estimator):
     def _pnp(self, p_o, px_raw, timings):
         with _timer(timings, "pnp"):
             cam = self.rig.cameras[0]
-            return solve_pnp(p_o, undistort_px(px_raw, cam), cam.K, self.pnp_config)
+            return solve_pnp(p_o, undistort_px(px_raw, cam), cam.K, self.pnp_config,
+                             T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr)
 
     def _triangulate_o(self, p_left, p_right) -> tuple:
         """Raw stereo pixel pairs -> ``(p_o (N,3), ok (N,))`` in the odometry frame at the current pose."""

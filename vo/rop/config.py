@@ -21,6 +21,7 @@ from vo.rop.ropset import WEIGHTINGS
 from vo.rop.tracks import KltFourView
 
 COVS = ("propagated", "chain_bootstrap")      # vo.rop.uncertainty.make_uncertainty
+MOVING = ("prior", "none")                    # vo.rop.moving
 
 
 def _klt_config(value) -> KltConfig:
@@ -46,7 +47,10 @@ class RopConfig:
     ``klt_config`` (:class:`KltConfig` or a mapping of its fields), ``klt_refine`` "translation" |
     "affine"; ``rop_loss`` final ROP fit: "gate" (inliers at the RANSAC gate, least squares) |
     "tukey" | "cauchy" (robust, no step); ``cov`` "propagated" (first order) | "chain_bootstrap"
-    (:mod:`vo.rop.chain_bootstrap`), ``bootstrap_replicates`` its replicate count."""
+    (:mod:`vo.rop.chain_bootstrap`), ``bootstrap_replicates`` its replicate count; ``moving_objects``
+    "prior" (keep the tracks of the rigid motion nearest the motion prior when several compete,
+    :mod:`vo.rop.moving`) | "none" (seed 000: all tracks), ``moving_min_fraction`` a motion competes with
+    at least this fraction of the triangulated tracks, ``moving_reproj_px`` its inlier threshold (px)."""
 
     frontend: Literal[FRONTENDS] = "klt"
     ransac_threshold_px: float = knob(1.0, gt=0)
@@ -68,6 +72,9 @@ class RopConfig:
     rop_loss: Literal[LOSSES] = "gate"
     cov: Literal[COVS] = "propagated"
     bootstrap_replicates: int = knob(40, ge=MIN_REPLICATES)
+    moving_objects: Literal[MOVING] = "prior"
+    moving_min_fraction: float = knob(0.1, gt=0, le=1)
+    moving_reproj_px: float = knob(2.0, gt=0)
 
     def __post_init__(self):
         check_fields(self, EstimatorError, "rop.")

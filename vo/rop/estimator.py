@@ -14,6 +14,8 @@ Our extensions (each documented in its module, figures in docs/estimators.md):
   baseline instead of one frame's few pixels.
 * Front-end: one set of four-view KLT tracks gives all four ROPs (:mod:`vo.rop.tracks`, seed 003's
   grid and LK); ``frontend="orb"|"sift"`` matches the four pairs instead (:mod:`vo.rop.matching`).
+* Moving objects: the tracks of the rigid motion nearest the constant-velocity prior when several
+  compete (``moving_objects``, :mod:`vo.rop.moving`).
 * Standstill: a rotation-only fit gives the parallax (:mod:`vo.rop.rotation_only`); below
   ``min_parallax_px`` the epoch is "no translation" (``T_kf_c = (R_1_3, 0)``, status ``ok``).
 * ROP gates and the rotation consensus (:mod:`vo.rop.consensus`); >= 3 ROPs are needed.
@@ -39,6 +41,7 @@ from rigs.geometry import inv_T, make_T
 from vo.dataset.types import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
+from vo.estimators.pnp_core import PnpConfig
 from vo.frontend.image import to_gray
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
@@ -46,6 +49,7 @@ from vo.rop.config import RopConfig
 from vo.rop.consensus import predicted_rops, rotation_consensus, solve_rops
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops
+from vo.rop.moving import static_track_mask
 from vo.rop.ropset import PAIRS
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
@@ -77,6 +81,7 @@ class RopEstimator(Estimator):
         self.uncertainty = uncertainty if uncertainty is not None else make_uncertainty(c, self.adjustment_config,
                                                                                         self.focal)
         self.klt = KltFourView(rig, c.klt_config, c.klt_refine) if c.frontend == "klt" else None
+        self._moving_pnp = PnpConfig(ransac_reproj_px=c.moving_reproj_px, min_model_fraction=c.moving_min_fraction)
         self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
         self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
         self._kf_imgs = None          # (left, right) of the keyframe; None before the first frame
@@ -96,6 +101,7 @@ class RopEstimator(Estimator):
         """-> ({pair: (x_i, x_j)}, usable features, median keyframe disparity (px), FourView or None)."""
         if self.klt is not None:
             v = self.klt.track(left, right, timings)
+            v = self._static_tracks(v, timings)
             disp = np.median(np.linalg.norm(v.x1 - v.x2, axis=1)) * self.focal if len(v) else 0.0
             return {p: v.pair(p) for p in PAIRS}, int(v.ok4.sum()), float(disp), v
         t0 = time.perf_counter()
@@ -103,6 +109,18 @@ class RopEstimator(Estimator):
         pairs = matching.descriptor_pairs({1: kl, 2: kr, 3: left, 4: right}, self.cams, self.config.frontend)
         timings["track"] += (time.perf_counter() - t0) * 1e3
         return pairs, min(len(a) for a, _ in pairs.values()), 0.3 * self.focal, None
+
+    def _static_tracks(self, v, timings):
+        """With ``moving_objects="prior"``: drop the tracks of rigid motions other than the one nearest the
+        constant-velocity prior (:mod:`vo.rop.moving`); the kept view replaces the tracker's."""
+        if self.config.moving_objects == "none" or len(v) == 0:
+            return v
+        t0 = time.perf_counter()
+        keep = static_track_mask(v, self.rig, self._T_kf_cur @ self._last_motion, self._moving_pnp)
+        if keep is not None:            # fewer than min_matches left: a failed frame (coasts), not the car's motion
+            v = self.klt.view = v.subset(keep)
+        timings["track"] += (time.perf_counter() - t0) * 1e3
+        return v
 
     # ------------------------------------------------------------------------------- solving
     def _rotation_only_step(self, R_1_3, parallax, n, disparity) -> tuple:

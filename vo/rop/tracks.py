@@ -64,6 +64,14 @@ class FourView:
     def __len__(self) -> int:
         return len(self.p1)
 
+    def subset(self, mask: np.ndarray) -> "FourView":
+        """The tracks where ``mask`` (N,) is True (templates and warps included)."""
+        m = np.asarray(mask, bool)
+        return FourView(self.p1[m], self.p2[m], self.p3[m], self.p4[m], self.x1[m], self.x2[m], self.x3[m],
+                        self.x4[m], self.ok4[m], None if self.A3 is None else self.A3[m],
+                        None if self.A4 is None else self.A4[m], None if self.tmpl3 is None else self.tmpl3.subset(m),
+                        None if self.tmpl4 is None else self.tmpl4.subset(m), None if self.ids is None else self.ids[m])
+
     def pair(self, p: str) -> tuple[np.ndarray, np.ndarray]:
         """Normalized matches ``(x_i, x_j)`` of pair ``"13" | "14" | "23" | "24"``."""
         x = {"1": self.x1, "2": self.x2, "3": self.x3, "4": self.x4}

@@ -18,6 +18,7 @@ ROBUST = ("none", "cauchy", "huber", "adaptive-huber")
 IMU_NOISE = ("rig", "table1")
 COVARIANCE = ("frame", "off")
 INIT = ("vi", "truth")
+N_COUNT = ("track", "window")
 
 # seed 002 Table 2/3 configurations (plus a fixed-k Huber for comparison). "VINS" is VINS-Mono [6], whose
 # visual factors carry a Cauchy loss (scale 1 in whitened units); VINS-AC-ME replaces it by the adaptive Huber.
@@ -46,7 +47,9 @@ class VinsConfig:
     Visual noise: ``pixel_sigma`` (1.5 px) at ``virtual_focal`` (F_c = 460 px), eq. 27; ``use_gf`` scales the
     square-root information by 1/g_f (eq. 22-25); ``use_track_count`` by N*s (eq. 26, ``s``); ``robust``:
     "none", "cauchy" (VINS-Mono's loss, scale ``robust_k``), "huber" (fixed k = ``robust_k``) or
-    "adaptive-huber" (k_t = ``m_s`` * N, eq. 30); thresholds in whitened units.
+    "adaptive-huber" (k_t = ``m_s`` * N, eq. 30); thresholds in whitened units. ``n_count``: what N is,
+    "track" (times tracked since the first detection, the front-end's count, uncapped: the reading of §4.1)
+    or "window" (the number of window states observing the feature, VINS-Mono's ``used_num``, <= n).
     ``weight_min``/``weight_max`` bound the eq. 26 weight (a guard against degenerate g_f; 0 / inf = off).
     Window: ``window_size`` states (n = 11: 10 keyframes + newest), ``lm_iterations`` per frame.
     Front-end: ``max_features``, ``min_distance_px``, ``f_threshold_px``, ``min_parallax_px`` (at F_c),
@@ -54,9 +57,10 @@ class VinsConfig:
     calibrated Kalibr densities, as a VINS-Mono user configures the IMU; Table 1's when the rig has none) or
     "table1" (seed 002's Xsens values ``acc_n``, ``gyr_n``, ``acc_w``, ``gyr_w``).
     Start-up: SfM + alignment is tried at every new keyframe once there are ``init_min_keyframes``, on at most
-    ``init_keyframes`` (the oldest dropped after a failure; ``init=truth`` starts at ``init_keyframes``),
-    ``init_min_parallax_px``,
-    ``init_max_scale_std`` (largest accepted relative standard deviation of the aligned scale).
+    ``init_keyframes`` (after a failure the oldest is dropped if the SfM failed, else the inner keyframe of
+    the shortest merged interval; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,
+    ``init_max_scale_std`` (largest accepted relative standard deviation of the aligned scale, and largest
+    relative difference between the forward and reverse alignment regressions).
     ``init`` "vi" (monocular visual-inertial, VINS-Mono) or "truth" (window started from the true keyframe
     states of a simulated dataset: :mod:`vo.vins.truth_init`, for comparing back-ends where "vi" cannot start).
     Output: ``covariance`` "frame" (gtsam marginal of the newest state every frame, ``FrameResult.cov``) or "off".
@@ -64,6 +68,7 @@ class VinsConfig:
 
     use_gf: bool = False
     use_track_count: bool = False
+    n_count: Literal[N_COUNT] = "track"
     robust: Literal[ROBUST] = "cauchy"
     robust_k: float = knob(1.0, gt=0)
     pixel_sigma: float = knob(1.5, gt=0)

@@ -5,7 +5,8 @@ initialisation succeeds every frame reports ``init`` with the identity pose; the
 the estimator's gravity-aligned world is recovered from the first initialisation keyframe by inverting the
 pre-integration (eq. 10-12) over the frames the initialisation did not use.
 Per-frame diagnostics for plots and tables: ``self.diagnostics`` (a list of dicts: ``t_ns``, ``g_f``,
-``counts`` = N per feature, ``frac_n_lt_10`` = the paper's outlier rule, ``n_landmarks``, ``status``, ``message``;
+``counts`` = N per feature, ``px`` their raw pixels, ``frac_n_lt_10`` = the paper's outlier rule, ``n_landmarks``,
+``status``, ``message``;
 with a segmentation (``set_dataset``) also the true labels and the rule's confusion, :mod:`vo.vins.oracle`).
 ``FrameResult.cov``: the covariance of ``[rotvec, position]`` of ``T_o_c0`` every frame (:mod:`vo.vins.covariance`).
 ``vins-oracle`` removes the features on moving objects (true segmentation) before the back-end.
@@ -25,7 +26,7 @@ from vo.vins.config import VinsConfig
 from vo.vins.covariance import INIT_COV, output_covariance
 from vo.vins.frontend import FeatureFrame, KltFrontend, parallax_px
 from vo.vins.imu import GRAVITY, ImuStream, imu_params, preintegrate
-from vo.vins.initial import initialize
+from vo.vins.initial import SFM_FAILED, initialize, usable_points
 from vo.vins.oracle import FeatureLabels, rule_confusion
 from vo.vins.truth_init import Truth, truth_init
 from vo.vins.window import Window
@@ -82,9 +83,14 @@ class VinsEstimator(Estimator):
             feats = _select(feats, ~dynamic)
             dynamic = dynamic[~dynamic]
         t1 = time.perf_counter()
+        if self.first_frame is None and feats.t_ns >= self.stream.t[0]:
+            self.first_frame = feats        # images older than the first IMU sample are dropped, as in VINS-Mono
         if self.first_frame is None:
-            self.first_frame = feats
-        if self.window is None:
+            res = FrameResult(frame.t_ns, self.last_T_o_c.copy(), "init", message="before the first IMU sample")
+        elif feats.t_ns > self.stream.t[-1]:        # images after the last IMU sample: no motion to integrate
+            status = "init" if self.window is None else "lost"
+            res = FrameResult(frame.t_ns, self.last_T_o_c.copy(), status, message="after the last IMU sample")
+        elif self.window is None:
             res = self._process_init(frame, feats)
         else:
             res = self._process_window(frame, feats)
@@ -140,8 +146,21 @@ class VinsEstimator(Estimator):
             if result is not None:
                 return self._initialised(frame, result)
             if len(self.init_frames) >= cfg.init_keyframes:
-                self.init_frames.pop(0)
+                self._drop_init_keyframe(msg == SFM_FAILED)
         return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "init", message=msg)
+
+    def _drop_init_keyframe(self, sfm_failed: bool) -> None:
+        """Make room for the next keyframe after a failed initialisation. When the SfM failed, the oldest
+        keyframe goes (VINS-Mono's sliding window). When the SfM worked but the scale was not observable, the
+        inner keyframe whose removal leaves the shortest merged interval goes instead, so the window grows
+        in time and keeps the start of the motion: the scale is carried by changes of the acceleration,
+        which a longer window sees more of (constant acceleration alone cannot separate scale and gravity)."""
+        kf = self.init_frames
+        if sfm_failed or len(kf) < 3:
+            kf.pop(0)
+            return
+        gaps = [kf[k + 1].t_ns - kf[k - 1].t_ns for k in range(1, len(kf) - 1)]
+        kf.pop(1 + int(np.argmin(gaps)))
 
     def _initialised(self, frame, result) -> FrameResult:
         self._start_window(result)
@@ -159,7 +178,7 @@ class VinsEstimator(Estimator):
             T_w_c = np.eye(4)
             T_w_c[:3, :3], T_w_c[:3, 3] = R_w_v @ r.R_v_c[k], R_w_v @ (r.scale * r.p_v_c[k])
             w.add_state(fr.t_ns, fr, True, T_w_c @ T_c_i, R_w_v @ r.v_v[k], bias)
-        for i, p in r.points.items():
+        for i, p in usable_points(r, self.init_frames).items():
             w.add_landmark(i, R_w_v @ (r.scale * np.asarray(p)))
         for st in w.states:
             w.set_geometry(st)
@@ -244,7 +263,7 @@ class VinsEstimator(Estimator):
         """Per-frame record; with a segmentation also the true dynamic labels and the N < 10 rule's confusion
         (:func:`vo.vins.oracle.rule_confusion`)."""
         g_f = self.window.states[-1].g_f if self.window is not None and self.window.states else float("nan")
-        d = {"t_ns": int(feats.t_ns), "g_f": float(g_f), "counts": feats.count.copy(),
+        d = {"t_ns": int(feats.t_ns), "g_f": float(g_f), "counts": feats.count.copy(), "px": feats.px.copy(),
              "frac_n_lt_10": float(np.mean(feats.count < 10)) if len(feats.count) else 0.0,
              "n_landmarks": len(self.window.lm) if self.window is not None else 0,
              "status": res.status, "message": res.message}

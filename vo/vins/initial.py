@@ -1,15 +1,23 @@
 """Monocular visual-inertial initialisation as VINS-Mono (the start-up seed 002 relies on).
 
-1. Up-to-scale SfM on the keyframes: essential matrix (OpenCV RANSAC) between the first keyframe with
-   enough parallax and common features and the newest one, triangulation, PnP for the other keyframes,
-   triangulation of the remaining tracks, then a short gtsam bundle adjustment (Huber, gauge by priors).
-   Frame ``v`` = the camera frame of the reference keyframe.
+1. Up-to-scale SfM on the keyframes (VINS-Mono's ``relativePose`` + ``GlobalSFM``): essential matrix (OpenCV
+   RANSAC) between the oldest keyframe with enough parallax and common features and the newest one,
+   triangulation, PnP (RANSAC, then iterative refinement) for the other keyframes, triangulation of every
+   remaining track, then a full gtsam bundle adjustment over the window (Huber, Levenberg-Marquardt), a
+   second one without the observations beyond ``REJECT_PX`` (moving objects, KLT slips). Frame ``v`` = the
+   camera frame of the reference keyframe.
 2. Gyro bias: ``scipy.optimize.least_squares`` on the pre-integrated vs SfM relative rotations.
-3. Velocities, gravity ``g_v`` and scale ``s``: linear least squares (``numpy.linalg.lstsq``) on the
-   pre-integration equations (eq. 10-11), then the same equations with ``|g| = 9.81`` (gravity refinement).
-   The scale is observable only through acceleration: the initialisation is accepted when the scale's
-   relative standard deviation (from the least-squares residual) is below ``init_max_scale_std``;
-   otherwise the oldest keyframe is dropped and the next keyframe retried (at constant speed it waits).
+3. Velocities, gravity ``g_v`` and scale ``s`` (VINS-Mono's ``LinearAlignment``): linear least squares
+   (``numpy.linalg.lstsq``) on the pre-integrated Delta-p and Delta-v (eq. 10-11; no differentiation of the
+   SfM positions), then the same equations with ``|g| = 9.81`` (``RefineGravity``: here a least-squares fit
+   over the gravity direction on the sphere, the minimiser VINS-Mono's tangent-plane iterations approach).
+   The scale is observable only through changes of the acceleration (a constant specific force is explained
+   equally well by a tilted gravity and a scaled path). The initialisation is accepted when the scale's
+   relative standard deviation (from the least-squares residual) is below ``init_max_scale_std`` and the
+   scale agrees within the same fraction with the reverse regression (:func:`_reverse_scale`): noise in the
+   SfM positions pulls the linear alignment's scale towards zero without raising its residual-based
+   standard deviation much. After a failure the estimator keeps the window long in time
+   (``VinsEstimator._drop_init_keyframe``).
 """
 from __future__ import annotations
 
@@ -21,6 +29,12 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from vo.vins.imu import GRAVITY, preintegrate
+
+MIN_COMMON = 20          # features shared by the reference and the newest keyframe (VINS-Mono: 20)
+MIN_POSE_INLIERS = 12    # essential-matrix inliers of the reference pair (VINS-Mono: 12)
+BA_SIGMA_PX = 1.0        # reprojection std of the SfM bundle adjustment at the virtual focal length
+SFM_FAILED = "SfM failed (parallax or features too few)"
+REJECT_PX = 3.0          # observations beyond this after the first BA are dropped (moving objects, KLT slips)
 
 
 @dataclass
@@ -49,33 +63,56 @@ def _triangulate(T_c_v_a, T_c_v_b, xa, xb):
 
 
 def sfm(frames, min_parallax_px: float, virtual_focal: float):
-    """-> (ref, T_c_v (n,4,4), points {track: p_v}) or None when no keyframe pair qualifies."""
+    """-> (ref, (T_c_v (n,4,4), points {track: p_v})) or None when no keyframe pair qualifies.
+
+    As VINS-Mono's ``relativePose`` + ``GlobalSFM::construct``: the reference is the oldest keyframe with at
+    least ``MIN_COMMON`` features in common with the newest, mean parallax >= ``min_parallax_px`` (at the
+    virtual focal length) and a relative pose with more than ``MIN_POSE_INLIERS`` RANSAC inliers (later
+    candidates are tried when one fails); PnP (RANSAC) chains the other keyframes, then a full bundle
+    adjustment over the window (gtsam LM), observations beyond ``REJECT_PX`` dropped, and a second BA."""
     last = frames[-1]
     for ref in range(len(frames) - 1):
         ids, xa, xb = _common(frames[ref], last)
-        if len(ids) >= 30 and np.linalg.norm(xa - xb, axis=1).mean() * virtual_focal >= min_parallax_px:
+        if len(ids) < MIN_COMMON or np.linalg.norm(xa - xb, axis=1).mean() * virtual_focal < min_parallax_px:
+            continue
+        rel = _relative_pose(xa, xb, virtual_focal)
+        if rel is not None:
             break
     else:
         return None
+    n = len(frames)
+    T = np.full((n, 4, 4), np.nan)
+    T[ref], T[-1] = np.eye(4), rel
+    points = {}
+    _add_points(points, frames, T, ref, n - 1)
+    for k in range(ref + 1, n - 1):
+        if not _pnp(frames[k], points, T, k):
+            return None
+        _add_points(points, frames, T, k, n - 1)
+    for k in range(ref + 1, n - 1):          # tracks that end before the newest keyframe, for the PnP below
+        _add_points(points, frames, T, k, ref)
+    for k in range(ref - 1, -1, -1):
+        if not _pnp(frames[k], points, T, k):
+            return None
+        _add_points(points, frames, T, k, ref)
+    for a in range(n - 1):                   # the remaining tracks, widest baseline first
+        for b in range(n - 1, a, -1):
+            _add_points(points, frames, T, a, b)
+    T, points = _bundle_adjust(frames, T, points, ref, virtual_focal)
+    return ref, _bundle_adjust(frames, T, points, ref, virtual_focal, REJECT_PX)
+
+
+def _relative_pose(xa, xb, virtual_focal):
+    """T_c_v of b with a = v, unit baseline (essential matrix, OpenCV RANSAC at 0.3 px); None if too few inliers."""
     E, inl = cv2.findEssentialMat(xa, xb, np.eye(3), cv2.RANSAC, 0.999, 0.3 / virtual_focal)
     if E is None or E.shape != (3, 3):
         return None
     n_in, R, t, inl = cv2.recoverPose(E, xa, xb, np.eye(3), mask=inl)
-    if n_in < 20:
+    if n_in <= MIN_POSE_INLIERS:
         return None
-    n = len(frames)
-    T = np.full((n, 4, 4), np.nan)
-    T[ref], T[-1] = np.eye(4), np.eye(4)
-    T[-1][:3, :3], T[-1][:3, 3] = R, t.ravel()
-    points = {}
-    _add_points(points, frames, T, ref, n - 1)
-    for k in list(range(ref + 1, n - 1)) + list(range(ref - 1, -1, -1)):
-        if not _pnp(frames[k], points, T, k):
-            return None
-        _add_points(points, frames, T, k, n - 1 if k > ref else ref)
-    for k in range(n):
-        _add_points(points, frames, T, k, ref)
-    return ref, _bundle_adjust(frames, T, points, ref, virtual_focal)
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, t.ravel()
+    return T
 
 
 def _add_points(points, frames, T, a, b):
@@ -107,33 +144,64 @@ def _pnp(frame, points, T, k) -> bool:
     return True
 
 
-def _bundle_adjust(frames, T_c_v, points, ref, virtual_focal):
-    """Short gtsam BA on normalized coordinates (K = virtual focal), poses T_v_c; returns (T_c_v, points)."""
+def _bundle_adjust(frames, T_c_v, points, ref, virtual_focal, reject_px: float = 0.0):
+    """Full gtsam BA over the window on normalized coordinates (K = virtual focal), poses T_v_c, Huber loss;
+    gauge: the reference pose by a tight prior, the scale left to LM's damping and then restored to the
+    reference-newest baseline. With ``reject_px`` > 0, observations reprojecting farther than that (pixels at
+    the virtual focal length) at the input estimate are left out. -> (T_c_v, points)."""
     from gtsam.symbol_shorthand import L, X
     K = gtsam.Cal3_S2(virtual_focal, virtual_focal, 0.0, 0.0, 0.0)
     noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345),
-                                           gtsam.noiseModel.Isotropic.Sigma(2, 1.5))
+                                           gtsam.noiseModel.Isotropic.Sigma(2, BA_SIGMA_PX))
     g, v = gtsam.NonlinearFactorGraph(), gtsam.Values()
+    used = set()
     for k, fr in enumerate(frames):
         v.insert(X(k), gtsam.Pose3(np.linalg.inv(T_c_v[k])))
-        for i, xy in zip(fr.ids, fr.xy):
-            if int(i) in points:
-                g.add(gtsam.GenericProjectionFactorCal3_S2(xy * virtual_focal, noise, X(k), L(int(i)), K))
-    for i, p in points.items():
-        v.insert(L(i), gtsam.Point3(*p))
-    tight = gtsam.noiseModel.Isotropic.Sigma(6, 1e-6)
-    g.add(gtsam.PriorFactorPose3(X(ref), gtsam.Pose3(), tight))
-    last = len(frames) - 1       # scale gauge: left to LM's damping, then the reference baseline is restored
+        for i, xy in zip(fr.ids.tolist(), fr.xy):
+            p = points.get(i)
+            if p is None:
+                continue
+            if reject_px > 0:
+                p_c = T_c_v[k][:3, :3] @ p + T_c_v[k][:3, 3]
+                if p_c[2] <= 0 or np.linalg.norm(p_c[:2] / p_c[2] - xy) * virtual_focal > reject_px:
+                    continue
+            g.add(gtsam.GenericProjectionFactorCal3_S2(xy * virtual_focal, noise, X(k), L(i), K))
+            used.add(i)
+    for i in used:
+        v.insert(L(i), gtsam.Point3(*points[i]))
+    g.add(gtsam.PriorFactorPose3(X(ref), gtsam.Pose3(), gtsam.noiseModel.Isotropic.Sigma(6, 1e-6)))
+    last = len(frames) - 1
     d0 = float(np.linalg.norm(np.linalg.inv(T_c_v[last])[:3, 3]))
     params = gtsam.LevenbergMarquardtParams()
     params.setMaxIterations(100)
-    opt = gtsam.LevenbergMarquardtOptimizer(g, v, params)
-    out = opt.optimize()
+    out = gtsam.LevenbergMarquardtOptimizer(g, v, params).optimize()
     T = np.array([np.linalg.inv(out.atPose3(X(k)).matrix()) for k in range(len(frames))])
     d1 = float(np.linalg.norm(np.linalg.inv(T[last])[:3, 3]))
     f = d0 / d1 if d1 > 0 else 1.0
     T[:, :3, 3] *= f
-    return T, {i: out.atPoint3(L(i)) * f for i in points}
+    return T, {i: out.atPoint3(L(i)) * f for i in used}
+
+
+def usable_points(result: InitResult, frames, min_parallax_deg: float = 1.0, depth_m=(0.1, 1e3)) -> dict:
+    """The SfM points that can start the window: seen by >= 2 keyframes, in front of each at a metric depth
+    within ``depth_m``, and with >= ``min_parallax_deg`` between the rays of the first and last observer (the
+    test new landmarks pass later). Points at near-infinite depth or seen once leave the window's linear
+    system indeterminate."""
+    T_v_c = np.tile(np.eye(4), (len(frames), 1, 1))
+    T_v_c[:, :3, :3], T_v_c[:, :3, 3] = result.R_v_c, result.scale * np.asarray(result.p_v_c)
+    T_c_v = np.linalg.inv(T_v_c)
+    cos_min = np.cos(np.radians(min_parallax_deg))
+    out = {}
+    for i, p in result.points.items():
+        obs = [k for k, fr in enumerate(frames) if i in fr.id_set]
+        if len(obs) < 2:
+            continue
+        p_m = result.scale * np.asarray(p, float)
+        z = T_c_v[obs, 2, :3] @ p_m + T_c_v[obs, 2, 3]
+        ra, rb = p_m - T_v_c[obs[0], :3, 3], p_m - T_v_c[obs[-1], :3, 3]
+        if np.all((z > depth_m[0]) & (z < depth_m[1])) and ra @ rb <= cos_min * np.linalg.norm(ra) * np.linalg.norm(rb):
+            out[i] = p
+    return out
 
 
 def gyro_bias(stream, params, frames, R_v_i) -> np.ndarray:
@@ -177,6 +245,7 @@ def align(stream, params, frames, R_v_c, p_v_c, T_i_c, bg):
         rhs.append(np.concatenate([dp - lever, dv]))
     A, b = np.vstack(rows), np.concatenate(rhs)
     x, rss, *_ = np.linalg.lstsq(A, b, rcond=None)
+    s_reverse = _reverse_scale(A, b, n)
     g_lin = x[3 * n:3 * n + 3]
     dof = max(A.shape[0] - A.shape[1], 1)
     cov = np.linalg.pinv(A.T @ A) * float(np.sum((A @ x - b) ** 2)) / dof
@@ -188,22 +257,96 @@ def align(stream, params, frames, R_v_c, p_v_c, T_i_c, bg):
         return A @ z - b
     y = least_squares(res, x).x
     g = GRAVITY * y[3 * n:3 * n + 3] / np.linalg.norm(y[3 * n:3 * n + 3])
-    return y[:3 * n].reshape(n, 3), g, float(y[-1]), float(np.linalg.norm(g_lin)), rel_std
+    return y[:3 * n].reshape(n, 3), g, float(y[-1]), float(np.linalg.norm(g_lin)), rel_std, s_reverse
+
+
+def _reverse_scale(A, b, n) -> float:
+    """Scale of the same equations solved with the SfM positions as the observations (unknowns v/s, g/s, 1/s).
+
+    The linear alignment puts the noisy SfM displacements in the design matrix (``s * dp_sfm``), so noise in
+    them biases s towards zero (errors in variables); this reverse regression is biased the other way. The two
+    agree only when the acceleration changes carry the scale well above the SfM noise (``initialize``)."""
+    nx = 3 * n + 4
+    A2, b2 = A.copy(), b.copy()
+    pos = np.zeros(len(b), bool)
+    for k in range(n - 1):
+        pos[6 * k:6 * k + 3] = True
+    # position rows: s*dp_sfm - v dt - g dt^2/2 = imu  ->  dp_sfm = (v/s) dt + (g/s) dt^2/2 + (1/s) imu
+    A2[pos, :nx - 1], A2[pos, nx - 1], b2[pos] = -A[pos, :nx - 1], b[pos], A[pos, nx - 1]
+    # velocity rows: v' - v - g dt = imu  ->  0 = (v'/s) - (v/s) - (g/s) dt - (1/s) imu
+    A2[~pos, nx - 1], b2[~pos] = -b[~pos], 0.0
+    y = np.linalg.lstsq(A2, b2, rcond=None)[0]
+    return float(1.0 / y[-1]) if abs(y[-1]) > 1e-12 else float("inf")
 
 
 def initialize(stream, params, frames, T_i_c, config):
     """Run SfM + alignment on keyframes ``frames`` (FeatureFrames); -> InitResult or None (with reason)."""
     got = sfm(frames, config.init_min_parallax_px, config.virtual_focal)
     if got is None:
-        return None, "SfM failed (parallax or features too few)"
+        return None, SFM_FAILED
     ref, (T_c_v, points) = got
     T_v_c = np.linalg.inv(T_c_v)
     R_v_c, p_v_c = T_v_c[:, :3, :3], T_v_c[:, :3, 3]
     R_v_i = R_v_c @ np.linalg.inv(T_i_c)[:3, :3]
     bg = gyro_bias(stream, params, frames, R_v_i)
-    v_v, g_v, s, g_norm, rel_std = align(stream, params, frames, R_v_c, p_v_c, T_i_c, bg)
+    v_v, g_v, s, g_norm, rel_std, s_reverse = align(stream, params, frames, R_v_c, p_v_c, T_i_c, bg)
     if not (s > 0 and abs(g_norm - GRAVITY) < 1.0 and np.all(np.isfinite(v_v))):
         return None, f"alignment failed (scale {s:.3g}, |g| {g_norm:.3g} m/s^2)"
     if rel_std > config.init_max_scale_std:
         return None, f"scale not observable yet (relative std {rel_std:.3f} > {config.init_max_scale_std})"
+    if not abs(s / s_reverse - 1.0) <= config.init_max_scale_std:
+        return None, (f"scale not observable yet (forward {s:.4g} and reverse {s_reverse:.4g} regressions "
+                      f"differ by more than {config.init_max_scale_std})")
     return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v), "ok"
+
+
+def report(dataset_path, n_frames: int = 300, **options) -> str:
+    """Run ``vins`` until its first non-``init`` frame and compare the start with the dataset's truth: the
+    alignment's scale and gravity errors, and after the first window optimisation the keyframes' scale (path
+    lengths from the first state) and tilt of the newest camera (yaw is unobservable)."""
+    from vo.dataset import open_dataset
+    from vo.estimators.registry import make_estimator
+    import vo.vins.estimator as est_mod
+    ds = open_dataset(dataset_path)
+    gt = ds.groundtruth_cam0()
+    k_of = {int(t): k for k, t in enumerate(gt.t_ns)}
+    est = make_estimator("vins", ds.rig, **options)
+    est.set_imu(ds.imu)
+    est.set_dataset(ds)
+    seen = {}
+
+    def checked(stream, params, frames, T_i_c, config):
+        r, msg = initialize(stream, params, frames, T_i_c, config)
+        if r is not None:
+            ks = [k_of[f.t_ns] for f in frames]
+            T_c0_w = np.linalg.inv(gt.T[ks[r.ref]])
+            p_true = (T_c0_w @ gt.T[ks])[:, :3, 3]
+            g_true = T_c0_w[:3, :3] @ np.array([0.0, 0.0, -GRAVITY])
+            seen.update(kf=(ks[0], ks[-1]), ds=r.scale * np.sum(r.p_v_c * p_true) / np.sum(p_true ** 2) - 1,
+                        dg=np.degrees(np.arccos(np.clip(r.g_v @ g_true / GRAVITY ** 2, -1, 1))))
+        return r, msg
+    est_mod.initialize = checked
+    try:
+        for k, fr in enumerate(ds.frames(0, min(n_frames, len(ds)))):
+            if est.process(fr).status != "init":
+                break
+        else:
+            return f"{dataset_path}: no initialisation in {n_frames} frames"
+    finally:
+        est_mod.initialize = initialize
+    w = est.window
+    T_e = np.array([w.T_w_c(st) for st in w.states])
+    T_g = gt.T[[k_of[st.t_ns] for st in w.states]]
+    d_e, d_g = (np.linalg.norm(T[:, :3, 3] - T[0, :3, 3], axis=1) for T in (T_e, T_g))
+    up_e, up_g = T_e[-1, :3, :3].T[:, 2], T_g[-1, :3, :3].T[:, 2]
+    tilt = np.degrees(np.arccos(np.clip(up_e @ up_g, -1, 1)))
+    return (f"{dataset_path}: init at frame {k} (keyframes {seen['kf'][0]}..{seen['kf'][1]}); alignment scale "
+            f"error {seen['ds'] * 100:+.2f} %, gravity error {seen['dg']:.3f} deg; after the first window "
+            f"optimisation scale error {(np.sum(d_e * d_g) / np.sum(d_g ** 2) - 1) * 100:+.2f} %, tilt {tilt:.3f} deg")
+
+
+if __name__ == "__main__":     # python -m vo.vins.initial DATASET [FRAMES] [key=value ...]
+    import sys
+    import yaml
+    print(report(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 300,
+                 **{k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in sys.argv[3:])}))

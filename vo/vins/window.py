@@ -110,10 +110,21 @@ class Window:
         for per_state in self.cache.values():
             per_state.pop(key, None)
 
-    def _factor(self, st: State, track: int, xy: np.ndarray):
+    def _window_counts(self) -> dict:
+        """track id -> number of window states observing it (VINS-Mono's ``used_num``; ``n_count=window``)."""
+        out: dict = {}
+        for st in self.states:
+            for i in st.feats.ids.tolist():
+                out[i] = out.get(i, 0) + 1
+        return out
+
+    def _factor(self, st: State, track: int, xy: np.ndarray, n: int | None = None):
         """Reprojection factor of ``track`` in ``st``; its noise uses the image's g_f and the feature's current
-        N (eq. 26: N_{f,t,l} at the optimisation epoch t), so it is rebuilt when N changes."""
-        key, n = self.lm[track], self.counts.get(track, 1)
+        N (eq. 26: N_{f,t,l} at the optimisation epoch t; ``n``, else counted here), so it is rebuilt when N
+        changes."""
+        if n is None:
+            n = (self._window_counts() if self.cfg.n_count == "window" else self.counts).get(track, 1)
+        key = self.lm[track]
         per_state = self.cache.setdefault(st.k, {})
         hit = per_state.get(key)
         if hit is None or hit[0] != n:
@@ -137,12 +148,15 @@ class Window:
         return gtsam.CombinedImuFactor(X(a.k), V(a.k), X(b.k), V(b.k), B(a.k), B(b.k), pim)
 
     def visual_factors(self, states=None, tracks=None):
+        """Reprojection factors; N per track is the front-end count (``n_count=track``) or the number of
+        observing window states (``n_count=window``), both as of the newest frame."""
+        counts = self._window_counts() if self.cfg.n_count == "window" else self.counts
         out = []
         for st in (self.states if states is None else states):
             for i, xy in zip(st.feats.ids, st.feats.xy):
                 i = int(i)
                 if i in self.lm and (tracks is None or i in tracks):
-                    out.append(self._factor(st, i, xy))
+                    out.append(self._factor(st, i, xy, counts.get(i, 1)))
         return out
 
     def graph(self) -> gtsam.NonlinearFactorGraph:
@@ -156,11 +170,20 @@ class Window:
         return g
 
     def optimize(self) -> None:
+        self._drop_single_observations()
         g = self.graph()
         params = gtsam.LevenbergMarquardtParams()
         params.setMaxIterations(self.cfg.lm_iterations)
         self.values = gtsam.LevenbergMarquardtOptimizer(g, self.values, params).optimize()
         self._reject_bad_landmarks()
+
+    def _drop_single_observations(self) -> None:
+        """Remove landmarks seen by fewer than two window states (VINS-Mono optimises features with
+        ``used_num >= 2``): dropping a non-keyframe can leave a landmark with one observation, which does not
+        constrain its depth and makes the linear system indeterminate."""
+        n_obs = self._window_counts()
+        for i in [i for i in self.lm if n_obs.get(i, 0) < 2]:
+            self.remove_landmark(i)
 
     def _reject_bad_landmarks(self) -> None:
         """Drop landmarks behind or too close to any observing camera (VINS-Mono's failed-depth removal)."""

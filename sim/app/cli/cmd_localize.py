@@ -67,6 +67,7 @@ def localize(dataset, method, mode, out, max_sites, items, as_json):
     if s["model_vs_ba"]:
         click.echo("seed 001 eq. 9-13 model vs BA, per site pair (one sample each, not a Monte Carlo):")
         click.echo(format_model_rows(s["model_vs_ba"]))
+    click.echo(f"mean per-leg error: DR {s['dr_mean_leg_err_pct']:.2f} %, BA {s['ba_mean_leg_err_pct']:.2f} % of the leg")
     click.echo(f"mean per-site error: DR {s['dr_mean_err_pct']:.2f} %, BA {s['ba_mean_err_pct']:.2f} % of distance; "
                f"final: DR {s['dr_final_err_pct']:.2f} %, BA {s['ba_final_err_pct']:.2f} % over {s['distance_m']:.1f} m; "
                f"{s['n_ok']}/{s['n_sites'] - 1} sites ok; DR NEES (3 dof) mean {s['dr_mean_nees_3dof']:.2f}")

@@ -23,6 +23,11 @@ from sim.app.sweep.cell import is_done, read_record, record_path, run_cell
 from sim.app.sweep.grid import SweepError, SweepSpec
 
 INSTALL_HINT = "the sweep needs Dask distributed: pip install 'vo-testbed[sweep]'"
+# Dask's statistical profiler samples each worker's task thread every 10 ms and keeps a call tree per
+# 1 s cycle for the last 1000 cycles: on long cells that is hundreds of MiB per worker, growing for
+# ~17 minutes (docs/sweep.md, "Scale"). Sweeps do not use it. Workers started by hand take the same
+# setting from the environment: DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False.
+WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
 
 
 @dataclass
@@ -84,8 +89,10 @@ class _client:
             except (OSError, TimeoutError) as exc:
                 raise SweepError(f"--scheduler {scheduler!r}: cannot connect ({exc})") from None
             return self.client
-        self.cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                    dashboard_address=None)
+        import dask
+        with dask.config.set(WORKER_CONFIG):               # the nannies pass it on to their worker processes
+            self.cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                        dashboard_address=None)
         self.client = Client(self.cluster)
         return self.client
 
