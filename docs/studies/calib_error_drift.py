@@ -1,6 +1,6 @@
 """Drift against calibration-error magnitude (docs/sensor_effects.md, "Calibration error against drift").
 
-    .venv/bin/python docs/studies/calib_error_drift.py SWEEP_DIR [SWEEP_DIR ...] --png docs/img/calib_error_drift.png
+    .venv/bin/python docs/studies/calib_error_drift.py SWEEP_DIR [SWEEP_DIR ...] --png docs/studies/figures/calib_error/calib_error_drift.png
 
 Each SWEEP_DIR is a ``vo-testbed sweep`` with one grid axis ``calib_error.<field>`` (e.g.
 ``--grid calib_error.focal_ppm=0,500,1000,2000,5000``). One panel per sweep: median drift over the

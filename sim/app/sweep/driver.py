@@ -24,9 +24,9 @@ from sim.app.sweep.grid import SweepError, SweepSpec
 
 INSTALL_HINT = "the sweep needs Dask distributed: pip install 'vo-testbed[sweep]'"
 # Dask's statistical profiler samples each worker's task thread every 10 ms and keeps a call tree per
-# 1 s cycle for the last 1000 cycles: on long cells that is hundreds of MiB per worker, growing for
-# ~17 minutes (docs/sweep.md, "Scale"). Sweeps do not use it. Workers started by hand take the same
-# setting from the environment: DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False.
+# 1 s cycle for the last 1000 cycles: worker memory grew cell after cell (about +50 MiB per 100 smoke
+# cells after warm-up; docs/sweep.md, "Memory per worker"). Sweeps do not use it. Workers started by
+# hand take the same setting from the environment: DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False.
 WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
 
 
