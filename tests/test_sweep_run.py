@@ -1,11 +1,14 @@
 """`vo-testbed sweep` on Dask: a LocalCluster run builds the table, a failing cell is recorded while the
 others complete, a partial sweep resumes and a finished one re-runs without work; a separately started
-scheduler and worker give identical results; SIGINT leaves a sweep that resumes (the last two slow).
+scheduler and worker give identical results; SIGINT leaves a sweep that resumes (the last two slow);
+a record made by other code (another code fingerprint) is run again, or kept with --keep-stale.
 
 Cells are 0.5 s of the `smoke` scenario (11 frames at 20 Hz), a few seconds each.
 """
 import csv
+import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -18,6 +21,7 @@ pytest.importorskip("dask.distributed")
 
 from sim.app.sweep.cell import record_path                       # noqa: E402
 from sim.app.sweep.driver import run_sweep                       # noqa: E402
+from sim.app.sweep.fingerprint import code_fingerprint           # noqa: E402
 from sim.app.sweep.grid import spec_from_cli                     # noqa: E402
 from sim.app.sweep.table import DETERMINISTIC                    # noqa: E402
 from vo.estimators.pnp import KltPnpEstimator                    # noqa: E402
@@ -113,6 +117,52 @@ def test_report_redraws_from_the_records(local_sweep, capsys):
     assert "1 failed cells" in capsys.readouterr().out
     assert (out / "results.csv").read_text() == before
     assert (out / "plots" / "lines_baseline.png").exists()
+
+
+OLD_CODE = "0123456789abcdef"
+
+
+def _cli_args(out):
+    return ["sweep", "--scenario", "smoke", "--set", "duration_s=0.5", "--grid", GRID[0], "--estimator",
+            f"klt-pnp,{FAILING}", "--seeds", "0:1", "--no-progress", "--out", str(out)]
+
+
+def test_stale_record_runs_again_unless_kept(local_sweep, tmp_path, capsys):
+    """A copy of the finished sweep whose first record is marked as made by other code."""
+    from sim.app.cli import main
+    src, spec, _, _ = local_sweep
+    out = tmp_path / "sweep"
+    shutil.copytree(src, out)
+    code, cells = code_fingerprint(), spec.cells()
+    stale, current = cells[0].key, cells[1].key
+    assert json.loads((out / "sweep.json").read_text())["code"] == code
+    for c in cells:                                       # the workers ran this very code
+        assert json.loads(record_path(out, c.key).read_text())["code"] == code
+    rec = json.loads(record_path(out, stale).read_text())
+    record_path(out, stale).write_text(json.dumps(dict(rec, code=OLD_CODE)))
+    before = _mtimes(out, cells)
+
+    main(_cli_args(out) + ["--keep-stale"])               # kept: nothing runs, the mix is reported
+    std = capsys.readouterr()
+    assert "2 cells: 0 run, 2 already done, 1 failed, 1 stale kept (records made by other code)" in std.out
+    assert f"warning: the records come from 2 code versions ({OLD_CODE}: 1 cells, {code} (current): 1 cells)" \
+        in std.err
+    assert _mtimes(out, cells) == before
+    assert {r["key"]: r["code"] for r in _rows(out / "results.csv")} == {stale: OLD_CODE, current: code}
+    main(["sweep", "report", str(out)])
+    assert std.err.strip() in capsys.readouterr().err
+
+    again = run_sweep(spec, out, workers=1, progress=False)           # default: the stale cell runs again
+    assert (again.n_run, again.n_skipped, again.n_stale, again.n_stale_run) == (1, 1, 1, 1)
+    after = _mtimes(out, cells)
+    assert after[current] == before[current] and after[stale] != before[stale]
+    assert again.code_counts == {code: 2}
+    assert json.loads(record_path(out, stale).read_text())["code"] == code
+    for a, b in zip(_rows(src / "results.csv"), _rows(out / "results.csv")):      # same code, same figures
+        assert {m: a[m] for m in DETERMINISTIC + ("key", "code", "error")} == \
+            {m: b[m] for m in DETERMINISTIC + ("key", "code", "error")}
+    main(["sweep", "report", str(out)])
+    assert "warning" not in capsys.readouterr().err
 
 
 def _env():

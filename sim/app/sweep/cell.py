@@ -5,6 +5,8 @@ its presence means the cell is done: a resumed sweep skips it, and a cell cut sh
 record (its half-generated dataset under ``DIR/work/<key>`` is resumed by :func:`sim.generate.generate`).
 The dataset is deleted after the run unless ``keep_datasets`` (then it stays in ``DIR/datasets/<key>``).
 A failure (generation or one estimator) is recorded with its message instead of stopping the sweep.
+The record's ``code`` is the worker's :func:`~sim.app.sweep.fingerprint.code_fingerprint`: the code
+that actually ran the cell; a record made by other code is stale (:func:`is_stale`).
 
 Each cell is a pure function of its configuration: the dataset draws from the config's seed, and
 OpenCV's RANSAC generator (thread-local, otherwise carried from cell to cell on a long-lived worker)
@@ -20,6 +22,7 @@ import time
 from pathlib import Path
 
 from rigs.atomic_io import atomic_write_json
+from sim.app.sweep.fingerprint import code_fingerprint
 
 RECORD_VERSION = 1
 
@@ -38,9 +41,15 @@ def read_record(out_dir, key: str):
     return rec if rec.get("version") == RECORD_VERSION else None
 
 
-def is_done(record, estimators, retry_failed: bool = False) -> bool:
-    """Whether ``record`` covers every estimator (and, with ``retry_failed``, none failed)."""
-    if record is None:
+def is_stale(record, code: str) -> bool:
+    """Whether ``record`` was made by code other than ``code`` (a record without ``code`` is stale)."""
+    return record.get("code") != code
+
+
+def is_done(record, estimators, retry_failed: bool = False, code=None) -> bool:
+    """Whether ``record`` covers every estimator (and, with ``retry_failed``, none failed); given
+    ``code`` (a fingerprint), a record made by other code is not done."""
+    if record is None or (code is not None and is_stale(record, code)):
         return False
     runs = record.get("runs", {})
     if record.get("error"):                   # the cell itself failed (generation, a crashed worker)
@@ -58,7 +67,8 @@ def run_cell(cell, estimators, out_dir, keep_datasets: bool = False) -> dict:
     cv2.setNumThreads(1)
     out_dir = Path(out_dir)
     t0 = time.perf_counter()
-    record = {"version": RECORD_VERSION, "key": cell.key, "seed": cell.seed, "values": dict(cell.values),
+    record = {"version": RECORD_VERSION, "key": cell.key, "code": code_fingerprint(), "seed": cell.seed,
+              "values": dict(cell.values),
               "baseline_m": float(cell.config.rig.baseline), "fx_px": float(cell.config.rig.cameras[0].fx),
               "error": None, "runs": {}}
     data_dir = out_dir / ("datasets" if keep_datasets else "work") / cell.key

@@ -4,22 +4,27 @@ By default a :class:`dask.distributed.LocalCluster` of ``workers`` processes wit
 (bound to 127.0.0.1, no dashboard); with ``scheduler`` the cells go to an existing cluster (``dask
 scheduler`` + ``dask worker``, or dask-jobqueue on Slurm/PBS). Dask is the optional extra
 ``vo-testbed[sweep]`` and is imported only here. Cells whose record is already in ``DIR/cells`` are
-skipped, so an interrupted sweep resumes and a finished one re-runs without work.
+skipped, so an interrupted sweep resumes and a finished one re-runs without work. A record made by other
+code (its ``code`` fingerprint differs from the driver's, :mod:`~sim.app.sweep.fingerprint`) is stale:
+its cell runs again, unless ``keep_stale``.
 
-Layout of ``DIR``: ``sweep.json`` (the spec), ``cells/<key>.json`` (one record per cell),
-``results.{csv,json}``, ``aggregate.{csv,json}``, ``plots/``; ``work/<key>`` holds a dataset being
-generated and ``datasets/<key>`` the kept ones (``keep_datasets``).
+Layout of ``DIR``: ``sweep.json`` (the spec and the ``code`` of the run that wrote it),
+``cells/<key>.json`` (one record per cell), ``results.{csv,json}``, ``aggregate.{csv,json}``,
+``plots/``; ``work/<key>`` holds a dataset being generated and ``datasets/<key>`` the kept ones
+(``keep_datasets``).
 """
 from __future__ import annotations
 
 import json
 import os
 import time
-from dataclasses import dataclass
+from collections import Counter
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from rigs.atomic_io import atomic_write_json
-from sim.app.sweep.cell import is_done, read_record, record_path, run_cell
+from sim.app.sweep.cell import is_done, is_stale, read_record, record_path, run_cell
+from sim.app.sweep.fingerprint import code_fingerprint
 from sim.app.sweep.grid import SweepError, SweepSpec
 
 INSTALL_HINT = "the sweep needs Dask distributed: pip install 'vo-testbed[sweep]'"
@@ -40,6 +45,20 @@ class SweepSummary:
     wall_s: float
     tables: list
     plots: list
+    n_stale: int = 0        # finished cells whose record was made by other code
+    n_stale_run: int = 0    # of which run again by this run (0 with keep_stale)
+    keep_stale: bool = False
+    code: str = ""          # the driver's code fingerprint
+    code_counts: dict = field(default_factory=dict)   # fingerprint -> cells, over the records reported
+
+
+@dataclass
+class Report:
+    """What :func:`write_report` wrote: table and plot paths, failed cells, cells per code fingerprint."""
+    tables: list
+    plots: list
+    n_failed: int
+    code_counts: dict
 
 
 def import_dask():
@@ -52,25 +71,59 @@ def import_dask():
 
 
 def run_sweep(spec: SweepSpec, out_dir, workers: int = 1, scheduler=None, keep_datasets: bool = False,
-              retry_failed: bool = False, progress: bool = True, max_cells=None) -> SweepSummary:
-    """Run every cell of ``spec`` not yet done (at most ``max_cells`` of them), then write tables and plots."""
+              retry_failed: bool = False, progress: bool = True, max_cells=None,
+              keep_stale: bool = False) -> SweepSummary:
+    """Run every cell of ``spec`` not yet done (at most ``max_cells`` of them), then write tables and plots.
+    A finished cell whose record was made by other code runs again, unless ``keep_stale``."""
     t0 = time.perf_counter()
     cells = spec.cells()                                   # validates every grid value first
     Client, LocalCluster, as_completed = import_dask()
     out_dir = Path(out_dir).expanduser().resolve()        # workers may run in another folder
-    _write_spec(out_dir, spec)
-    todo = [c for c in cells if not is_done(read_record(out_dir, c.key), spec.estimators, retry_failed)]
+    code = code_fingerprint()
+    _write_spec(out_dir, spec, code)
+    records = {c.key: read_record(out_dir, c.key) for c in cells}
+    stale = {c.key for c in cells if is_done(records[c.key], spec.estimators, retry_failed)
+             and is_stale(records[c.key], code)}
+    todo = [c for c in cells
+            if not is_done(records[c.key], spec.estimators, retry_failed, code=None if keep_stale else code)]
     n_skipped = len(cells) - len(todo)
     if max_cells is not None:
         todo = todo[:max_cells]
+    n_stale_run = 0 if keep_stale else sum(c.key in stale for c in todo)
     if todo:
+        note = _stale_note(len(stale), n_stale_run, keep_stale)
         with _client(Client, LocalCluster, workers, scheduler) as client:
-            _run_cells(client, as_completed, todo, spec, out_dir, keep_datasets, progress, len(cells))
+            _run_cells(client, as_completed, todo, spec, out_dir, keep_datasets, progress, len(cells), note)
     if (out_dir / "work").is_dir() and not any((out_dir / "work").iterdir()):
         (out_dir / "work").rmdir()
-    tables, plots, n_failed = write_report(out_dir, spec, cells)
-    return SweepSummary(out_dir, len(cells), n_skipped, len(todo), n_failed,
-                        time.perf_counter() - t0, tables, plots)
+    report = write_report(out_dir, spec, cells)
+    return SweepSummary(out_dir, len(cells), n_skipped, len(todo), report.n_failed, time.perf_counter() - t0,
+                        report.tables, report.plots, len(stale), n_stale_run, keep_stale, code, report.code_counts)
+
+
+def _stale_note(n_stale: int, n_stale_run: int, keep_stale: bool) -> str:
+    """``"2 stale re-run"`` / ``"2 stale kept"`` (records made by other code), or ``""`` when there are none."""
+    if not n_stale:
+        return ""
+    if keep_stale:
+        return f"{n_stale} stale kept"
+    return f"{n_stale} stale re-run" if n_stale_run == n_stale else f"{n_stale} stale, {n_stale_run} of them re-run"
+
+
+def stale_summary(summary: SweepSummary) -> str:
+    """The summary's clause on stale records (made by other code than ``summary.code``), or ``""``."""
+    note = _stale_note(summary.n_stale, summary.n_stale_run, summary.keep_stale)
+    return f", {note} (records made by other code)" if note else ""
+
+
+def mixed_code_warning(code_counts: dict, current: str = "") -> str:
+    """One warning line when the records come from more than one code fingerprint, else ``""``."""
+    if len(code_counts) <= 1:
+        return ""
+    parts = [f"{code or 'no fingerprint'}{' (current)' if code and code == current else ''}: {n} cells"
+             for code, n in sorted(code_counts.items(), key=lambda kv: (-kv[1], kv[0]))]
+    return (f"warning: the records come from {len(code_counts)} code versions ({', '.join(parts)}); "
+            "run the sweep without --keep-stale to re-run the stale ones")
 
 
 class _client:
@@ -104,11 +157,12 @@ class _client:
         return False
 
 
-def _run_cells(client, as_completed, todo, spec, out_dir, keep_datasets, progress, n_total) -> None:
+def _run_cells(client, as_completed, todo, spec, out_dir, keep_datasets, progress, n_total, note="") -> None:
     from tqdm import tqdm
     futures = {client.submit(run_cell, c, spec.estimators, str(out_dir), keep_datasets, key=f"sweep-cell-{c.key}",
                              pure=False): c for c in todo}
-    bar = tqdm(total=n_total, initial=n_total - len(todo), unit="cell", disable=not progress, desc="sweep")
+    bar = tqdm(total=n_total, initial=n_total - len(todo), unit="cell", disable=not progress, desc="sweep",
+               postfix=note or None)
     try:
         for future in as_completed(futures):
             cell = futures.pop(future)                 # release the result held by the worker
@@ -126,12 +180,13 @@ def _record_crash(out_dir, cell, future) -> None:
         message = f"{type(exc).__name__}: {exc}"
     from sim.app.sweep.cell import RECORD_VERSION
     atomic_write_json(record_path(out_dir, cell.key),
-                      {"version": RECORD_VERSION, "key": cell.key, "seed": cell.seed, "values": dict(cell.values),
+                      {"version": RECORD_VERSION, "key": cell.key, "code": code_fingerprint(), "seed": cell.seed,
+                       "values": dict(cell.values),
                        "error": message.splitlines()[0], "runs": {}}, sort_keys=True)
 
 
-def _write_spec(out_dir: Path, spec: SweepSpec) -> None:
-    atomic_write_json(out_dir / "sweep.json", spec.to_dict())
+def _write_spec(out_dir: Path, spec: SweepSpec, code: str) -> None:
+    atomic_write_json(out_dir / "sweep.json", {**spec.to_dict(), "code": code})
 
 
 def load_sweep(out_dir) -> SweepSpec:
@@ -146,8 +201,8 @@ def load_sweep(out_dir) -> SweepSpec:
                      tuple(data["estimators"]), parse_seeds(data["seeds"]), tuple(data.get("set", ())))
 
 
-def write_report(out_dir, spec: SweepSpec, cells=None) -> tuple:
-    """Tables and plots from the records in ``out_dir`` -> ``(table paths, plot paths, failed cells)``."""
+def write_report(out_dir, spec: SweepSpec, cells=None) -> Report:
+    """Tables and plots from the records in ``out_dir`` -> their paths, failed cells, cells per fingerprint."""
     from sim.app.sweep.plots import plot_all
     from sim.app.sweep.table import aggregate, tidy_rows, write_tables
     cells = spec.cells() if cells is None else cells
@@ -159,4 +214,4 @@ def write_report(out_dir, spec: SweepSpec, cells=None) -> tuple:
     plots = plot_all(out_dir, rows, spec.axis_keys, spec.estimators, float(base.rig.baseline),
                      float(base.rig.cameras[0].fx)) if rows else []
     n_failed = sum(bool(r.get("error") or any(v.get("error") for v in r.get("runs", {}).values())) for r in records)
-    return tables, plots, n_failed
+    return Report(tables, plots, n_failed, dict(Counter(r.get("code") or "" for r in records)))

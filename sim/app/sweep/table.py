@@ -1,7 +1,8 @@
 """Sweep results: the tidy table (one row per cell x estimator) and its aggregate over seeds.
 
 Tidy columns: ``key``, ``seed``, the grid axes (one column each, named by the axis key),
-``estimator``, ``error`` (empty when the run succeeded) and the metrics :data:`METRICS`. The
+``estimator``, ``error`` (empty when the run succeeded), the metrics :data:`METRICS` and ``code`` (the
+fingerprint of the code that ran the cell, :mod:`~sim.app.sweep.fingerprint`). The
 aggregate has one row per grid point x estimator with ``n_ok`` / ``n_failed`` seeds and, for each
 metric, the median, the quartiles (``_q1``/``_q3``) and the min/max over the successful seeds.
 Written as CSV and JSON (Parquet too when pyarrow is installed).
@@ -35,6 +36,7 @@ def tidy_rows(records, axis_keys, estimators) -> list:
             row = {"key": rec["key"], "seed": rec["seed"], **{k: rec["values"].get(k) for k in axis_keys},
                    "estimator": name, "error": error or ""}
             row.update({m: (np.nan if error else run.get(m, np.nan)) for m in METRICS})
+            row["code"] = rec.get("code") or ""
             rows.append(row)
     order = {name: i for i, name in enumerate(estimators)}
     return sorted(rows, key=lambda r: (tuple(sort_key(r[k]) for k in axis_keys), order[r["estimator"]], r["seed"]))
@@ -91,10 +93,13 @@ def to_csv(table) -> str:
     return buf.getvalue()
 
 
+TEXT_COLUMNS = ("key", "code", "estimator", "error")     # hex digests such as "12e4..." stay text
+
+
 def read_csv(path) -> list:
-    """Rows of a table written by :func:`to_csv` (numbers parsed, empty cells NaN)."""
+    """Rows of a table written by :func:`to_csv` (numbers parsed, empty cells NaN, :data:`TEXT_COLUMNS` kept)."""
     with open(path, newline="") as f:
-        return [{k: _parse(v) for k, v in r.items()} for r in csv.DictReader(f)]
+        return [{k: (v if k in TEXT_COLUMNS else _parse(v)) for k, v in r.items()} for r in csv.DictReader(f)]
 
 
 def _parse(text: str):
