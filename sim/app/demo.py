@@ -34,21 +34,25 @@ class DemoResult:
 
 
 def run_demo(scenario: str = "campus", estimators=DEFAULT_ESTIMATORS, out_dir="out/demo", progress: bool = True,
-             max_frames=None) -> DemoResult:
+             max_frames=None, options=None) -> DemoResult:
     """Generate (cached) ``scenario``, run each estimator, evaluate, and plot all against the truth.
 
     Unknown estimator names and an unwritable ``out_dir`` raise before anything is generated; an
     estimator that fails on the data is reported in ``errors`` and the others still run. A traverse
     scenario (``yutu-traverse``) is localized site by site instead (:func:`run_traverse_demo`); ``urban-static``
     and ``urban-dynamic`` print seed 002's Tables 2/3 for the VINS configurations
-    (:func:`sim.app.demo_vins.run_vins_demo`)."""
+    (:func:`sim.app.demo_vins.run_vins_demo`, with the estimator ``options``: VINS scenarios only)."""
     from sim.app.demo_vins import VINS_SCENARIOS, run_vins_demo
     from sim.scenarios import traverse_scenarios
+    if options and scenario not in VINS_SCENARIOS:
+        from vo.errors import VoError
+        raise VoError(f"--opt {', '.join(options)}: estimator options are for the VINS demos "
+                      f"({', '.join(VINS_SCENARIOS)}) only, not {scenario}")
     if scenario in traverse_scenarios():
         return run_traverse_demo(scenario, out_dir, progress)
     if scenario in VINS_SCENARIOS:       # the stereo default list means "the paper's configurations"
         configs = None if tuple(estimators) == DEFAULT_ESTIMATORS else estimators
-        return run_vins_demo(scenario, configs, out_dir, progress, max_frames)
+        return run_vins_demo(scenario, configs, out_dir, progress, max_frames, options=options)
     from sim.app.check import scenario_dataset
     from vo.dataset import open_dataset
     from vo.errors import VoError

@@ -2,8 +2,10 @@
 
 Generates the scenario into the cache with the documented table protocol (docs/vins.md, "Seed 002 Tables 2/3 on
 the urban scene": 25 s, the ADIS16448 IMU, segmentation for the labels and the oracle), runs the four
-configurations of the paper and ``vins-oracle`` (:mod:`vo.vins.tables`), prints the table and writes the
-figures (:mod:`vo.vins.figures`) and each configuration's row (``<name>.json``) into the output folder.
+configurations of the paper and ``vins-oracle`` (:mod:`vo.vins.tables`) from the monocular visual-inertial start
+(estimator options, e.g. ``init=truth``, override :data:`START_OPTIONS`), prints the table and writes the
+figures (:mod:`vo.vins.figures`) and each configuration's row (``<name>.json``) into the output folder. The
+error rows are computed after each run's initialisation; a run that never initialises is printed without them.
 """
 from __future__ import annotations
 
@@ -14,11 +16,12 @@ import numpy as np
 
 VINS_SCENARIOS = ("urban-static", "urban-dynamic")
 PROTOCOL = ("duration_s=25", "imu=euroc-adis16448", "segmentation=true")
-START_OPTIONS = {"init": "truth"}
+START_OPTIONS: dict = {}       # the estimator's defaults: init=vi, the monocular start (``--opt init=truth``: truth)
 START_NOTES = {
-    "truth": "init=truth: every configuration starts from the true states at keyframe {k} (the monocular start "
-             "does not initialise on this route, docs/vins.md)",
-    "vi": "init=vi: monocular visual-inertial initialisation (VINS-Mono)",
+    "vi": "init=vi: monocular visual-inertial initialisation (VINS-Mono); each configuration starts at its own "
+          "first post-init frame",
+    "truth": "init=truth: every configuration starts from the true states at keyframe {k} (for comparing "
+             "back-ends without the start)",
 }
 
 
@@ -36,15 +39,16 @@ class VinsDemo:
     def to_dict(self) -> dict:
         from vo.vins.tables import RPE_DELTA, table23
         return {"scenario": self.scenario, "dataset": self.dataset, "out_dir": self.out_dir,
-                "start": self.options.get("init", "vi"), "options": self.options, "rpe_delta_frames": RPE_DELTA,
+                "start": start_of(self.options), "options": self.options, "rpe_delta_frames": RPE_DELTA,
                 "rpe_delta_s": self.rpe_delta_s, "rows": self.rows,
                 "table": {label: dict(zip((r["name"] for r in self.rows), values))
-                          for label, values in table23(self.rows)},
+                          for label, values in table23(shown_rows(self.rows))},
+                "notes": {r["name"]: row_note(r) for r in self.rows if row_note(r)},
                 "errors": self.errors, "plots": self.plots}
 
     def text(self) -> str:
-        from vo.vins.tables import RPE_DELTA, format_table23
-        init = self.options.get("init", "vi")
+        from vo.vins.tables import HEADERS, RPE_DELTA, format_table23
+        init = start_of(self.options)
         parts = [f"seed 002 Tables 2/3 on {self.scenario}: dataset {self.dataset}",
                  "start: " + START_NOTES.get(init, init).format(k=self.options.get("init_keyframes", 11)),
                  f"RPE: translation, evo's definition, delta {RPE_DELTA} frames ({self.rpe_delta_s:.1f} s), after "
@@ -52,11 +56,46 @@ class VinsDemo:
                  "N < 10: the paper's outlier rule; true dynamic and the rule's two confusion rates: segmentation",
                  ""]
         if self.rows:
-            parts.append(format_table23(self.rows))
+            parts.append(format_table23(shown_rows(self.rows)))
+        parts += [f"{HEADERS.get(r['name'], r['name'])}: {row_note(r)}" for r in self.rows if row_note(r)]
         for name, msg in self.errors.items():
             parts += ["", f"=== {name} === FAILED: {msg}"]
         parts += ["", "plots: " + ", ".join(self.plots)]
         return "\n".join(parts)
+
+
+def start_of(options: dict) -> str:
+    """The start ``vins`` uses with estimator ``options`` (its ``init`` option, default included)."""
+    from vo.vins.config import VinsConfig
+    return VinsConfig.from_options("vins", options).init
+
+
+def restarts(run) -> dict:
+    """After the first post-init frame: the first re-initialisation (``reinit_frame``, None if none) and the
+    number of frames in ``init``/``reinit`` (``restart_frames``), which the error rows score as they are."""
+    status = [f.status for f in run.frames[run.row["init_frame"]:]]
+    lost = [i for i, st in enumerate(status) if st in ("init", "reinit")]
+    return {"reinit_frame": run.row["init_frame"] + lost[0] if lost else None, "restart_frames": len(lost)}
+
+
+def row_note(row: dict) -> str:
+    """Why a row has no error figures, or what its error figures include ("" when nothing to say): the run never
+    left ``init``, too few frames remained after its initialisation (:data:`vo.vins.tables.MIN_AFTER_INIT`),
+    or it re-initialised later (frames without an estimate hold the last pose and are scored)."""
+    if "rpe10" in row:
+        if row.get("reinit_frame") is None:
+            return ""
+        return (f"re-initialisation at frame {row['reinit_frame']}: {row['restart_frames']} frames from there "
+                f"without an estimate (the last pose held; included in the error rows)")
+    if row["init_frame"] >= row["n"]:
+        return f"no initialisation in {row['n']} frames: no error figures"
+    return f"initialised at frame {row['init_frame']} of {row['n']}, too few frames after it: no error figures"
+
+
+def shown_rows(rows) -> list:
+    """The rows as tabulated: a run that never initialised has no first post-init frame (printed "-", not the
+    frame count)."""
+    return [{**r, "init_frame": None} if r["init_frame"] >= r["n"] else r for r in rows]
 
 
 def check_configs(configs) -> tuple:
@@ -82,10 +121,11 @@ def run_vins_demo(scenario: str, configs=None, out_dir="out/demo", progress: boo
     from vo.vins.tables import TABLE_CONFIGS
 
     configs = check_configs(TABLE_CONFIGS if configs is None else configs)
+    opts = {**START_OPTIONS, **(options or {})}
+    start_of(opts)                              # a bad option raises here, before any work
     prepare_out_dir(out_dir)
     path = scenario_dataset(scenario, PROTOCOL + tuple(overrides), progress=progress)
-    return run_on_dataset(scenario, path, configs, out_dir, {**START_OPTIONS, **(options or {})}, progress,
-                          max_frames)
+    return run_on_dataset(scenario, path, configs, out_dir, opts, progress, max_frames)
 
 
 def run_on_dataset(scenario: str, path, configs, out_dir, opts: dict, progress: bool = True,
@@ -109,6 +149,7 @@ def run_on_dataset(scenario: str, path, configs, out_dir, opts: dict, progress: 
         except VoError as e:
             demo.errors[name] = str(e)
             continue
+        runs[name].row.update(restarts(runs[name]))
         demo.rows.append(runs[name].row)
         (out / f"{name}.json").write_text(json.dumps(runs[name].row, indent=1))
     demo.plots = [str(p) for p in write_figures(ds, runs, out)]

@@ -348,5 +348,17 @@ def report(dataset_path, n_frames: int = 300, **options) -> str:
 if __name__ == "__main__":     # python -m vo.vins.initial DATASET [FRAMES] [key=value ...]
     import sys
     import yaml
-    print(report(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 300,
-                 **{k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in sys.argv[3:])}))
+    from rigs.errors import TestbedError
+    args = sys.argv[1:]
+    n_arg = len(args) > 1 and args[1].isdigit()
+    opts = args[1 + n_arg:]
+    if not args or not all("=" in a for a in opts):
+        print("usage: python -m vo.vins.initial DATASET [FRAMES (default 300)] [vins option key=value ...]",
+              file=sys.stderr)
+        sys.exit(2)
+    try:
+        print(report(args[0], int(args[1]) if n_arg else 300,
+                     **{k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in opts)}))
+    except TestbedError as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
