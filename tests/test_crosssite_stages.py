@@ -180,3 +180,18 @@ def test_point_margins_propagate_the_prior_per_point():
     m = point_margins_px(fn, np.eye(4), C, 1.0)
     x = P_w[:, 0] / P_w[:, 2]
     assert np.allclose(m, 800.0 * (1 + x ** 2) * 0.01, rtol=1e-4)
+
+
+def test_descriptor_matching_in_chunks_equals_one_pass(monkeypatch):
+    """``asift.match`` splits a train set too large for cv2.BFMatcher (2^18 rows) into chunks; the
+    result must be that of one pass: the planted near-copies found, each with its own index."""
+    from vo.crosssite import asift
+    rng = np.random.default_rng(3)
+    a = rng.random((300, 128), dtype=np.float32)
+    b = rng.random((5000, 128), dtype=np.float32)
+    b[1000:1300] = a + 0.01 * rng.standard_normal((300, 128)).astype(np.float32)
+    one = asift.match(a, b, 0.8)
+    monkeypatch.setattr(asift, "MAX_TRAIN_ROWS", 777)
+    chunked = asift.match(a, b, 0.8)
+    assert np.array_equal(one, chunked)
+    assert len(one) == 300 and np.array_equal(one[:, 1], one[:, 0] + 1000)

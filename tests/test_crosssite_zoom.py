@@ -7,6 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
+from helpers.ground_plane import navcam_pose, regolith_texture
 from rigs.geometry import inv_T, make_T
 from vo.crosssite import asift, zoom
 from vo.crosssite.asift import transition
@@ -19,24 +20,11 @@ X0, Y0, NX, NY = -1.0, -12.0, 4200, 2400   # texture covers x in [-1, 41] m, y i
 
 
 def _camera(x_m: float, tilt_rad: float = np.radians(20.0), h_m: float = 1.5) -> np.ndarray:
-    """T_w_c of a camera at (x, 0, h) looking along +x, ``tilt_rad`` down (OpenCV axes)."""
-    R_w_c0 = np.array([[0, 0, 1.0], [-1, 0, 0], [0, -1, 0]])   # z forward (+x), x right (-y), y down
-    c, s = np.cos(tilt_rad), np.sin(tilt_rad)
-    return make_T(R_w_c0 @ np.array([[1, 0, 0], [0, c, s], [0, -s, c]]), [x_m, 0, h_m])
+    return navcam_pose(x_m, 0.0, tilt_rad, h_m)
 
 
 def _texture(seed: int) -> np.ndarray:
-    """Regolith-like texture: noise at 2, 8 and 32 cm plus dark/bright blobs (rocks, pits), uint8."""
-    rng = np.random.default_rng(seed)
-    t = np.zeros((NY, NX), np.float32)
-    for sigma, w in ((2, 0.6), (8, 1.0), (32, 1.2)):
-        n = cv2.GaussianBlur(rng.standard_normal((NY, NX)).astype(np.float32), (0, 0), sigma)
-        t += w * n / n.std()
-    for _ in range(3000):
-        cx, cy, r = rng.integers(0, NX), rng.integers(0, NY), int(rng.integers(4, 25))
-        cv2.circle(t, (int(cx), int(cy)), r, float(rng.choice([-3.0, 3.0])), -1)
-    t = cv2.GaussianBlur(t, (0, 0), 1.5)
-    return np.clip(100 + 30 * t, 0, 255).astype(np.uint8)
+    return regolith_texture(seed, NX, NY, 3000)
 
 
 def _H_img_tex(T_w_c: np.ndarray) -> np.ndarray:

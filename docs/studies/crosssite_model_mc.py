@@ -106,6 +106,12 @@ def one_run(rendered, r, args, cfg) -> dict:
     row = {"run": r, "status": res.status, "time_s": round(time.perf_counter() - t0, 1)}
     if res.status != "ok":
         return row
+    return measure(row, prev, cur, res, T0, T1, [d for _, _, d in sites[0]], cal, cfg)
+
+
+def measure(row, prev, cur, res, T0, T1, depths0, cal, cfg) -> dict:
+    """``row`` updated with one ``ok`` localization's errors against truth (``T1``), its BA covariance,
+    NEES and the eq. 9-13 predictions from its tie layout (``depths0`` the site-0 left depth per pair)."""
     R0 = T0[:3, :3]
     cur_xy = (inv_T(T0) @ T1)[:2, 3]
     A = np.eye(3)
@@ -116,7 +122,7 @@ def one_run(rendered, r, args, cfg) -> dict:
     import gtsam
     xi = gtsam.Pose3.Logmap(gtsam.Pose3(res.T_w_b).between(gtsam.Pose3(T1)))
     idx = ba_ties(prev, cur, res, T0, cfg.pnp_reproj_px)
-    d_prev, d_cur, transfer, at_prev = tie_errors_vs_depth(prev, cur, res, T0, T1, [d for _, _, d in sites[0]], idx)
+    d_prev, d_cur, transfer, at_prev = tie_errors_vs_depth(prev, cur, res, T0, T1, depths0, idx)
     sp, spc, st = robust_sigma(d_prev), robust_sigma(d_cur), robust_sigma(at_prev[:, 0])
     layout = pair_layout(prev, res, idx)
     M_meas = model_covariance(layout, cur_xy, cal.f, cal.baseline, sp, st)
@@ -245,6 +251,25 @@ def plot(s, path: Path, title: str) -> None:
     plt.close(fig)
 
 
+def write_rows(rows, path: Path) -> None:
+    """Per-run rows as CSV (union of the keys; ``run`` first)."""
+    keys = sorted({k for r in rows for k in r}, key=lambda k: (k != "run", k))
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, keys)
+        w.writeheader()
+        w.writerows(rows)
+
+
+def read_rows(path: Path) -> list:
+    """Rows written by :func:`write_rows`, numbers back as float (``run`` as int, empty cells dropped)."""
+    def value(k, v):
+        if k == "status":
+            return v
+        return int(v) if k == "run" else float(v)
+    with open(path, newline="") as fh:
+        return [{k: value(k, v) for k, v in r.items() if v != ""} for r in csv.DictReader(fh)]
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--runs", type=int, default=30)
@@ -266,11 +291,7 @@ def main(argv=None) -> None:
               flush=True)
     tag = f"{args.first}-{args.first + args.runs - 1}" + (f"_mast{args.mast_deg:g}" if args.mast_deg else "") + \
         ("_asift" if args.asift else "")
-    keys = sorted({k for r in rows for k in r}, key=lambda k: (k != "run", k))
-    with open(OUT / f"runs_{tag}.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, keys)
-        w.writeheader()
-        w.writerows(rows)
+    write_rows(rows, OUT / f"runs_{tag}.csv")
     s = summarize(rows)
     print_table(s)
     plot(s, OUT / f"model_mc_{tag}.png", f"campus pair, 6 m, runs {tag}, image sigma {args.image_sigma:g}, "

@@ -79,10 +79,32 @@ def match(desc_a: np.ndarray, desc_b: np.ndarray, ratio: float) -> np.ndarray:
     """(M,2) index pairs (a, b): Lowe's ratio test, then one match per b (the best)."""
     if len(desc_a) < 2 or len(desc_b) < 2:
         return np.zeros((0, 2), int)
-    knn = cv2.BFMatcher(cv2.NORM_L2).knnMatch(desc_a, desc_b, k=2)
+    d1, d2, j1 = _two_nearest(desc_a, desc_b)
     best = {}
-    for m in knn:
-        if len(m) == 2 and m[0].distance < ratio * m[1].distance:
-            if m[0].trainIdx not in best or m[0].distance < best[m[0].trainIdx][1]:
-                best[m[0].trainIdx] = (m[0].queryIdx, m[0].distance)
+    for a in np.flatnonzero(d1 < ratio * d2):
+        b = int(j1[a])
+        if b not in best or d1[a] < best[b][1]:
+            best[b] = (int(a), d1[a])
     return np.array(sorted((a, b) for b, (a, _) in best.items()), int).reshape(-1, 2)
+
+
+MAX_TRAIN_ROWS = 1 << 17    # cv2.BFMatcher refuses a train set of 2^18 rows or more (IMGIDX_ONE)
+
+
+def _two_nearest(desc_a: np.ndarray, desc_b: np.ndarray) -> tuple:
+    """Per row of ``desc_a``: the nearest and second-nearest L2 distances in ``desc_b`` and the nearest's
+    index ((N,), (N,), (N,)); ``desc_b`` matched in chunks of :data:`MAX_TRAIN_ROWS`. Second distance
+    inf when ``desc_b`` has one row in reach."""
+    n = len(desc_a)
+    d = np.full((n, 4), np.inf)
+    j = np.zeros((n, 4), int)
+    matcher = cv2.BFMatcher(cv2.NORM_L2)
+    for start in range(0, len(desc_b), MAX_TRAIN_ROWS):
+        chunk = desc_b[start:start + MAX_TRAIN_ROWS]
+        for m in matcher.knnMatch(desc_a, chunk, k=min(2, len(chunk))):
+            for r, x in enumerate(m[:2]):
+                d[x.queryIdx, 2 + r], j[x.queryIdx, 2 + r] = x.distance, start + x.trainIdx
+        order = np.argsort(d, axis=1, kind="stable")
+        d, j = np.take_along_axis(d, order, 1), np.take_along_axis(j, order, 1)
+        d[:, 2:], j[:, 2:] = np.inf, 0
+    return d[:, 0], d[:, 1], j[:, 0]

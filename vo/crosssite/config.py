@@ -27,8 +27,9 @@ class CrossSiteConfig:
     wallis_window_px: int = knob(31, ge=3, odd=True)
     wallis_b: float = knob(1.0, ge=0)                # brightness forcing constant
     wallis_c: float = knob(4.0, gt=0)                # contrast expansion constant
-    # zoom of the previous images (§2.2): none, scale (the paper's), plane (ground-plane homography)
-    zoom: Literal["none", "scale", "plane"] = "plane"
+    # zoom of the previous images (§2.2): none, scale (the paper's), plane (ground-plane homography),
+    # ortho (both images onto one ground-plane grid per region pair, vo.crosssite.ortho)
+    zoom: Literal["none", "scale", "plane", "ortho"] = "plane"
     # ASIFT (§2.2)
     use_asift: bool = True
     asift_fallback_ties: int = knob(20, ge=0)        # SIFT first; ASIFT only below this many eq. 2 ties (0: ASIFT only)
@@ -54,6 +55,7 @@ class CrossSiteConfig:
     consistency_iterations: int = knob(3, ge=1)
     # initial values and BA (eq. 3-5)
     min_tie_points: int = knob(6, ge=4)              # at least 4 for the resection
+    ambiguity_px: float = knob(20.0, ge=0)           # a second resection consensus this far (median px) from the first: ambiguous; 0 off
     pnp_reproj_px: float = knob(2.0, ge=0)
     ba_sigma_px: float = knob(1.0 / 3.0, gt=0)
     ba_huber_k: float = knob(1.345, ge=0)
@@ -61,7 +63,7 @@ class CrossSiteConfig:
     mast_sigma_m: float = knob(0.0, ge=0)
     max_ba_points: int = knob(400, ge=1)
     # fallback
-    prior_gate_chi2: float = knob(36.0, ge=0)        # BA pose vs prior: chi2(6) squared Mahalanobis limit
+    prior_gate_chi2: float = knob(36.0, ge=0)        # BA pose vs prior: squared Mahalanobis limit (chi2(6) tail 3e-6)
     inflate: float = knob(4.0, ge=1)                 # covariance factor on a kept prior (>= 1: never more certain)
 
     def __post_init__(self):

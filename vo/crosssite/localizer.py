@@ -4,7 +4,8 @@ Stages 1-5 (:mod:`vo.crosssite.ties`) give tie points; stage 6 the initial value
 intersection at the previous site, resection at the current one, eq. 3); stage 7 the bundle
 adjustment (:mod:`vo.crosssite.bundle`). Without tie points (``no_tie_points``) or with fewer than
 ``min_tie_points`` after the outlier test, a failed resection/BA, or a BA pose farther from the prior
-than ``prior_gate_chi2`` (a periodic texture can give a consistent wrong solution) (``few_tie_points``) the
+than ``prior_gate_chi2`` (a periodic texture can give a consistent wrong solution) (``few_tie_points``), or a
+tie set that holds a second self-consistent motion (:func:`second_motion`, ``ambiguous``) the
 dead-reckoning pose is kept and its covariance multiplied by ``inflate``: never an exception or NaN
 for data that merely do not match.
 """
@@ -52,20 +53,16 @@ def initial_pose(cur: Site, T_w_b_prev, prev: Site, ties: TieSet, idx, cfg) -> t
 def _resection_inliers(cur: Site, T_w_b, P_w, ties: TieSet, idx, cfg) -> np.ndarray:
     """(n,) bool: tie points whose reprojection into their current left image under the resected
     pose is within ``pnp_reproj_px`` (the resection's RANSAC consensus, extended to all pairs)."""
-    from vo.crosssite.regions import project
-    keep = np.zeros(len(idx), bool)
-    for j in np.unique(ties.pair_cur[idx]):
-        s = ties.pair_cur[idx] == j
-        uv, z = project(T_w_b @ cur.pairs[j].T_b_c0, cur.cal.K, P_w[s])
-        keep[s] = (z > 0) & (np.linalg.norm(uv - ties.uv_cur[idx][s], axis=1) <= cfg.pnp_reproj_px)
-    return keep
+    return _reprojection_px(cur, T_w_b, P_w, ties, idx) <= cfg.pnp_reproj_px
 
 
-def _prior_mahalanobis(cur: Site, T_w_b) -> float:
-    """Squared Mahalanobis distance of ``T_w_b`` from the dead-reckoning prior under its covariance."""
+def prior_chi2(T_w_b_prior: np.ndarray, cov_prior: np.ndarray, T_w_b: np.ndarray) -> float:
+    """Squared Mahalanobis distance of ``T_w_b`` (4x4) from the prior ``T_w_b_prior`` (4x4) under its
+    covariance ``cov_prior`` (6x6, gtsam's body tangent: rotation then translation). Under the
+    prior it is chi2-distributed with 6 degrees of freedom."""
     import gtsam
-    xi = gtsam.Pose3.Logmap(gtsam.Pose3(cur.T_w_b_prior).between(gtsam.Pose3(np.asarray(T_w_b, float))))
-    return float(xi @ np.linalg.solve(cur.cov_prior, xi))
+    xi = gtsam.Pose3.Logmap(gtsam.Pose3(np.asarray(T_w_b_prior, float)).between(gtsam.Pose3(np.asarray(T_w_b, float))))
+    return float(xi @ np.linalg.solve(cov_prior, xi))
 
 
 def _observations(ties: TieSet, idx) -> TieObservations:
@@ -73,6 +70,40 @@ def _observations(ties: TieSet, idx) -> TieObservations:
     return TieObservations(np.r_[np.zeros(n, int), np.ones(n, int)], np.r_[ties.pair_prev[idx], ties.pair_cur[idx]],
                            np.r_[np.arange(n), np.arange(n)], np.vstack([ties.uv_prev[idx], ties.uv_cur[idx]]),
                            np.r_[ties.ur_prev[idx], ties.ur_cur[idx]])
+
+
+def _reprojection_px(cur: Site, T_w_b, P_w, ties: TieSet, idx) -> np.ndarray:
+    """(n,) pixel distance of each tie's current-image observation from ``P_w`` projected with ``T_w_b``
+    (inf behind the camera)."""
+    from vo.crosssite.regions import project
+    err = np.full(len(idx), np.inf)
+    for j in np.unique(ties.pair_cur[idx]):
+        s = ties.pair_cur[idx] == j
+        uv, z = project(T_w_b @ cur.pairs[j].T_b_c0, cur.cal.K, P_w[s])
+        err[s] = np.where(z > 0, np.linalg.norm(uv - ties.uv_cur[idx][s], axis=1), np.inf)
+    return err
+
+
+def second_motion(prev: Site, T_w_b_prev, cur: Site, ties: TieSet, idx, P_w, keep, T_first, cfg) -> Optional[str]:
+    """A second rigid motion among the ties the first resection consensus left out (``idx[~keep]``):
+    resection again on them; if at least ``min_tie_points`` agree with it and their median reprojection
+    under the first pose exceeds ``ambiguity_px``, the tie set holds two self-consistent motions (a
+    wrong cluster can pass eq. 2 and out-vote the true ties) -> the reason string, else None. Ties that
+    merely missed the first consensus by a few pixels (range errors of far points) reproject within a few
+    pixels under the first pose and are the same motion."""
+    rest = ~keep
+    if cfg.ambiguity_px <= 0 or rest.sum() < cfg.min_tie_points:
+        return None
+    T2, _ = initial_pose(cur, T_w_b_prev, prev, ties, idx[rest], cfg)
+    keep2 = _resection_inliers(cur, T2, P_w[rest], ties, idx[rest], cfg)
+    if keep2.sum() < cfg.min_tie_points:
+        return None
+    d = float(np.median(_reprojection_px(cur, T_first, P_w[rest][keep2], ties, idx[rest][keep2])))
+    if d <= cfg.ambiguity_px:
+        return None
+    shift = float(np.linalg.norm(T2[:3, 3] - T_first[:3, 3]))
+    return (f"two motions in the tie set: {int(keep.sum())} and {int(keep2.sum())} ties, {shift:.2f} m apart "
+            f"(median {d:.0f} px > {cfg.ambiguity_px})")
 
 
 def _subsample(idx: np.ndarray, n_max: int) -> np.ndarray:
@@ -130,6 +161,10 @@ def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSite
         timings.update(initial=time.perf_counter() - t1, total=time.perf_counter() - t0)
         return _fallback(cur, "few_tie_points", cfg, ties, f"{int(keep.sum())} tie points agree with the resection",
                          timings)
+    ambiguous = second_motion(prev, T_w_b_prev, cur, ties, idx, P_w, keep, T_init, cfg)
+    if ambiguous:
+        timings.update(initial=time.perf_counter() - t1, total=time.perf_counter() - t0)
+        return _fallback(cur, "ambiguous", cfg, ties, ambiguous, timings)
     idx, P_w = idx[keep], P_w[keep]
     t2 = time.perf_counter()
     try:
@@ -144,7 +179,7 @@ def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSite
     if not (np.all(np.isfinite(res.T_w_b)) and np.all(np.isfinite(res.cov))
             and np.linalg.eigvalsh(0.5 * (res.cov + res.cov.T)).min() > 0):
         return _fallback(cur, "few_tie_points", cfg, ties, "bundle adjustment gave a non-finite pose", timings)
-    d2 = _prior_mahalanobis(cur, res.T_w_b)
+    d2 = prior_chi2(cur.T_w_b_prior, cur.cov_prior, res.T_w_b)
     if d2 > cfg.prior_gate_chi2:
         return _fallback(cur, "few_tie_points", cfg, ties, f"BA pose disagrees with the prior (chi2 {d2:.1f} > "
                          f"{cfg.prior_gate_chi2})", timings)

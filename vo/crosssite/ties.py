@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vo.crosssite import asift, regions, wallis, zoom
+from vo.crosssite import asift, ortho, regions, wallis, zoom
 from vo.crosssite.consistency import distance_consistency, range_sigma
 from vo.crosssite.initial import intersect_rectified
 from vo.crosssite.zncc import match_stereo
@@ -130,7 +130,7 @@ def candidate_ties(prev, T_w_b_prev, cur, cfg) -> TieSet:
     W, H = cur.cal.width, cur.cal.height
     boxes = pair_regions(prev, T_w_b_prev, cur, cfg)
     tau, scale = predicted_tilt(prev, T_w_b_prev, cur, boxes, cfg)
-    tilts = asift.tilt_set(1.0 if cfg.zoom == "plane" else tau, cfg.asift_max_tilt)
+    tilts = asift.tilt_set(1.0 if cfg.zoom in ("plane", "ortho") else tau, cfg.asift_max_tilt)
     t1 = time.perf_counter()
     imgs_p, imgs_c = _enhanced(prev, cur, boxes, cfg)
     t2 = time.perf_counter()
@@ -139,8 +139,11 @@ def candidate_ties(prev, T_w_b_prev, cur, cfg) -> TieSet:
     # with a zoom the previous image is already in the current geometry: the affine views (if any)
     # are simulated on the zoomed previous image only, the current image keeps plain SIFT
     cfg_c = dataclasses.replace(cfg, use_asift=False) if cfg.zoom != "none" else cfg
-    feats_c = _detect_all(imgs_c, mask_c, tilts, cfg_c)
-    if cfg.zoom != "none":
+    feats_c = _detect_all(imgs_c, mask_c, tilts, cfg_c) if cfg.zoom != "ortho" else []
+    n_feat_c = sum(len(f[0]) for f in feats_c)
+    if cfg.zoom == "ortho":  # both images onto one ground grid per region pair (vo.crosssite.ortho)
+        rows, n_feat_p, n_feat_c, n_warped = ortho.ortho_rows(prev, T_w_b_prev, cur, boxes, imgs_p, imgs_c, tilts, cfg)
+    elif cfg.zoom != "none":
         rows, n_feat_p, n_warped = _zoomed_rows(prev, T_w_b_prev, cur, boxes, imgs_p, feats_c, tilts, cfg)
     else:
         feats_p, rows, n_warped = _detect_all(imgs_p, mask_p, tilts, cfg), [], 0
@@ -154,7 +157,7 @@ def candidate_ties(prev, T_w_b_prev, cur, cfg) -> TieSet:
     ties = TieSet(r[:, 0].astype(int), r[:, 1:3], r[:, 3].astype(int), r[:, 4:6], boxes=boxes)
     ties.stats.update(tilts=[round(t, 3) for t in tilts], predicted_tilt=round(tau, 3), predicted_scale=round(scale, 3),
                       n_region_pairs=len(boxes), n_zoomed_pairs=n_warped, n_features_prev=n_feat_p,
-                      n_features_cur=sum(len(f[0]) for f in feats_c), n_candidates=len(r))
+                      n_features_cur=n_feat_c, n_candidates=len(r))
     ties.timings_s.update(regions=t1 - t0, wallis=t2 - t1, asift=time.perf_counter() - t2)
     return ties
 

@@ -100,7 +100,7 @@ class Site:
         object.__setattr__(self, "cov_prior", C)
 
 
-STATUSES = ("ok", "no_tie_points", "few_tie_points")
+STATUSES = ("ok", "no_tie_points", "few_tie_points", "ambiguous")
 
 
 @dataclass(frozen=True)

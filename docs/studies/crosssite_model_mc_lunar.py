@@ -1,0 +1,198 @@
+"""Seed 001's error model (eq. 9-13) against the cross-site BA over Monte Carlo runs: a lunar site pair.
+
+The pair is leg 0 -> 1 of the ``yutu-traverse`` scenario (``--traverse-seed``, default 0): lunar scene
+with its sun, ``rover`` with ``yutu-navcam`` on the pan-tilt mast (head 1.5 m above the body origin,
+20 deg down), 7 pointings per site 20 deg apart (-60..+60 deg), sites 0 and 1 at their true rest poses
+from :func:`sim.traverse.plan`. Both panoramas are rendered once, with depth, as the traverse writer
+renders them (grey from RGB, the scenario's supersampling, rover hidden); ``--cache`` keeps them in an
+``.npz`` for later invocations.
+
+Per run ``r`` one generator, ``default_rng([SEED_TAG, r])``, draws: with ``--mast-deg``, a pan and a
+tilt error per pointing (the images are rendered at the true angles, the localizer gets the commanded
+ones); Gaussian image noise on both images of the pointing (``--image-sigma``, default the
+scenario's ``noise.image_sigma``); then the site-1 prior error. The localizer is given the leg prior the traverse localizer
+puts on a leg, :func:`vo.crosssite.localizer.leg_model_cov` (``prior_leg_fraction`` 15 % of the leg per
+translation axis, ``prior_rot_sigma_rad`` 0.03 rad per rotation axis; the EKF's own leg covariance,
+which :func:`~vo.crosssite.localizer.localize_traverse` adds, is left out). The error is drawn from
+that covariance with roll, pitch and height at 0.01 rad and 0.05 m (:func:`levelled`: the rover's
+IMU levels it and it stands on the ground; 15 % of the leg on height and 0.03 rad on roll and pitch
+are a floor for the gate, not errors a dead reckoning makes), or with ``--full-leg-draw`` from the
+whole leg prior. The localizer is the
+product default :class:`vo.crosssite.CrossSiteConfig` (forward-forward regions, ground-plane zoom,
+SIFT first and ASIFT when fewer than 20 eq. 2 ties remain). Every run is measured as in
+``crosssite_model_mc.py`` (:func:`crosssite_model_mc.measure`) and the rows are written after every
+run, so an interrupted invocation still leaves a table (``--table CSV`` prints it again).
+
+    MUJOCO_GL=egl nice -n 10 OPENBLAS_NUM_THREADS=1 .venv/bin/python docs/studies/crosssite_model_mc_lunar.py \\
+        --runs 20 --first 1000 --cache /tmp/lunar_pair.npz
+    ... --runs 10 --first 1000 --mast-deg 0.05 --cache /tmp/lunar_pair.npz
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+sys.path.insert(0, str(Path(__file__).parent))
+
+import numpy as np  # noqa: E402
+
+import crosssite_model_mc as mc  # noqa: E402
+from vo.crosssite import CrossSiteConfig, Site, StereoCal, StereoPair, localize_site  # noqa: E402
+from vo.crosssite.localizer import leg_model_cov  # noqa: E402
+from vo.crosssite.types import mast_T_b_c  # noqa: E402
+from vo.dataset.image_noise import add_image_noise  # noqa: E402
+
+SEED_TAG = 0x001D  # the lunar variant's stream tag (the campus study uses 0x001C)
+SCENARIO = "yutu-traverse"
+# draw of the prior error on roll, pitch (rad) and height (m), tangent indices 0, 1, 5: IMU-levelled
+# attitude and a rover on the ground, the campus study's values
+LEVELLED_SIGMA = {0: 0.01, 1: 0.01, 5: 0.05}
+
+
+def render_pair(traverse_seed: int) -> dict:
+    """Leg 0 -> 1 of ``yutu-traverse``: poses, mast model, calibration and the rendered panoramas."""
+    from sim.render import StereoRenderer
+    from sim.scenarios import get_scenario, traverse_scenarios
+    from sim.traverse import plan
+    from sim.vehicles.rover import MastHead
+    from sim.world import build_world
+    from vo.frontend.image import to_gray
+    config = get_scenario(SCENARIO, seed=traverse_seed)
+    tcfg = traverse_scenarios()[SCENARIO]
+    tp = plan(config, tcfg)
+    head = MastHead.from_rig(config.rig)
+    pans = np.radians(tcfg.pans_deg())
+    world = build_world(tp.scene, config.rig, vehicle="rover")
+    left, right, depth = [], [], []
+    with StereoRenderer(world, config.rig, depth=True, supersample=config.render.supersample,
+                        show_vehicle=False) as cam:
+        for k in (0, 1):
+            for pan in pans:
+                head.set_pointing(world, pan, head.tilt0_rad)
+                f = cam.render(tp.T_w_b_sites[k])
+                left.append(to_gray(f.images[0]))
+                right.append(to_gray(f.images[1]))
+                depth.append(f.depth[0])
+    cam0 = config.rig.cameras[0]
+    return dict(T0=tp.T_w_b_sites[0], T1=tp.T_w_b_sites[1], pans=pans, tilt0=head.tilt0_rad,
+                T_b_mast=head.T_b_mast, T_head_c0=head.T_head_c[0], K=cam0.K, T_c0_c1=config.rig.T_c0_c1,
+                size=np.array([cam0.width, cam0.height]), image_sigma=config.noise.image_sigma,
+                left=np.array(left), right=np.array(right), depth=np.array(depth, np.float32))
+
+
+def load_pair(cache, traverse_seed: int) -> dict:
+    """The rendered pair from ``cache`` (an ``.npz`` of :func:`render_pair`) or rendered (and cached)."""
+    if cache and Path(cache).is_file():
+        with np.load(cache) as z:
+            return {k: z[k] for k in z.files}
+    pair = render_pair(traverse_seed)
+    if cache:
+        np.savez(cache, **pair)
+    return pair
+
+
+def levelled(cov: np.ndarray) -> np.ndarray:
+    """The leg prior with roll, pitch and height at the levelled values of ``LEVELLED_SIGMA``: the prior
+    error is drawn from this (horizontal position and yaw keep the leg prior's sigma)."""
+    out = np.array(cov, float)
+    for k, sd in LEVELLED_SIGMA.items():
+        out[k, :], out[:, k] = 0.0, 0.0
+        out[k, k] = sd ** 2
+    return out
+
+
+def make_sites(pair: dict, rng, image_sigma: float, mast_deg: float, cfg: CrossSiteConfig,
+               full_leg_draw: bool = False):
+    """Site records for one run: noisy images, commanded mast angles (true + error), drawn prior."""
+    import gtsam
+    n = len(pair["pans"])
+    W, H = (int(v) for v in pair["size"])
+    cal = StereoCal(pair["K"], pair["T_c0_c1"], W, H)
+    out = []
+    for s in (0, 1):
+        pairs = []
+        for j, pan in enumerate(pair["pans"]):
+            e_pan, e_tilt = np.radians(mast_deg) * rng.standard_normal(2) if mast_deg > 0 else (0.0, 0.0)
+            pan_cmd, tilt_cmd = float(pan) + e_pan, float(pair["tilt0"]) + e_tilt
+            k = s * n + j
+            pairs.append(StereoPair(add_image_noise(pair["left"][k], image_sigma, rng),
+                                    add_image_noise(pair["right"][k], image_sigma, rng),
+                                    mast_T_b_c(pair["T_b_mast"], pan_cmd, tilt_cmd, pair["T_head_c0"]),
+                                    pan_cmd, tilt_cmd))
+        out.append(pairs)
+    T0, T1 = pair["T0"], pair["T1"]
+    cov = leg_model_cov(SimpleNamespace(T_w_b_prior=T0), SimpleNamespace(T_w_b_prior=T1), cfg)
+    xi = rng.multivariate_normal(np.zeros(6), cov if full_leg_draw else levelled(cov))
+    prev = Site(0, 0, out[0], cal, T0, cov)
+    cur = Site(1, 1, out[1], cal, T1 @ gtsam.Pose3.Expmap(xi).matrix(), cov)
+    return prev, cur
+
+
+def one_run(pair: dict, r: int, image_sigma: float, mast_deg: float, cfg: CrossSiteConfig,
+            full_leg_draw: bool = False) -> dict:
+    rng = np.random.default_rng([SEED_TAG, r])
+    prev, cur = make_sites(pair, rng, image_sigma, mast_deg, cfg, full_leg_draw)
+    t0 = time.perf_counter()
+    res = localize_site(prev, pair["T0"], cur, cfg)
+    row = {"run": r, "status": res.status, "time_s": round(time.perf_counter() - t0, 1),
+           "n_eq2_all": int(res.ties.inlier.sum()) if res.ties is not None else 0}
+    if res.status != "ok":
+        return row
+    n = len(pair["pans"])
+    return mc.measure(row, prev, cur, res, pair["T0"], pair["T1"], list(pair["depth"][:n]), prev.cal, cfg)
+
+
+def report(rows, path_png: Path, title: str) -> None:
+    """Table and figure, when at least 2 runs are ``ok``."""
+    if sum(r["status"] == "ok" for r in rows) < 2:
+        print(f"{len(rows)} runs, fewer than 2 ok: no table")
+        return
+    s = mc.summarize(rows)
+    mc.print_table(s)
+    mc.plot(s, path_png, title)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--runs", type=int, default=20)
+    ap.add_argument("--first", type=int, default=0, help="first run index (held-out seeds: 1000)")
+    ap.add_argument("--image-sigma", type=float, default=None, help="grey levels (default: the scenario's)")
+    ap.add_argument("--mast-deg", type=float, default=0.0, help="pan and tilt error per pointing, 1-sigma deg")
+    ap.add_argument("--traverse-seed", type=int, default=0, help="seed of the yutu-traverse scenario")
+    ap.add_argument("--cache", default=None, help=".npz of the rendered pair (read if present, else written)")
+    ap.add_argument("--full-leg-draw", action="store_true",
+                    help="draw the prior error from the whole leg prior (roll, pitch, height too)")
+    ap.add_argument("--table", default=None, help="only print the table of this runs CSV")
+    args = ap.parse_args(argv)
+    mc.OUT.mkdir(parents=True, exist_ok=True)
+    if args.table:
+        rows = mc.read_rows(Path(args.table))
+        report(rows, Path(args.table).with_suffix(".png"), f"lunar pair, {Path(args.table).stem}")
+        return
+    cfg = CrossSiteConfig()
+    t0 = time.perf_counter()
+    pair = load_pair(args.cache, args.traverse_seed)
+    sigma = float(pair["image_sigma"]) if args.image_sigma is None else args.image_sigma
+    leg = pair["T1"][:3, 3] - pair["T0"][:3, 3]
+    print(f"{len(pair['pans'])} + {len(pair['pans'])} pointings ready in {time.perf_counter() - t0:.0f} s; "
+          f"leg {np.linalg.norm(leg):.2f} m, image sigma {sigma:g}")
+    tag = f"lunar_{args.first}-{args.first + args.runs - 1}" + (f"_mast{args.mast_deg:g}" if args.mast_deg else "") + \
+        ("_fullleg" if args.full_leg_draw else "")
+    rows = []
+    for r in range(args.first, args.first + args.runs):
+        rows.append(one_run(pair, r, sigma, args.mast_deg, cfg, args.full_leg_draw))
+        mc.write_rows(rows, mc.OUT / f"runs_{tag}.csv")
+        print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in rows[-1].items()
+               if k in ("run", "status", "n_ties", "err_along", "err_cross", "err_vertical", "nees_pos", "time_s")},
+              flush=True)
+    report(rows, mc.OUT / f"model_mc_{tag}.png", f"lunar pair (yutu-traverse leg 0-1), 7+7 pointings, runs {tag}, "
+           f"image sigma {sigma:g}, mast {args.mast_deg:g} deg")
+
+
+if __name__ == "__main__":
+    main()
