@@ -70,7 +70,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", required=True)
     ap.add_argument("--cells", type=int, default=24, help="cells of the throughput runs (0: memory only)")
-    ap.add_argument("--memory-cells", type=int, default=100)
+    ap.add_argument("--memory-cells", type=int, default=100, help="cells of the memory run (0: throughput only)")
     ap.add_argument("--duration", type=float, default=1.0)
     args = ap.parse_args()
     out = Path(args.out)
@@ -81,16 +81,17 @@ def main():
         result = {"throughput": [{k: v for k, v in r.items() if k != "records"} for r in (one, two)],
                   "speedup_wall": two["cells_per_hour"] / one["cells_per_hour"],
                   "speedup_steady": two["steady_cells_per_hour"] / one["steady_cells_per_hour"]}
-    mem_spec = grid_spec(args.memory_cells, args.duration)
-    many = run(mem_spec, out / "memory", 2, args.memory_cells)
-    result["memory"] = {"cells": many["cells"], "wall_s": many["wall_s"], "per_worker": memory(many["records"])}
+    if args.memory_cells > 0:
+        mem_spec = grid_spec(args.memory_cells, args.duration)
+        many = run(mem_spec, out / "memory", 2, args.memory_cells)
+        result["memory"] = {"cells": many["cells"], "wall_s": many["wall_s"], "per_worker": memory(many["records"])}
     (out / "summary.json").write_text(json.dumps(result, indent=2) + "\n")
     for r in result.get("throughput", []):
         print(f"{r['workers']} worker(s): {r['cells']} cells in {r['wall_s']:.1f} s -> {r['cells_per_hour']:.0f} cells/h "
               f"(steady {r['steady_cells_per_hour']:.0f} cells/h), {r['failed']} failed")
     if "throughput" in result:
         print(f"speed-up 2 vs 1 worker: {result['speedup_wall']:.2f}x wall, {result['speedup_steady']:.2f}x steady")
-    for pid, m in result["memory"]["per_worker"].items():
+    for pid, m in result.get("memory", {}).get("per_worker", {}).items():
         print(f"worker {pid}: {m['cells']} cells, RSS first {m['first_mb']:.0f} MiB, after {WARM_UP} cells "
               f"{m['after_warm_up_mb']:.0f} MiB, last {m['last_mb']:.0f} MiB, max {m['max_mb']:.0f} MiB, slope "
               f"{m['slope_mb_per_100_cells']:+.1f} MiB/100 cells ({m['slope_after_warm_up_mb_per_100_cells']:+.1f} "
