@@ -53,7 +53,7 @@ def _check(ties, T_prior):
     idx = np.arange(len(ties.pair_prev))
     T_init, P_w = initial_pose(cur, T0, prev, ties, idx, cfg)
     keep = _resection_inliers(cur, T_init, P_w, ties, idx, cfg)
-    return T_init, keep, second_motion(prev, T0, cur, ties, idx, P_w, keep, T_init, cfg)
+    return T_init, keep, second_motion(cur, ties, idx, P_w, keep, T_init, cfg)
 
 
 def test_two_rigid_motions_are_ambiguous():
@@ -83,4 +83,4 @@ def test_check_is_off_at_zero():
     idx = np.arange(len(ties.pair_prev))
     T_init, P_w = initial_pose(cur, T0, prev, ties, idx, cfg)
     keep = _resection_inliers(cur, T_init, P_w, ties, idx, cfg)
-    assert second_motion(prev, T0, cur, ties, idx, P_w, keep, T_init, cfg) is None
+    assert second_motion(cur, ties, idx, P_w, keep, T_init, cfg) is None

@@ -32,22 +32,29 @@ def _fallback(cur: Site, status: str, cfg, ties: Optional[TieSet], reason: str, 
 
 
 def initial_pose(cur: Site, T_w_b_prev, prev: Site, ties: TieSet, idx, cfg) -> tuple:
-    """Stage 6: tie points in w by intersection at the previous site; resection of each current left
-    image that sees >= ``min_tie_points`` of them; the pair with most inliers gives ``T_w_b``.
-    -> (T_w_b initial, P_w (n,3)); the prior when every resection fails."""
+    """Stage 6: tie points in w by intersection at the previous site, then :func:`best_resection`.
+    -> (T_w_b initial, P_w (n,3))."""
     K, B = cur.cal.K, cur.cal.baseline
     P_b, _ = body_points(prev, ties.pair_prev[idx], ties.uv_prev[idx], ties.ur_prev[idx], K, B)
     P_w = P_b @ T_w_b_prev[:3, :3].T + T_w_b_prev[:3, 3]
+    return best_resection(cur, P_w, ties, idx, cfg), P_w
+
+
+def best_resection(cur: Site, P_w, ties: TieSet, idx, cfg) -> np.ndarray:
+    """Resection of each current left image that sees >= ``min_tie_points`` of the points ``P_w``
+    (n,3) of ties ``idx``; the pair with most inliers gives ``T_w_b`` (4,4); the prior when every
+    resection fails."""
     best, T_best = 0, None
     for j in np.unique(ties.pair_cur[idx]):
         s = ties.pair_cur[idx] == j
         if s.sum() < cfg.min_tie_points:
             continue
         T_b_c0 = cur.pairs[j].T_b_c0
-        r = resection(P_w[s], ties.uv_cur[idx][s], K, cur.T_w_b_prior @ T_b_c0, cfg.pnp_reproj_px, seed=cur.index)
+        r = resection(P_w[s], ties.uv_cur[idx][s], cur.cal.K, cur.T_w_b_prior @ T_b_c0, cfg.pnp_reproj_px,
+                      seed=cur.index)
         if r is not None and len(r[1]) > best:
             best, T_best = len(r[1]), r[0] @ inv_T(T_b_c0)
-    return (T_best if T_best is not None else cur.T_w_b_prior), P_w
+    return T_best if T_best is not None else cur.T_w_b_prior
 
 
 def _resection_inliers(cur: Site, T_w_b, P_w, ties: TieSet, idx, cfg) -> np.ndarray:
@@ -84,9 +91,9 @@ def _reprojection_px(cur: Site, T_w_b, P_w, ties: TieSet, idx) -> np.ndarray:
     return err
 
 
-def second_motion(prev: Site, T_w_b_prev, cur: Site, ties: TieSet, idx, P_w, keep, T_first, cfg) -> Optional[str]:
-    """A second rigid motion among the ties the first resection consensus left out (``idx[~keep]``):
-    resection again on them; if at least ``min_tie_points`` agree with it and their median reprojection
+def second_motion(cur: Site, ties: TieSet, idx, P_w, keep, T_first, cfg) -> Optional[str]:
+    """A second rigid motion among the ties the first resection consensus left out (``idx[~keep]``,
+    their points ``P_w[~keep]`` as intersected at the previous site): resection again on them; if at least ``min_tie_points`` agree with it and their median reprojection
     under the first pose exceeds ``ambiguity_px``, the tie set holds two self-consistent motions (a
     wrong cluster can pass eq. 2 and out-vote the true ties) -> the reason string, else None. Ties that
     merely missed the first consensus by a few pixels (range errors of far points) reproject within a few
@@ -94,7 +101,7 @@ def second_motion(prev: Site, T_w_b_prev, cur: Site, ties: TieSet, idx, P_w, kee
     rest = ~keep
     if cfg.ambiguity_px <= 0 or rest.sum() < cfg.min_tie_points:
         return None
-    T2, _ = initial_pose(cur, T_w_b_prev, prev, ties, idx[rest], cfg)
+    T2 = best_resection(cur, P_w[rest], ties, idx[rest], cfg)
     keep2 = _resection_inliers(cur, T2, P_w[rest], ties, idx[rest], cfg)
     if keep2.sum() < cfg.min_tie_points:
         return None
@@ -161,7 +168,7 @@ def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSite
         timings.update(initial=time.perf_counter() - t1, total=time.perf_counter() - t0)
         return _fallback(cur, "few_tie_points", cfg, ties, f"{int(keep.sum())} tie points agree with the resection",
                          timings)
-    ambiguous = second_motion(prev, T_w_b_prev, cur, ties, idx, P_w, keep, T_init, cfg)
+    ambiguous = second_motion(cur, ties, idx, P_w, keep, T_init, cfg)
     if ambiguous:
         timings.update(initial=time.perf_counter() - t1, total=time.perf_counter() - t0)
         return _fallback(cur, "ambiguous", cfg, ties, ambiguous, timings)
