@@ -109,16 +109,37 @@ def one_run(rendered, r, args, cfg) -> dict:
     return measure(row, prev, cur, res, T0, T1, [d for _, _, d in sites[0]], cal, cfg)
 
 
-def measure(row, prev, cur, res, T0, T1, depths0, cal, cfg) -> dict:
-    """``row`` updated with one ``ok`` localization's errors against truth (``T1``), its BA covariance,
-    NEES and the eq. 9-13 predictions from its tie layout (``depths0`` the site-0 left depth per pair)."""
+def axes_error(T0, T1):
+    """-> f(T_w_b, cov=None): (position error (3,) of ``T_w_b`` against ``T1`` along / cross / vertical in
+    site 0's frame, the position block of ``cov`` (gtsam body tangent) on the same axes or None)."""
     R0 = T0[:3, :3]
-    cur_xy = (inv_T(T0) @ T1)[:2, 3]
     A = np.eye(3)
-    A[:2, :2] = track_axes(cur_xy)                         # rows: along, cross, vertical in site 0's frame
-    e = A @ R0.T @ (res.T_w_b[:3, 3] - T1[:3, 3])
-    Rh = res.T_w_b[:3, :3]
-    C = A @ R0.T @ Rh @ res.cov[3:, 3:] @ Rh.T @ R0 @ A.T   # BA position covariance, same axes
+    A[:2, :2] = track_axes((inv_T(T0) @ T1)[:2, 3])        # rows: along, cross, vertical in site 0's frame
+
+    def f(T_w_b, cov=None):
+        e = A @ R0.T @ (T_w_b[:3, 3] - T1[:3, 3])
+        if cov is None:
+            return e, None
+        Rh = T_w_b[:3, :3]
+        return e, A @ R0.T @ Rh @ cov[3:, 3:] @ Rh.T @ R0 @ A.T
+    return f
+
+
+def rms(x) -> float:
+    """Root mean square (about zero) of the finite values of ``x``: the plain estimate next to the robust one."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x ** 2))) if x.size else float("nan")
+
+
+def measure(row, prev, cur, res, T0, T1, depths0, cal, cfg, diagnose=None) -> dict:
+    """``row`` updated with one ``ok`` localization's errors against truth (``T1``), its BA covariance,
+    NEES and the eq. 9-13 predictions from its tie layout (``depths0`` the site-0 left depth per pair),
+    with robust (MAD) and plain (RMS) sigma_p / sigma_theta; ``diagnose(row, axes_err)``, if given,
+    adds its own columns (``crosssite_model_mc_ties.diagnose``)."""
+    cur_xy = (inv_T(T0) @ T1)[:2, 3]
+    axes_err = axes_error(T0, T1)
+    e, C = axes_err(res.T_w_b, res.cov)                     # error and BA position covariance, same axes
     import gtsam
     xi = gtsam.Pose3.Logmap(gtsam.Pose3(res.T_w_b).between(gtsam.Pose3(T1)))
     idx = ba_ties(prev, cur, res, T0, cfg.pnp_reproj_px)
@@ -129,6 +150,10 @@ def measure(row, prev, cur, res, T0, T1, depths0, cal, cfg) -> dict:
     M_two = model_covariance(layout, cur_xy, cal.f, cal.baseline, sp, st, sigma_p_cur_px=spc)
     M_paper = model_covariance(layout, cur_xy, cal.f, cal.baseline, 1 / 3, 3.0)
     M_rigid = model_covariance(layout, cur_xy, cal.f, cal.baseline, sp, st, sigma_p_cur_px=spc, scale=False)
+    sp_rms, st_rms = rms(d_prev), rms(at_prev[:, 0])
+    M_rms = model_covariance(layout, cur_xy, cal.f, cal.baseline, sp_rms, st_rms)
+    row["sigma_p_rms_px"], row["sigma_theta_rms_px"] = sp_rms, st_rms
+    row["rmsmodel_along"], row["rmsmodel_cross"] = axis_sigmas(M_rms, cur_xy)
     row.update(n_ties=len(layout), n_eq2=int(res.ties.inlier.sum()), n_ba=res.stats.get("n_ba_points", 0),
                sigma_p_px=sp, sigma_p_cur_px=spc, sigma_theta_px=st, sigma_transfer_px=robust_sigma(transfer[:, 0]),
                ba_yaw_deg=float(np.degrees(np.sqrt(res.cov[2, 2]))),
@@ -146,6 +171,9 @@ def measure(row, prev, cur, res, T0, T1, depths0, cal, cfg) -> dict:
         row[f"err_{name}_mdeg"] = float(np.degrees(xi[k]) * 1e3)
         row[f"ba_{name}_mdeg"] = float(np.degrees(np.sqrt(res.cov[k, k])) * 1e3)
     row["nees_rot"] = float(xi[:3] @ np.linalg.solve(res.cov[:3, :3], xi[:3]))
+    row["ba_rms_px"] = float(res.stats.get("ba_rms_px", float("nan")))
+    if diagnose is not None:
+        diagnose(row, axes_err)
     return row
 
 
@@ -263,7 +291,7 @@ def write_rows(rows, path: Path) -> None:
 def read_rows(path: Path) -> list:
     """Rows written by :func:`write_rows`, numbers back as float (``run`` as int, empty cells dropped)."""
     def value(k, v):
-        if k == "status":
+        if k in ("status", "matcher"):
             return v
         return int(v) if k == "run" else float(v)
     with open(path, newline="") as fh:

@@ -20,12 +20,19 @@ are a floor for the gate, not errors a dead reckoning makes), or with ``--full-l
 whole leg prior. The localizer is the
 product default :class:`vo.crosssite.CrossSiteConfig` (forward-forward regions, ground-plane zoom,
 SIFT first and ASIFT when fewer than 20 eq. 2 ties remain). Every run is measured as in
-``crosssite_model_mc.py`` (:func:`crosssite_model_mc.measure`) and the rows are written after every
-run, so an interrupted invocation still leaves a table (``--table CSV`` prints it again).
+``crosssite_model_mc.py`` (:func:`crosssite_model_mc.measure`) plus the tie diagnostics of
+``crosssite_model_mc_ties.py`` (each BA tie against its exact observations, the BA solved again with
+single error components and with the cross-site matching error in its weights), and the rows are
+written after every run, so an interrupted invocation still leaves a table (``--table CSV`` prints it
+again). Variants: ``--asift-fallback 0`` (ASIFT in every run), ``--mast-sigma-deg`` (soft mast
+constraints in the BA). ``--ties-dir`` keeps every run's tie set; ``--from-ties CSV`` measures the
+runs of that CSV again from their saved ties, without matching, with this invocation's BA settings.
 
     MUJOCO_GL=egl nice -n 10 OPENBLAS_NUM_THREADS=1 .venv/bin/python docs/studies/crosssite_model_mc_lunar.py \\
         --runs 20 --first 1000 --cache /tmp/lunar_pair.npz
-    ... --runs 10 --first 1000 --mast-deg 0.05 --cache /tmp/lunar_pair.npz
+    ... --runs 20 --first 1000 --mast-deg 0.05 --cache /tmp/lunar_pair.npz --ties-dir /tmp/lunar_ties/mast
+    ... --runs 20 --first 1000 --mast-deg 0.05 --mast-sigma-deg 0.05 --cache /tmp/lunar_pair.npz \
+        --ties-dir /tmp/lunar_ties/mast --from-ties docs/studies/figures/crosssite_model_mc/runs_lunar_1000-1019_mast0.05.csv
 """
 from __future__ import annotations
 
@@ -33,6 +40,7 @@ import argparse
 import os
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -42,6 +50,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import numpy as np  # noqa: E402
 
 import crosssite_model_mc as mc  # noqa: E402
+import crosssite_model_mc_ties as ties  # noqa: E402
 from vo.crosssite import CrossSiteConfig, Site, StereoCal, StereoPair, localize_site  # noqa: E402
 from vo.crosssite.localizer import leg_model_cov  # noqa: E402
 from vo.crosssite.types import mast_T_b_c  # noqa: E402
@@ -52,6 +61,7 @@ SCENARIO = "yutu-traverse"
 # draw of the prior error on roll, pitch (rad) and height (m), tangent indices 0, 1, 5: IMU-levelled
 # attitude and a rover on the ground, the campus study's values
 LEVELLED_SIGMA = {0: 0.01, 1: 0.01, 5: 0.05}
+MAST_SIGMA_M = 0.001  # soft mast constraints (--mast-sigma-deg): translation sigma of a pointing's camera mount
 
 
 def render_pair(traverse_seed: int) -> dict:
@@ -134,17 +144,34 @@ def make_sites(pair: dict, rng, image_sigma: float, mast_deg: float, cfg: CrossS
 
 
 def one_run(pair: dict, r: int, image_sigma: float, mast_deg: float, cfg: CrossSiteConfig,
-            full_leg_draw: bool = False) -> dict:
+            full_leg_draw: bool = False, ties_dir=None, from_row=None) -> dict:
     rng = np.random.default_rng([SEED_TAG, r])
     prev, cur = make_sites(pair, rng, image_sigma, mast_deg, cfg, full_leg_draw)
     t0 = time.perf_counter()
-    res = localize_site(prev, pair["T0"], cur, cfg)
-    row = {"run": r, "status": res.status, "time_s": round(time.perf_counter() - t0, 1),
-           "n_eq2_all": int(res.ties.inlier.sum()) if res.ties is not None else 0}
+    if from_row is not None:   # --from-ties: the saved tie set, no matching
+        if from_row["status"] != "ok":
+            return from_row
+        res = ties.rebuild_result(prev, pair["T0"], cur, Path(ties_dir) / f"ties_{r}.npz", cfg)
+        res.stats["matcher"] = from_row.get("matcher", "")
+        row = {k: from_row[k] for k in ("run", "status", "time_s", "n_eq2_all") if k in from_row}
+    else:
+        res = localize_site(prev, pair["T0"], cur, cfg)
+        row = {"run": r, "status": res.status, "time_s": round(time.perf_counter() - t0, 1),
+               "n_eq2_all": int(res.ties.inlier.sum()) if res.ties is not None else 0}
     if res.status != "ok":
         return row
+    if ties_dir and from_row is None:   # the tie set, for BA-only analyses of the run without matching again
+        t = res.ties
+        np.savez(Path(ties_dir) / f"ties_{r}.npz", **{k: getattr(t, k) for k in (
+            "pair_prev", "uv_prev", "pair_cur", "uv_cur", "ur_prev", "ur_cur", "stereo_ok", "inlier")})
     n = len(pair["pans"])
-    return mc.measure(row, prev, cur, res, pair["T0"], pair["T1"], list(pair["depth"][:n]), prev.cal, cfg)
+    row["matcher"] = res.stats.get("matcher", "")
+    depths0 = list(pair["depth"][:n])
+    mounts = [mast_T_b_c(pair["T_b_mast"], float(p), float(pair["tilt0"]), pair["T_head_c0"]) for p in pair["pans"]]
+
+    def diagnose(row, axes_err):
+        ties.diagnose(row, prev, cur, res, pair["T0"], pair["T1"], depths0, cfg, [mounts, mounts], axes_err)
+    return mc.measure(row, prev, cur, res, pair["T0"], pair["T1"], depths0, prev.cal, cfg, diagnose)
 
 
 def report(rows, path_png: Path, title: str) -> None:
@@ -154,6 +181,7 @@ def report(rows, path_png: Path, title: str) -> None:
         return
     s = mc.summarize(rows)
     mc.print_table(s)
+    ties.print_diagnostics(rows)
     mc.plot(s, path_png, title)
 
 
@@ -167,14 +195,28 @@ def main(argv=None) -> None:
     ap.add_argument("--cache", default=None, help=".npz of the rendered pair (read if present, else written)")
     ap.add_argument("--full-leg-draw", action="store_true",
                     help="draw the prior error from the whole leg prior (roll, pitch, height too)")
+    ap.add_argument("--asift-fallback", type=int, default=None,
+                    help="CrossSiteConfig.asift_fallback_ties (default the product's; 0: ASIFT alone, in every run)")
+    ap.add_argument("--mast-sigma-deg", type=float, default=0.0,
+                    help="soft mast constraints: CrossSiteConfig.mast_sigma_rad in deg (0: hard, eq. 5)")
+    ap.add_argument("--ties-dir", default=None, help="write each ok run's tie set here (ties_<run>.npz)")
+    ap.add_argument("--from-ties", default=None, metavar="CSV",
+                    help="no matching: rebuild every run of this runs CSV from --ties-dir (BA with this invocation's "
+                         "configuration) and measure again")
     ap.add_argument("--table", default=None, help="only print the table of this runs CSV")
     args = ap.parse_args(argv)
+    if args.from_ties and not args.ties_dir:
+        ap.error("--from-ties needs --ties-dir (where the runs' tie sets were saved)")
     mc.OUT.mkdir(parents=True, exist_ok=True)
     if args.table:
         rows = mc.read_rows(Path(args.table))
         report(rows, Path(args.table).with_suffix(".png"), f"lunar pair, {Path(args.table).stem}")
         return
     cfg = CrossSiteConfig()
+    if args.asift_fallback is not None:
+        cfg = replace(cfg, asift_fallback_ties=args.asift_fallback)
+    if args.mast_sigma_deg > 0:   # the mast translation is known to MAST_SIGMA_M
+        cfg = replace(cfg, mast_sigma_rad=float(np.radians(args.mast_sigma_deg)), mast_sigma_m=MAST_SIGMA_M)
     t0 = time.perf_counter()
     pair = load_pair(args.cache, args.traverse_seed)
     sigma = float(pair["image_sigma"]) if args.image_sigma is None else args.image_sigma
@@ -182,10 +224,15 @@ def main(argv=None) -> None:
     print(f"{len(pair['pans'])} + {len(pair['pans'])} pointings ready in {time.perf_counter() - t0:.0f} s; "
           f"leg {np.linalg.norm(leg):.2f} m, image sigma {sigma:g}")
     tag = f"lunar_{args.first}-{args.first + args.runs - 1}" + (f"_mast{args.mast_deg:g}" if args.mast_deg else "") + \
-        ("_fullleg" if args.full_leg_draw else "")
+        ("_fullleg" if args.full_leg_draw else "") + \
+        (f"_asift{args.asift_fallback}" if args.asift_fallback is not None else "") + \
+        (f"_soft{args.mast_sigma_deg:g}" if args.mast_sigma_deg > 0 else "")
+    old = {r["run"]: r for r in mc.read_rows(Path(args.from_ties))} if args.from_ties else {}
+    if args.ties_dir:
+        Path(args.ties_dir).mkdir(parents=True, exist_ok=True)
     rows = []
     for r in range(args.first, args.first + args.runs):
-        rows.append(one_run(pair, r, sigma, args.mast_deg, cfg, args.full_leg_draw))
+        rows.append(one_run(pair, r, sigma, args.mast_deg, cfg, args.full_leg_draw, args.ties_dir, old.get(r)))
         mc.write_rows(rows, mc.OUT / f"runs_{tag}.csv")
         print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in rows[-1].items()
                if k in ("run", "status", "n_ties", "err_along", "err_cross", "err_vertical", "nees_pos", "time_s")},

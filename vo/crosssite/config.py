@@ -37,6 +37,7 @@ class CrossSiteConfig:
     sift_features: int = knob(0, ge=0)               # SIFT nfeatures, 0: all
     sift_contrast: float = knob(0.01, gt=0)          # SIFT contrast threshold (OpenCV's default 0.04)
     ratio: float = knob(0.8, gt=0)                   # Lowe's ratio test
+    workers: int = knob(2, ge=1)                     # threads for detection and matching per pointing / region pair
     # stereo ZNCC + LSM (§2.2)
     zncc_half_px: int = knob(7, ge=1)
     zncc_min: float = knob(0.8, ge=0)
@@ -59,6 +60,7 @@ class CrossSiteConfig:
     pnp_reproj_px: float = knob(2.0, ge=0)
     ba_sigma_px: float = knob(1.0 / 3.0, gt=0)
     ba_huber_k: float = knob(1.345, ge=0)
+    ba_xsite_sigma_px: float = knob(1.0, ge=0)       # matching error of the current site's ties (sigma_theta); 0 off
     mast_sigma_rad: float = knob(0.0, ge=0)          # 0: mast rotations as hard constraints (eq. 5)
     mast_sigma_m: float = knob(0.0, ge=0)
     max_ba_points: int = knob(400, ge=1)

@@ -18,6 +18,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from rigs.geometry import inv_T
+from vo.crosssite.asift import DetectionCache
 from vo.crosssite.bundle import TieObservations, bundle_adjust
 from vo.crosssite.config import CrossSiteConfig
 from vo.crosssite.initial import resection
@@ -119,29 +120,36 @@ def _subsample(idx: np.ndarray, n_max: int) -> np.ndarray:
     return idx[np.linspace(0, len(idx) - 1, n_max).round().astype(int)]
 
 
-def _ties(prev: Site, T_w_b_prev, cur: Site, cfg: CrossSiteConfig) -> tuple:
-    """Stages 1-5 with the matcher ``cfg.use_asift`` says. -> (TieSet, timings)."""
-    ties = candidate_ties(prev, T_w_b_prev, cur, cfg)
+def _ties(prev: Site, T_w_b_prev, cur: Site, cfg: CrossSiteConfig, cache) -> tuple:
+    """Stages 1-5 with the matcher ``cfg.use_asift`` says. -> (TieSet, timings; ``cpu_asift`` the
+    process CPU seconds of stages 1-3, which run on ``cfg.workers`` threads)."""
+    c0 = time.process_time()
+    ties = candidate_ties(prev, T_w_b_prev, cur, cfg, cache)
+    cpu = time.process_time() - c0
     if len(ties.pair_prev):
         ties = stereo_and_consistency(prev, cur, ties, cfg, T_w_b_prev)
     ties.stats["matcher"] = "asift" if cfg.use_asift else "sift"
-    return ties, dict(ties.timings_s)
+    return ties, dict(ties.timings_s, cpu_asift=cpu)
 
 
 def localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSiteConfig = CrossSiteConfig()) -> SiteResult:
     """Localize ``cur`` against ``prev`` whose body pose ``T_w_b_prev`` is held fixed. With
     ``use_asift`` and ``asift_fallback_ties > 0``, plain SIFT first and ASIFT only when the SIFT ties
     do not give an ``ok`` pose or number fewer than ``asift_fallback_ties``. Timings: wall seconds
-    per stage (the SIFT pass's prefixed ``sift_`` when ASIFT followed) and ``total``; ``cpu_total``
-    the process CPU seconds (all threads)."""
+    per stage (the SIFT pass's prefixed ``sift_`` when ASIFT followed) and ``total``; ``cpu_asift``
+    and ``cpu_total`` the process CPU seconds (all threads) of stages 1-3 and of the whole pair. The
+    ASIFT pass reuses the SIFT pass's work (:class:`vo.crosssite.asift.DetectionCache`: the current
+    images' features, ASIFT's tilt-1 view of each zoomed previous image and its nearest neighbours),
+    which gives the same ties as computing them again."""
     c0, t0 = time.process_time(), time.perf_counter()
+    cache = DetectionCache()
     if not (cfg.use_asift and cfg.asift_fallback_ties > 0):
-        r = _localize_site(prev, T_w_b_prev, cur, cfg)
+        r = _localize_site(prev, T_w_b_prev, cur, cfg, cache)
     else:
-        r = _localize_site(prev, T_w_b_prev, cur, dataclasses.replace(cfg, use_asift=False))
+        r = _localize_site(prev, T_w_b_prev, cur, dataclasses.replace(cfg, use_asift=False), cache)
         if r.status != "ok" or r.n_tie_points < cfg.asift_fallback_ties:
             first = {"sift_" + k: v for k, v in r.timings_s.items()}
-            r2 = _localize_site(prev, T_w_b_prev, cur, cfg)
+            r2 = _localize_site(prev, T_w_b_prev, cur, cfg, cache)
             if r2.status == "ok" or r.status != "ok":
                 r = r2
             r.timings_s.update(first)
@@ -149,10 +157,10 @@ def localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSiteC
     return r
 
 
-def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSiteConfig) -> SiteResult:
+def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSiteConfig, cache=None) -> SiteResult:
     t0 = time.perf_counter()
     T_w_b_prev = np.asarray(T_w_b_prev, float)
-    ties, timings = _ties(prev, T_w_b_prev, cur, cfg)
+    ties, timings = _ties(prev, T_w_b_prev, cur, cfg, cache)
     if len(ties.pair_prev) == 0:
         timings["total"] = time.perf_counter() - t0
         return _fallback(cur, "no_tie_points", cfg, ties, "no ASIFT matches in the predicted regions", timings)
@@ -177,7 +185,8 @@ def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSite
     try:
         res = bundle_adjust(T_w_b_prev, T_init, [[p.T_b_c0 for p in prev.pairs], [p.T_b_c0 for p in cur.pairs]],
                             _observations(ties, idx), P_w, cur.cal.K, cur.cal.baseline, cfg.ba_sigma_px,
-                            cfg.ba_huber_k, cfg.mast_sigma_rad, cfg.mast_sigma_m)
+                            cfg.ba_huber_k, cfg.mast_sigma_rad, cfg.mast_sigma_m,
+                            xsite_sigma_px=cfg.ba_xsite_sigma_px)
     except RuntimeError as e:  # gtsam: indeterminant system, cheirality
         timings.update(initial=t2 - t1, bundle=time.perf_counter() - t2, total=time.perf_counter() - t0)
         return _fallback(cur, "few_tie_points", cfg, ties, f"bundle adjustment failed: {' '.join(str(e).split())[:160]}",
@@ -220,6 +229,15 @@ def leg_model_cov(prev: Site, cur: Site, cfg: CrossSiteConfig) -> np.ndarray:
     return np.diag([cfg.prior_rot_sigma_rad ** 2] * 3 + [(cfg.prior_leg_fraction * d) ** 2] * 3)
 
 
+def site_prior(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSiteConfig) -> Site:
+    """``cur`` with the prior :func:`localize_traverse` gives it when ``prev`` is held at ``T_w_b_prev``
+    (4,4): the dead-reckoning pose moved with the previous site's correction, the covariance of the
+    leg (:func:`relative_prior_cov`) plus the leg-length floor (:func:`leg_model_cov`)."""
+    shift = np.asarray(T_w_b_prev, float) @ inv_T(prev.T_w_b_prior)
+    cov = relative_prior_cov(prev, cur) + leg_model_cov(prev, cur, cfg)
+    return dataclasses.replace(cur, T_w_b_prior=shift @ cur.T_w_b_prior, cov_prior=cov)
+
+
 def localize_traverse(sites: Sequence[Site], T_w_b0: np.ndarray, cfg: CrossSiteConfig = CrossSiteConfig(),
                       on_site=None) -> list:
     """Sites in driving order, site 0 at the known ``T_w_b0``: each site against the previous one's
@@ -230,10 +248,7 @@ def localize_traverse(sites: Sequence[Site], T_w_b0: np.ndarray, cfg: CrossSiteC
     ``on_site(result)`` is called after each site. -> [SiteResult] for sites 1..n-1."""
     out, T_prev = [], np.asarray(T_w_b0, float)
     for prev, cur in zip(sites[:-1], sites[1:]):
-        shift = T_prev @ inv_T(prev.T_w_b_prior)
-        cov = relative_prior_cov(prev, cur) + leg_model_cov(prev, cur, cfg)
-        cur_c = dataclasses.replace(cur, T_w_b_prior=shift @ cur.T_w_b_prior, cov_prior=cov)
-        r = localize_site(prev, T_prev, cur_c, cfg)
+        r = localize_site(prev, T_prev, site_prior(prev, T_prev, cur, cfg), cfg)
         if on_site is not None:
             on_site(r)
         out.append(r)

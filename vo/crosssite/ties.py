@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -80,14 +81,23 @@ def _enhanced(prev, cur, boxes, cfg) -> tuple:
     return [f(p.left) for p in prev.pairs], [f(p.left) for p in cur.pairs]
 
 
-def _detect(im, m, tilts, cfg):
+def _detect(im, m, tilts, cfg, cache=None):
     if m is None or not np.any(m):
         return np.zeros((0, 2)), np.zeros((0, 128), np.float32)
-    return asift.detect(im, m, tilts, cfg.sift_features, cfg.use_asift, cfg.sift_contrast)
+    return asift.detect(im, m, tilts, cfg.sift_features, cfg.use_asift, cfg.sift_contrast, cache)
 
 
-def _detect_all(images, masks, tilts, cfg):
-    return [_detect(im, m, tilts, cfg) for im, m in zip(images, masks)]
+def _detect_all(images, masks, tilts, cfg, cache=None):
+    return _map(lambda im_m: _detect(*im_m, tilts, cfg, cache), list(zip(images, masks)), cfg.workers)
+
+
+def _map(fn, items: list, workers: int) -> list:
+    """``[fn(x) for x in items]`` on ``workers`` threads (OpenCV's detection and matching release the
+    GIL); results in the order of ``items`` whatever the threads' timing."""
+    if workers <= 1 or len(items) <= 1:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(max_workers=workers) as ex:
+        return list(ex.map(fn, items))
 
 
 def _nominal_overlap(prev, T_w_b_prev, cur, i, j, cfg) -> bool:
@@ -99,33 +109,33 @@ def _nominal_overlap(prev, T_w_b_prev, cur, i, j, cfg) -> bool:
     return bp is not None and bc is not None
 
 
-def _zoomed_rows(prev, T_w_b_prev, cur, boxes, imgs_p, feats_c, tilts, cfg) -> tuple:
+def _zoomed_rows(prev, T_w_b_prev, cur, boxes, imgs_p, feats_c, tilts, cfg, cache=None) -> tuple:
     """Matches per region pair with the previous image zoomed into the current geometry
     (:mod:`vo.crosssite.zoom`); previous pixels mapped back. -> (rows, n previous features, n warped pairs)."""
     W, H = cur.cal.width, cur.cal.height
-    rows, n_feat, n_warped = [], 0, 0
-    for (i, j), (bp, bc) in boxes.items():
+
+    def one(item):
+        (i, j), (bp, bc) = item
         if cfg.mode == "ff" and not _nominal_overlap(prev, T_w_b_prev, cur, i, j, cfg):
-            continue
+            return None
         M = zoom.pair_warp(prev, T_w_b_prev, cur, i, j, bp, bc, cfg)
         if M is None:
-            continue
+            return None
         warped, valid = zoom.warp_image(imgs_p[i], M, W, H)
-        uv_w, d_a = _detect(warped, valid & regions.box_mask(bc, W, H), tilts, cfg)
-        n_feat, n_warped = n_feat + len(uv_w), n_warped + 1
+        uv_w, d_a = _detect(warped, valid & regions.box_mask(bc, W, H), tilts, cfg, cache)
         uv_b, d_b = feats_c[j]
         ib = np.flatnonzero(regions.in_box(uv_b, bc))
-        ab = asift.match(d_a, d_b[ib], cfg.ratio)
-        if len(ab) == 0:
-            continue
-        uv_a = zoom.unwarp_points(uv_w[ab[:, 0]], M)
-        for a, b in zip(uv_a, ib[ab[:, 1]]):
-            rows.append((i, *a, j, *uv_b[b]))
-    return rows, n_feat, n_warped
+        ab = asift.match(d_a, d_b[ib], cfg.ratio, cache)
+        uv_a = zoom.unwarp_points(uv_w[ab[:, 0]], M) if len(ab) else ()
+        return [(i, *a, j, *uv_b[b]) for a, b in zip(uv_a, ib[ab[:, 1]])], len(uv_w)
+
+    done = [r for r in _map(one, list(boxes.items()), cfg.workers) if r is not None]
+    return [row for rows, _ in done for row in rows], sum(n for _, n in done), len(done)
 
 
-def candidate_ties(prev, T_w_b_prev, cur, cfg) -> TieSet:
-    """Stages 1-3: regions, Wallis, ASIFT (or SIFT) matching inside the regions."""
+def candidate_ties(prev, T_w_b_prev, cur, cfg, cache=None) -> TieSet:
+    """Stages 1-3: regions, Wallis, ASIFT (or SIFT) matching inside the regions; features from
+    ``cache`` (:class:`vo.crosssite.asift.DetectionCache`) where an earlier pass detected them."""
     t0 = time.perf_counter()
     W, H = cur.cal.width, cur.cal.height
     boxes = pair_regions(prev, T_w_b_prev, cur, cfg)
@@ -139,19 +149,19 @@ def candidate_ties(prev, T_w_b_prev, cur, cfg) -> TieSet:
     # with a zoom the previous image is already in the current geometry: the affine views (if any)
     # are simulated on the zoomed previous image only, the current image keeps plain SIFT
     cfg_c = dataclasses.replace(cfg, use_asift=False) if cfg.zoom != "none" else cfg
-    feats_c = _detect_all(imgs_c, mask_c, tilts, cfg_c) if cfg.zoom != "ortho" else []
+    feats_c = _detect_all(imgs_c, mask_c, tilts, cfg_c, cache) if cfg.zoom != "ortho" else []
     n_feat_c = sum(len(f[0]) for f in feats_c)
     if cfg.zoom == "ortho":  # both images onto one ground grid per region pair (vo.crosssite.ortho)
         rows, n_feat_p, n_feat_c, n_warped = ortho.ortho_rows(prev, T_w_b_prev, cur, boxes, imgs_p, imgs_c, tilts, cfg)
     elif cfg.zoom != "none":
-        rows, n_feat_p, n_warped = _zoomed_rows(prev, T_w_b_prev, cur, boxes, imgs_p, feats_c, tilts, cfg)
+        rows, n_feat_p, n_warped = _zoomed_rows(prev, T_w_b_prev, cur, boxes, imgs_p, feats_c, tilts, cfg, cache)
     else:
-        feats_p, rows, n_warped = _detect_all(imgs_p, mask_p, tilts, cfg), [], 0
+        feats_p, rows, n_warped = _detect_all(imgs_p, mask_p, tilts, cfg, cache), [], 0
         n_feat_p = sum(len(f[0]) for f in feats_p)
         for (i, j), (bp, bc) in boxes.items():
             (uv_a, d_a), (uv_b, d_b) = feats_p[i], feats_c[j]
             ia, ib = np.flatnonzero(regions.in_box(uv_a, bp)), np.flatnonzero(regions.in_box(uv_b, bc))
-            for a, b in asift.match(d_a[ia], d_b[ib], cfg.ratio):
+            for a, b in asift.match(d_a[ia], d_b[ib], cfg.ratio, cache):
                 rows.append((i, *uv_a[ia[a]], j, *uv_b[ib[b]]))
     r = _unique(np.array(rows, float).reshape(-1, 6))
     ties = TieSet(r[:, 0].astype(int), r[:, 1:3], r[:, 3].astype(int), r[:, 4:6], boxes=boxes)

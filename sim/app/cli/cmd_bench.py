@@ -55,13 +55,24 @@ def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, estimator_
 @click.option("--mode", type=click.Choice(["ff", "fb"]), default="ff", show_default=True)
 @click.option("--max-sites", type=click.IntRange(min=0), default=3, show_default=True,
               help="Only the first N sites (0: all); N-1 site pairs are timed.")
+@click.option("--pair", "pairs", multiple=True, type=click.IntRange(min=1), metavar="K",
+              help="Time only site pair K-1 -> K (repeatable), the previous site at its --poses pose (else true).")
+@click.option("--poses", type=click.Path(exists=True, dir_okay=False),
+              help="With --pair: site_poses_tum.txt of a `vo-testbed localize` run on this dataset.")
 @click.option("--set", "items", multiple=True, metavar="FIELD=VALUE", help="A CrossSiteConfig field (repeatable).")
 @json_option
-def localize_cmd(dataset, mode, max_sites, items, as_json):
+def localize_cmd(dataset, mode, max_sites, pairs, poses, items, as_json):
     """Stage timings (s) of the cross-site localizer per site pair (target: <= 120 s per pair)."""
     from sim.app.cli.cmd_localize import crosssite_config
     from vo.crosssite.traverse import localize_dataset, site_table, timing_table
-    run = localize_dataset(dataset, crosssite_config(mode, items), max_sites, progress=not as_json)
-    rows = site_table(run)[1:]
-    echo_json([{k: r[k] for k in ("site", "status", "tie_points", "time_s", "timings_s")} for r in rows]) if as_json \
-        else click.echo(timing_table(rows))
+    cfg = crosssite_config(mode, items)
+    if pairs:
+        from sim.app.bench_localize import localize_pairs
+        rows = localize_pairs(dataset, cfg, pairs, poses)
+    else:
+        if poses:
+            raise click.UsageError("--poses needs --pair")
+        rows = [dict(r, true_inliers=r["truth"].get("n_true_inliers", 0))
+                for r in site_table(localize_dataset(dataset, cfg, max_sites, progress=not as_json))[1:]]
+    keys = ("site", "status", "tie_points", "true_inliers", "ba_err_m", "time_s", "timings_s")
+    echo_json([{k: r[k] for k in keys if k in r} for r in rows]) if as_json else click.echo(timing_table(rows))
