@@ -78,6 +78,27 @@ def test_huber_thresholds():
     assert m.robust().weight(0.5) == pytest.approx(1.0) and m.robust().weight(4.0) == pytest.approx(0.25)
 
 
+def _pull(cfg, g_f, n, e_px, fx=460.0, h=1e-4):
+    """d(cost)/d(pixel residual) of one observation with residual ``e_px`` (central difference)."""
+    m = noise_model(cfg, g_f, n, fx)
+    c = [m.loss(m.squaredMahalanobisDistance(np.array([e, 0.0]))) for e in (e_px - h, e_px + h)]
+    return (c[1] - c[0]) / (2 * h)
+
+
+def test_adaptive_huber_threshold_in_pixels_is_n_free_and_its_pull_grows_as_n_squared():
+    """With M_s = s (Table 1: both 0.02) the whitened threshold M_s·N times the residual sigma
+    1.5·g_f/(s·N) (virtual px) is 1.5·g_f px for every N; beyond it the pull is k/sigma =
+    M_s·s·N²/(1.5·g_f) per px. Cauchy (scale 1, vins-ac) instead falls off as 1/e for every N."""
+    me, ac = VinsConfig.from_options("vins-ac-me", {}), VinsConfig.from_options("vins-ac", {})
+    g_f = 2.0
+    for n in (5, 20, 60):
+        k_px = huber_k(me, n) * 1.5 / visual_weight(me, g_f, n)
+        assert k_px == pytest.approx(1.5 * g_f)
+        for e in (4.0, 30.0):                                  # beyond 1.5·g_f = 3 px: constant pull
+            assert _pull(me, g_f, n, e) == pytest.approx(0.02 * 0.02 * n * n / (1.5 * g_f), rel=1e-4)
+    assert _pull(me, g_f, 60, 30.0) / _pull(me, g_f, 5, 30.0) == pytest.approx(144.0, rel=1e-4)
+    for n in (5, 60):                                          # Cauchy: 1/e for e >> sigma, any N
+        assert _pull(ac, g_f, n, 3000.0) == pytest.approx(1 / 3000.0, rel=0.02)
 @pytest.mark.parametrize("options, match", [
     ({"window_size": 2}, r"vins\.window_size: must be >= 3, got 2"),
     ({"robust": "tukey"}, r"vins\.robust: unknown 'tukey'; valid: none, cauchy, huber, adaptive-huber"),

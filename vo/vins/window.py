@@ -30,6 +30,7 @@ from vo.vins.adaptive import geometry_factor, noise_model
 from vo.vins.imu import preintegrate
 
 LANDMARK_PRIOR_M = 1e3      # std of the regularising landmark prior of pose_covariance
+MARG_PRIOR_RANGE_FRACTION = 1.0   # std of the marginalized landmarks' prior, fraction of their range
 
 
 @dataclass
@@ -201,7 +202,16 @@ class Window:
 
     # ------------------------------------------------------------------ marginalization
     def marginalize_oldest(self) -> None:
-        """§3.4 strategy 1: Schur complement of the oldest state and the landmarks it observes."""
+        """§3.4 strategy 1: Schur complement of the oldest state and the landmarks it observes.
+
+        A landmark seen with little parallax, or whose observations the robust loss has nearly switched off,
+        has a near-singular 3x3 information block, and gtsam's elimination refuses it (indeterminate
+        system). VINS-Mono inverts that block by a pseudo-inverse (eigenvalues below a threshold dropped);
+        here each marginalized landmark gets a weak prior at its estimate with a std of its range from the
+        oldest camera (``MARG_PRIOR_RANGE_FRACTION``, at least 1 m). Its information (1/range²) stands to a
+        bearing's ((F/1.5 px)/range)² in a fixed ratio of about 1e-5 at any range, so the block's condition
+        stays bounded; along a ray it adds 1/range² of information, against the window's own on the poses.
+        Landmarks are eliminated first, each 3x3 block on its own, then the oldest state."""
         old = self.states[0]
         keep_states = self.states if self.states[-1].is_kf else self.states[:-1]
         seen = {int(i) for i in old.feats.ids if int(i) in self.lm}
@@ -210,7 +220,7 @@ class Window:
         for i in seen - tracks:                 # a single observation carries no information on a point
             self.remove_landmark(i)
         lm_keys = [L(self.lm[i]) for i in tracks]
-        marg = [X(old.k), V(old.k), B(old.k)] + lm_keys
+        marg = lm_keys + [X(old.k), V(old.k), B(old.k)]    # landmarks first: each 3x3 block on its own
         mset = set(marg)
         g = gtsam.NonlinearFactorGraph()
         rest = []
@@ -219,6 +229,11 @@ class Window:
         g.add(self.imu_factor(self.states[0], self.states[1]))
         for f in self.visual_factors(keep_states, tracks):
             g.add(f)
+        c_w = self.T_w_c(old)[:3, 3]
+        for key in lm_keys:                     # the role of VINS-Mono's pseudo-inverse of the landmark block
+            p_w = self.values.atPoint3(key)
+            sigma = max(MARG_PRIOR_RANGE_FRACTION * float(np.linalg.norm(p_w - c_w)), 1.0)
+            g.add(gtsam.PriorFactorPoint3(key, p_w, gtsam.noiseModel.Isotropic.Sigma(3, sigma)))
         lin = g.linearize(self.values)
         _, remaining = lin.eliminatePartialSequential(gtsam.Ordering(marg))
         factors = [f for f in (remaining.at(j) for j in range(remaining.size())) if f is not None]
