@@ -14,6 +14,7 @@ moving-inlier fraction. Usage::
 
     vo-testbed generate --scenario urban-dynamic --segmentation --out DATA
     python docs/studies/urban_dynamic_vo.py DATA --estimator klt-pnp [--max-frames 300] [--opt KEY=VALUE ...]
+    python docs/studies/urban_dynamic_vo.py DATA --estimator klt-pnp --oracle   # PnP on true-static features only
 """
 from __future__ import annotations
 
@@ -28,13 +29,22 @@ from vo.estimators.registry import make_estimator
 from vo.vins.oracle import FeatureLabels
 
 
-def _capture_pnp(est, log: dict) -> None:
-    """Wrap ``est._pnp`` to record the pixels and the inlier mask of each frame's PnP."""
+def _capture_pnp(est, log: dict, oracle=None) -> None:
+    """Wrap ``est._pnp`` to record the pixels and the inlier mask of each frame's PnP. With ``oracle`` (a
+    function ``px -> moving (n,) bool`` of the current frame) the PnP sees only the features the true
+    segmentation calls static: the bound any moving-object rule can reach."""
     inner = est._pnp
 
     def pnp(p_o, px_raw, timings):
-        T, inl = inner(p_o, px_raw, timings)
-        log["px"], log["inl"] = np.asarray(px_raw).copy(), inl.copy()
+        px_raw = np.asarray(px_raw)
+        if oracle is None:
+            T, inl = inner(p_o, px_raw, timings)
+        else:
+            static = ~oracle(px_raw)
+            T, inl_static = inner(np.asarray(p_o)[static], px_raw[static], timings)
+            inl = np.zeros(len(px_raw), bool)
+            inl[static] = inl_static
+        log["px"], log["inl"] = px_raw.copy(), inl.copy()
         return T, inl
     est._pnp = pnp
 
@@ -47,20 +57,24 @@ def _rop_features(est, log: dict) -> None:
         log["inl"] = np.ones(len(log["px"]), bool)
 
 
-def run(dataset_dir: str, estimator: str, max_frames: int | None, options: dict) -> dict:
+def run(dataset_dir: str, estimator: str, max_frames: int | None, options: dict, oracle: bool = False) -> dict:
     ds = open_dataset(dataset_dir)
     labels = FeatureLabels.of(ds)
     T_w_c = ds.groundtruth_cam0().T
     est = make_estimator(estimator, ds.rig, **options)
     log: dict = {}
+    current = {"k": 0}
+    if oracle and (labels is None or not hasattr(est, "_pnp")):
+        raise SystemExit("--oracle needs a dataset with --segmentation and a PnP estimator (klt-pnp, orb-pnp)")
     if hasattr(est, "_pnp"):
-        _capture_pnp(est, log)
+        _capture_pnp(est, log, (lambda px: labels.dynamic(current["k"], px)) if oracle else None)
     n = len(ds) if max_frames is None else min(max_frames, len(ds))
     rows, T_prev = [], None
     for k, frame in enumerate(ds.frames()):
         if k >= n:
             break
         log.clear()
+        current["k"] = k
         res = est.process(frame)
         if estimator == "rop":
             _rop_features(est, log)
@@ -89,7 +103,9 @@ def report(out: dict) -> None:
     path = float(np.sum(np.linalg.norm(np.diff(T_w_c[:, :3, 3], axis=0), axis=1)))
     T_true_end = inv_T(T_w_c[0]) @ T_w_c[-1]
     drift = np.linalg.norm(out["est_end"][:3, 3] - T_true_end[:3, 3]) / path
-    print(f"frames {len(rows) + 1}, path {path:.1f} m, end drift {100 * drift:.2f} %")
+    R_err = T_true_end[:3, :3].T @ out["est_end"][:3, :3]
+    print(f"frames {len(rows) + 1}, path {path:.1f} m, end drift {100 * drift:.2f} %, end orientation error "
+          f"{np.degrees(rotation_angle(R_err)):.2f} deg")
     print(f"moving fraction: tracked {np.nanmean(dyn_all):.3f}, inliers {np.nanmean(dyn_inl):.3f} (mean over frames)")
     bad = e_t > 0.1 * np.maximum(s_true, 0.05)
     print(f"frames with step error > 10 % of the step: {bad.sum()} of {len(rows)}; "
@@ -111,9 +127,11 @@ def main() -> None:
     ap.add_argument("--estimator", default="klt-pnp")
     ap.add_argument("--max-frames", type=int)
     ap.add_argument("--opt", action="append", default=[], help="KEY=VALUE (YAML value)")
+    ap.add_argument("--oracle", action="store_true",
+                    help="PnP estimators: drop the features on moving actors (true segmentation) before the PnP")
     a = ap.parse_args()
     options = {kv.split("=", 1)[0]: yaml.safe_load(kv.split("=", 1)[1]) for kv in a.opt}
-    report(run(a.dataset, a.estimator, a.max_frames, options))
+    report(run(a.dataset, a.estimator, a.max_frames, options, a.oracle))
 
 
 if __name__ == "__main__":

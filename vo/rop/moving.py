@@ -7,8 +7,9 @@ rigid cluster that can outnumber the static background, and its tracks then set 
 while the vehicle stands still). Before the ROPs, the keyframe stereo pairs ``(p1, p2)`` are triangulated
 and the current left points ``p3`` give candidate rigid motions keyframe -> current frame
 (:func:`vo.estimators.pnp_core.choose_motion`: up to ``max_models`` RANSAC fits in turn and the LM fit
-from the prior). When two motions with at least ``min_model_fraction`` of the triangulated tracks hold
-mostly different tracks, only the tracks of the one whose camera position is nearest the prior (the
+from the prior). When two motions with at least ``min_model_fraction`` of the triangulated tracks are
+different (:func:`~vo.estimators.pnp_core.separated`: enough tracks of one lie more than ``separation_px``
+off the other), only the tracks of the one whose camera position is nearest the prior (the
 constant-velocity prediction of the keyframe -> current pose) are kept, with the tracks too far to
 triangulate (which constrain the rotation only and fit every translation). With one motion nothing changes. The pose itself still comes from the ROPs: the
 point cloud only selects tracks.
