@@ -305,8 +305,11 @@ def main(argv=None) -> None:
     ap.add_argument("--image-sigma", type=float, default=2.0, help="grey levels")
     ap.add_argument("--mast-deg", type=float, default=0.0, help="pan error per pointing, 1-sigma deg")
     ap.add_argument("--asift", action="store_true", help="ASIFT instead of SIFT (slower)")
+    ap.add_argument("--xsite-sigma-px", type=float, default=0.0,
+                    help="CrossSiteConfig.ba_xsite_sigma_px; default 0, the BA weighted by "
+                         "sigma_p alone, as in the tables (the product default is 1)")
     args = ap.parse_args(argv)
-    cfg = CrossSiteConfig(use_asift=args.asift)
+    cfg = CrossSiteConfig(use_asift=args.asift, ba_xsite_sigma_px=args.xsite_sigma_px)
     OUT.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     rendered = render_pair()

@@ -199,6 +199,9 @@ def main(argv=None) -> None:
                     help="CrossSiteConfig.asift_fallback_ties (default the product's; 0: ASIFT alone, in every run)")
     ap.add_argument("--mast-sigma-deg", type=float, default=0.0,
                     help="soft mast constraints: CrossSiteConfig.mast_sigma_rad in deg (0: hard, eq. 5)")
+    ap.add_argument("--xsite-sigma-px", type=float, default=0.0,
+                    help="CrossSiteConfig.ba_xsite_sigma_px; default 0, the BA weighted by "
+                         "sigma_p alone, as in the tables (the product default is 1)")
     ap.add_argument("--ties-dir", default=None, help="write each ok run's tie set here (ties_<run>.npz)")
     ap.add_argument("--from-ties", default=None, metavar="CSV",
                     help="no matching: rebuild every run of this runs CSV from --ties-dir (BA with this invocation's "
@@ -212,7 +215,7 @@ def main(argv=None) -> None:
         rows = mc.read_rows(Path(args.table))
         report(rows, Path(args.table).with_suffix(".png"), f"lunar pair, {Path(args.table).stem}")
         return
-    cfg = CrossSiteConfig()
+    cfg = CrossSiteConfig(ba_xsite_sigma_px=args.xsite_sigma_px)
     if args.asift_fallback is not None:
         cfg = replace(cfg, asift_fallback_ties=args.asift_fallback)
     if args.mast_sigma_deg > 0:   # the mast translation is known to MAST_SIGMA_M
