@@ -1,6 +1,7 @@
 """VINS sliding window: marginalization (seed 002 §3.4, strategy 1) with a landmark of degenerate depth."""
 import gtsam
 import numpy as np
+import pytest
 from gtsam.symbol_shorthand import X
 
 from vo.dataset.types import ImuData
@@ -13,12 +14,12 @@ from rigs.model import Camera
 CAM = Camera("cam0", 640, 480, 460.0, 460.0, 320.0, 240.0, T_b_c=np.eye(4))
 
 
-def _standing_window(n_states=4):
+def _standing_window(n_states=4, preset="vins", count=8):
     """A body standing still at the origin (camera = IMU frame, looking along z), exact 200 Hz IMU."""
     t = np.arange(0, int(1e9) * n_states, int(5e6), dtype=np.int64)
     z = np.zeros((len(t), 3))
     imu = ImuData(t, z, np.tile([0.0, 0.0, GRAVITY], (len(t), 1)))
-    cfg = VinsConfig()
+    cfg = VinsConfig.from_options(preset, {})
     w = Window(cfg, CAM, np.eye(4), ImuStream(imu), imu_params(cfg))
     p_w = {1: [0.5, 0.2, 8.0], 2: [-1.0, 0.4, 12.0], 3: [0.8, -0.6, 6.0], 4: [-0.3, -0.9, 15.0], 9: [2.0, 1.0, 400.0]}
     ids = np.array(sorted(p_w))
@@ -28,19 +29,21 @@ def _standing_window(n_states=4):
         w.add_state(ff.t_ns, ff, True, np.eye(4), np.zeros(3), gtsam.imuBias.ConstantBias())
     for i in ids:
         w.add_landmark(int(i), p_w[int(i)])
-    w.counts = {int(i): 8 for i in ids}
+    w.counts = {int(i): count for i in ids}
     w.priors.append(gtsam.PriorFactorPose3(X(0), gtsam.Pose3(), gtsam.noiseModel.Isotropic.Sigma(6, 1e-3)))
     w.priors.append(gtsam.PriorFactorVector(gtsam.symbol("v", 0), np.zeros(3), gtsam.noiseModel.Isotropic.Sigma(3, 1e-2)))
     return w
 
 
-def test_marginalization_survives_a_landmark_without_parallax():
+@pytest.mark.parametrize("n_states, preset, count", [(4, "vins", 8), (11, "vins", 8), (11, "vins-ac-me", 300)])
+def test_marginalization_survives_a_landmark_without_parallax(n_states, preset, count):
     """The body never moves, so every landmark's depth is unobservable from the images (only the
     bearings constrain it): gtsam's elimination of such a landmark is indeterminate. The weak landmark
-    prior keeps the Schur complement defined; the window then optimises to the exact standing state."""
-    w = _standing_window()
+    prior keeps the Schur complement defined, also for features tracked 300 times (adaptive weight
+    300·s/g_f); the window then optimises to the exact standing state."""
+    w = _standing_window(n_states, preset, count)
     w.marginalize_oldest()
-    assert len(w.states) == 3 and len(w.priors) >= 1
+    assert len(w.states) == n_states - 1 and len(w.priors) >= 1
     w.optimize()
     for st in w.states:
         T = w.values.atPose3(X(st.k)).matrix()

@@ -30,7 +30,7 @@ from vo.vins.adaptive import geometry_factor, noise_model
 from vo.vins.imu import preintegrate
 
 LANDMARK_PRIOR_M = 1e3      # std of the regularising landmark prior of pose_covariance
-MARG_PRIOR_RANGE_FRACTION = 1.0   # std of the marginalized landmarks' prior, fraction of their range
+MARG_PRIOR_RELATIVE = 3e-8     # landmark prior of marginalization, relative to its bearing information
 
 
 @dataclass
@@ -204,13 +204,8 @@ class Window:
     def marginalize_oldest(self) -> None:
         """§3.4 strategy 1: Schur complement of the oldest state and the landmarks it observes.
 
-        A landmark seen with little parallax, or whose observations the robust loss has nearly switched off,
-        has a near-singular 3x3 information block, and gtsam's elimination refuses it (indeterminate
-        system). VINS-Mono inverts that block by a pseudo-inverse (eigenvalues below a threshold dropped);
-        here each marginalized landmark gets a weak prior at its estimate with a std of its range from the
-        oldest camera (``MARG_PRIOR_RANGE_FRACTION``, at least 1 m). Its information (1/range²) stands to a
-        bearing's ((F/1.5 px)/range)² in a fixed ratio of about 1e-5 at any range, so the block's condition
-        stays bounded; along a ray it adds 1/range² of information, against the window's own on the poses.
+        A landmark seen with little parallax has a near-singular 3x3 information block, and gtsam's
+        elimination refuses it (indeterminate system); :meth:`_landmark_regularisers` keeps it defined.
         Landmarks are eliminated first, each 3x3 block on its own, then the oldest state."""
         old = self.states[0]
         keep_states = self.states if self.states[-1].is_kf else self.states[:-1]
@@ -227,13 +222,9 @@ class Window:
         for p in self.priors:
             (g.add(p) if mset.intersection(p.keys()) else rest.append(p))
         g.add(self.imu_factor(self.states[0], self.states[1]))
-        for f in self.visual_factors(keep_states, tracks):
+        visual = self.visual_factors(keep_states, tracks)
+        for f in visual + self._landmark_regularisers(visual, self.T_w_c(old)[:3, 3]):
             g.add(f)
-        c_w = self.T_w_c(old)[:3, 3]
-        for key in lm_keys:                     # the role of VINS-Mono's pseudo-inverse of the landmark block
-            p_w = self.values.atPoint3(key)
-            sigma = max(MARG_PRIOR_RANGE_FRACTION * float(np.linalg.norm(p_w - c_w)), 1.0)
-            g.add(gtsam.PriorFactorPoint3(key, p_w, gtsam.noiseModel.Isotropic.Sigma(3, sigma)))
         lin = g.linearize(self.values)
         _, remaining = lin.eliminatePartialSequential(gtsam.Ordering(marg))
         factors = [f for f in (remaining.at(j) for j in range(remaining.size())) if f is not None]
@@ -249,6 +240,28 @@ class Window:
         for key in (X(old.k), V(old.k), B(old.k)):
             self.values.erase(key)
         self._forget(old.k)
+
+    def _landmark_regularisers(self, visual, c_w: np.ndarray) -> list:
+        """A prior at the estimate of each landmark of the reprojection factors ``visual``, whose information
+        is ``MARG_PRIOR_RELATIVE`` times the bearing information of its observations (sum of (f/sigma_px)^2
+        over them, divided by the squared range from ``c_w``). VINS-Mono inverts the landmark block by a
+        pseudo-inverse (eigenvalues below a threshold dropped); a relative Tikhonov term does the same job
+        in gtsam: it bounds the block's condition at any range and weight (adaptive weights included), and
+        along a ray it adds 3e-8 of a bearing's information. gtsam refuses a landmark seen from 11 identical
+        poses below about 2e-9 (``tests/test_vins_window.py``)."""
+        info: dict = {}
+        for f in visual:
+            m = f.noiseModel()
+            sigma = (m.noise() if isinstance(m, gtsam.noiseModel.Robust) else m).sigmas()[0]
+            key = f.keys()[1]
+            info[key] = info.get(key, 0.0) + (self.fx / sigma) ** 2
+        out = []
+        for key, bearing in info.items():
+            p_w = self.values.atPoint3(key)
+            r = max(float(np.linalg.norm(p_w - c_w)), 0.1)
+            sigma_m = r / np.sqrt(MARG_PRIOR_RELATIVE * bearing)
+            out.append(gtsam.PriorFactorPoint3(key, p_w, gtsam.noiseModel.Isotropic.Sigma(3, sigma_m)))
+        return out
 
     # ------------------------------------------------------------------ outputs
     def T_w_c(self, st: State) -> np.ndarray:
