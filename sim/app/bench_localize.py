@@ -9,8 +9,6 @@ true pose; the current site's prior is set as :func:`vo.crosssite.localizer.loca
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from vo.crosssite.config import CrossSiteConfig
@@ -37,12 +35,11 @@ def localize_pairs(path, cfg: CrossSiteConfig, pairs, poses_path=None) -> list:
     true_inliers, ba_err_m (position error against the truth), time_s, timings_s."""
     import cv2
     from vo.crosssite.localizer import localize_site, site_prior
+    from vo.crosssite.traverse import dataset_root
     from vo.crosssite.truth import tie_truth_stats
     from vo.dataset.traverse_reader import read_traverse
     cv2.setNumThreads(1)
-    root = Path(path)
-    if not (root / "metadata.yaml").is_file():
-        raise DatasetError(f"{root}: not a dataset folder (no metadata.yaml)")
+    root = dataset_root(path)
     pairs = sorted(set(int(k) for k in pairs))
     tr = read_traverse(root, max_sites=max(pairs) + 1)
     if pairs[0] < 1 or pairs[-1] >= len(tr.sites):

@@ -43,6 +43,14 @@ def _progress(r: SiteResult) -> None:
     print(f"  site {r.index:2d}: {r.status} ({r.n_tie_points} ties, {r.timings_s.get('total', 0):.0f} s)", flush=True)
 
 
+def dataset_root(path) -> Path:
+    """``path`` as a Path; a one-line error when it holds no ``metadata.yaml``."""
+    root = Path(path)
+    if not (root / "metadata.yaml").is_file():
+        raise DatasetError(f"{root}: not a dataset folder (no metadata.yaml)")
+    return root
+
+
 def localize_dataset(path, cfg: CrossSiteConfig = CrossSiteConfig(), max_sites: int = 0,
                      progress: bool = False) -> TraverseRun:
     """Read the traverse at ``path`` (first ``max_sites`` sites if > 0) and localize every site, with
@@ -50,9 +58,7 @@ def localize_dataset(path, cfg: CrossSiteConfig = CrossSiteConfig(), max_sites: 
     import cv2
     from vo.dataset.traverse_reader import read_traverse
     cv2.setNumThreads(1)
-    root = Path(path)
-    if not (root / "metadata.yaml").is_file():
-        raise DatasetError(f"{root}: not a dataset folder (no metadata.yaml)")
+    root = dataset_root(path)
     tr = read_traverse(root, max_sites=max_sites)
     if len(tr.sites) < 2:
         raise DatasetError(f"{root}: a traverse needs at least 2 sites, got {len(tr.sites)}")
