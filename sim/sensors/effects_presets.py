@@ -2,10 +2,11 @@
 global-shutter 752x480 sensor hardware-synchronised with the IMU, auto exposure) and of seed 000's rig.
 
 Which values are measured and which assumed (docs/sensor_effects.md): the global shutter (no rolling
-shutter) is the MT9V034's; exposure, vignetting strength, time offset, jitter and calibration error
-magnitudes are assumed typical values (EuRoC publishes none of them per frame); the noise model is set
-so that Immerkaer's estimate (:func:`vo.frontend.noise_level.estimate_noise_sigma`) on campus frames is
-the target level stated in docs/sensor_effects.md.
+shutter) is the MT9V034's; the sensor noise (shot-noise gain 0.0276 grey levels per electron, no read
+noise beyond the 8-bit rounding) is fitted to the noise-per-brightness curve
+(:func:`vo.frontend.noise_level.noise_level_curve`) of 190 real EuRoC V1_01 cam0/cam1 frames
+(``docs/studies/euroc_noise_calibration.py``); exposure, vignetting strength, time offset, jitter and
+calibration error magnitudes are assumed typical values (EuRoC publishes none of them per frame).
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from sim.config import CalibError, CameraEffects, GenerateConfig, ImuClock
 
 REALISTIC_CAMERA = CameraEffects(exposure_ms=4.0, blur_subframes=5, line_delay_us=0.0, timestamp_jitter_us=20.0,
                                  vignetting=0.5, auto_exposure=True, ae_target=0.45, ae_time_constant_s=0.3,
-                                 read_noise_dn=1.2, shot_noise_gain=0.03)
+                                 read_noise_dn=0.0, shot_noise_gain=0.0276)
 REALISTIC_IMU_CLOCK = ImuClock(time_offset_ms=1.0)
 REALISTIC_CALIB_ERROR = CalibError(focal_ppm=200.0, principal_px=0.3, dist_rel=0.02, extrinsic_rot_deg=0.02,
                                    extrinsic_trans_mm=0.3)

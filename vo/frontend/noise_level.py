@@ -10,11 +10,19 @@ detector, the mean is taken over the ``flat_fraction`` of pixels with the smalle
 (our choice of 0.2, measured: 1.07-1.08 for 1.04 on three campus frames; 0.59 for 0.58 at sigma 0.5;
 2.05 for 2.02 at sigma 2; ``tests/test_frontend_lk_noise.py``). Rounding to integers is part of
 the noise it measures (``sqrt(sigma^2 + 1/12)`` when ``sigma`` is added before rounding).
+
+A real sensor's noise grows with brightness (shot noise), so one figure per image depends on what the
+image shows. :func:`noise_level_curve` gives the estimate per brightness bin (3x3 local mean), over the
+flattest pixels of each bin and without pixels whose 3x3 neighbourhood touches 0 or 255 (clipped pixels
+have no noise), and :func:`fit_shot_read_noise` fits the shot + read noise model of
+``sim.sensors.photometric`` to it: ``sigma^2 = K S + r^2 + 1/12``.
 """
 from __future__ import annotations
 
 import cv2
 import numpy as np
+
+from scipy.optimize import nnls
 
 from vo.errors import VoError
 
@@ -23,13 +31,64 @@ _KERNEL = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 
 def estimate_noise_sigma(img: np.ndarray, flat_fraction: float = 0.2) -> float:
     """Noise std (grey levels) of a (H,W) image, H, W >= 3 (module docstring)."""
+    img = _check(img, flat_fraction)
+    r, g = _laplacian_sobel(img)
+    flat = g <= np.quantile(g, flat_fraction)
+    return _immerkaer(r[flat])
+
+
+def _check(img: np.ndarray, flat_fraction: float) -> np.ndarray:
     img = np.asarray(img)
     if img.ndim != 2 or min(img.shape) < 3:
         raise VoError(f"estimate_noise_sigma: expected a (H,W) image with H, W >= 3, got shape {img.shape}")
     if not 0.0 < flat_fraction <= 1.0:
         raise VoError(f"estimate_noise_sigma.flat_fraction: {flat_fraction!r}; must be in (0, 1]")
+    return img
+
+
+def _laplacian_sobel(img: np.ndarray):
+    """(H-2,W-2) |Laplacian difference| and Sobel magnitude of the interior pixels."""
     f = img.astype(np.float32)
     r = np.abs(cv2.filter2D(f, -1, _KERNEL))[1:-1, 1:-1]
     g = (np.abs(cv2.Sobel(f, -1, 1, 0)) + np.abs(cv2.Sobel(f, -1, 0, 1)))[1:-1, 1:-1]
-    flat = g <= np.quantile(g, flat_fraction)
-    return float(np.sqrt(np.pi / 2.0) * r[flat].mean(dtype=np.float64) / 6.0)
+    return r, g
+
+
+def _immerkaer(responses: np.ndarray) -> float:
+    return float(np.sqrt(np.pi / 2.0) * responses.mean(dtype=np.float64) / 6.0)
+
+
+def noise_level_curve(img: np.ndarray, bin_edges=None, flat_fraction: float = 0.2, min_pixels: int = 2000):
+    """Noise std per brightness bin of a (H,W) 8-bit image (module docstring).
+
+    ``bin_edges`` (B+1,) grey levels of the 3x3 local mean, default 0, 16, ..., 256. Returns ``levels``
+    (M,) bin centres, ``sigmas`` (M,) and ``counts`` (M,) unclipped pixels, for the M <= B bins holding at
+    least ``min_pixels`` unclipped pixels."""
+    img = _check(img, flat_fraction)
+    edges = np.arange(0, 257, 16) if bin_edges is None else np.asarray(bin_edges, float)
+    r, g = _laplacian_sobel(img)
+    f = img.astype(np.float32)
+    mean = cv2.blur(f, (3, 3))[1:-1, 1:-1]
+    lo, hi = cv2.erode(f, np.ones((3, 3))), cv2.dilate(f, np.ones((3, 3)))
+    unclipped = ((lo > 0) & (hi < 255))[1:-1, 1:-1]
+    levels, sigmas, counts = [], [], []
+    for a, b in zip(edges[:-1], edges[1:]):
+        m = unclipped & (mean >= a) & (mean < b)
+        if m.sum() < min_pixels:
+            continue
+        gm, rm = g[m], r[m]
+        levels.append(0.5 * (a + b))
+        sigmas.append(_immerkaer(rm[gm <= np.quantile(gm, flat_fraction)]))
+        counts.append(int(m.sum()))
+    return np.array(levels), np.array(sigmas), np.array(counts)
+
+
+def fit_shot_read_noise(levels, sigmas):
+    """Shot-noise gain ``K`` (grey levels per electron) and read noise ``r`` (grey levels), both >= 0,
+    from a noise curve: least squares (``scipy.optimize.nnls``) of ``sigma^2 - 1/12 = K S + r^2`` over
+    the (M,) ``levels`` ``S``, M >= 2, each level weighted alike."""
+    levels, sigmas = np.asarray(levels, float), np.asarray(sigmas, float)
+    if levels.shape != sigmas.shape or levels.size < 2:
+        raise VoError(f"fit_shot_read_noise: need >= 2 matching levels and sigmas, got {levels.shape}, {sigmas.shape}")
+    (gain, read2), _ = nnls(np.c_[levels, np.ones_like(levels)], sigmas ** 2 - 1.0 / 12.0)
+    return float(gain), float(np.sqrt(read2))
