@@ -200,3 +200,50 @@ def test_landmarks_of_an_older_keyframe_are_not_a_second_motion(seed):
     T_largest, _ = solve_pnp(p_o, x, K, PnpConfig(consensus="largest"))
     assert not competing and np.allclose(inv_T(T_c0_o), T_largest, atol=1e-12)
 
+
+
+def _rop_exact_view(seed: int):
+    """Exact four-view tracks of the two-motion scene (:func:`_scene`, keyframe = frame 0 = ``o``) seen by the
+    paper002 rig -> (rig, FourView, T_o_c3 true, is_car)."""
+    from rigs.presets import get_rig
+    from vo.rop.tracks import FourView
+    rig = get_rig("paper002")
+    p_o, _, T_o_c3, is_car = _scene(np.random.default_rng(seed))
+    world_3 = np.vstack([p_o[~is_car], transform_points(make_T(np.eye(3), T_o_c3[:3, 3]), p_o[is_car])])
+    px = lambda p_c, cam: project(p_c, rig.cameras[cam].K)                                   # noqa: E731
+    T_c1_c0 = inv_T(rig.T_c0_c1)
+    p_c3 = transform_points(inv_T(T_o_c3), world_3)
+    pts = (px(p_o, 0), px(transform_points(T_c1_c0, p_o), 1), px(p_c3, 0), px(transform_points(T_c1_c0, p_c3), 1))
+    xs = [np.linalg.solve(rig.cameras[0].K, np.c_[p, np.ones(len(p_o))].T).T[:, :2] for p in pts]
+    return rig, FourView(*pts, *xs, np.ones(len(p_o), bool)), T_o_c3, is_car
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_rop_prior_from_the_filter_pnp_survives_a_rop_step_pulled_onto_the_car(seed):
+    """``rop`` after one ROP step pulled onto the car (its constant-velocity extrapolation says "standing
+    still", the car's motion): the prediction from the track filter's own PnP poses (``moving_prior="pnp"``)
+    still selects exactly the static tracks and the filter's pose is the true one (exact projections: 1e-6 m);
+    the prediction from the estimator's poses (``"velocity"``) selects the car. A ROP step 0.36 m off that PnP
+    pose fails the frame (``moving_step_gate_m``), the true one does not; the failed frame takes the PnP pose
+    (the true pose, where constant-velocity coasting would stay 1 m behind)."""
+    from types import SimpleNamespace
+    from vo.rop.estimator import RopEstimator
+    rig, view, T_o_c3, is_car = _rop_exact_view(seed)
+    kept = {}
+    for prior_kind in ("pnp", "velocity"):
+        est = RopEstimator(rig, moving_prior=prior_kind)
+        est._kf_imgs, est._n_solved = (None, None), 1
+        est._last_motion = np.eye(4)                          # the ROP step said "standing still" (the car)
+        est._pnp_motion = _prior(T_o_c3)                      # the filter's PnP step: 5 cm, 0.3 deg off
+        kept[prior_kind] = est._static_tracks(view, dict.fromkeys(("track",), 0.0))
+        if prior_kind == "velocity":
+            continue
+        assert np.array_equal(est._filter.keep, ~is_car) and len(kept["pnp"]) == (~is_car).sum()
+        T_pnp = est._filter.T_kf_c
+        assert np.linalg.norm(T_pnp[:3, 3] - T_o_c3[:3, 3]) < 1e-6
+        assert not est._step_miss(T_o_c3)
+        assert est._step_miss(T_o_c3 @ make_T(np.eye(3), np.array([0.0, 0.0, 0.36])))
+        img = np.zeros((400, 640), np.uint8)
+        res = est._fail(SimpleNamespace(t_ns=1), img, img, "few_features", 12, "12 four-view features", {}, 0.0)
+        assert np.linalg.norm(res.T_o_c0[:3, 3] - T_o_c3[:3, 3]) < 1e-6 and "PnP" in res.message
+    assert len(kept["velocity"]) < len(view) and np.isin(kept["velocity"].p1[:, 0], view.p1[is_car, 0]).all()

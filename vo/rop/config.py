@@ -22,6 +22,7 @@ from vo.rop.tracks import KltFourView
 
 COVS = ("propagated", "chain_bootstrap")      # vo.rop.uncertainty.make_uncertainty
 MOVING = ("prior", "none")                    # vo.rop.moving
+MOVING_PRIORS = ("pnp", "velocity")           # vo.rop.estimator: prediction that selects the motion
 
 
 def _klt_config(value) -> KltConfig:
@@ -50,7 +51,12 @@ class RopConfig:
     (:mod:`vo.rop.chain_bootstrap`), ``bootstrap_replicates`` its replicate count; ``moving_objects``
     "prior" (keep the tracks of the rigid motion nearest the motion prior when several compete,
     :mod:`vo.rop.moving`) | "none" (seed 000: all tracks), ``moving_min_fraction`` a motion competes with
-    at least this fraction of the triangulated tracks, ``moving_reproj_px`` its inlier threshold (px)."""
+    at least this fraction of the triangulated tracks, ``moving_reproj_px`` its inlier threshold (px);
+    ``moving_prior`` the prediction that selects the motion: "pnp" (constant velocity of the track filter's
+    PnP poses) | "velocity" (constant velocity of the estimator's poses); ``moving_step_gate_m`` a ROP
+    step farther than this (m) from the track filter's PnP pose fails the frame, which then takes the PnP
+    pose; ``moving_prior_gate_m`` that PnP pose stands for a failed frame only within this distance (m)
+    of the prediction (:mod:`vo.rop.estimator`)."""
 
     frontend: Literal[FRONTENDS] = "klt"
     ransac_threshold_px: float = knob(1.0, gt=0)
@@ -75,6 +81,9 @@ class RopConfig:
     moving_objects: Literal[MOVING] = "prior"
     moving_min_fraction: float = knob(0.1, gt=0, le=1)
     moving_reproj_px: float = knob(2.0, gt=0)
+    moving_prior: Literal[MOVING_PRIORS] = "pnp"
+    moving_prior_gate_m: float = knob(0.5, gt=0)
+    moving_step_gate_m: float = knob(0.3, gt=0)
 
     def __post_init__(self):
         check_fields(self, EstimatorError, "rop.")

@@ -14,15 +14,20 @@ Our extensions (each documented in its module, figures in docs/estimators.md):
   baseline instead of one frame's few pixels.
 * Front-end: one set of four-view KLT tracks gives all four ROPs (:mod:`vo.rop.tracks`, seed 003's
   grid and LK); ``frontend="orb"|"sift"`` matches the four pairs instead (:mod:`vo.rop.matching`).
-* Moving objects: the tracks of the rigid motion nearest the constant-velocity prior when several
-  compete (``moving_objects``, :mod:`vo.rop.moving`).
+* Moving objects: the tracks of the rigid motion nearest the motion prior when several compete
+  (``moving_objects``, :mod:`vo.rop.moving`). The prior is the constant-velocity prediction of the track
+  filter's own PnP poses (``moving_prior="pnp"``), so that one wrong ROP step does not move the prediction
+  onto a car. A ROP step more than ``moving_step_gate_m`` from the PnP pose of the same tracks fails the
+  frame, which then takes that PnP pose. The pose of every other frame comes from the ROPs.
 * Standstill: a rotation-only fit gives the parallax (:mod:`vo.rop.rotation_only`); below
   ``min_parallax_px`` the epoch is "no translation" (``T_kf_c = (R_1_3, 0)``, status ``ok``).
 * ROP gates and the rotation consensus (:mod:`vo.rop.consensus`); >= 3 ROPs are needed.
-* Failure: the pose coasts at constant velocity (at most
-  :data:`~vo.estimators.base.MAX_COAST_FRAMES` frames, then held) with the heading of the rotation-only
-  fit to the left tracks when there are >= :data:`MIN_ROTATION_TRACKS`; never NaN; the frame becomes a
-  fresh keyframe.
+* Failure: the pose is the track filter's PnP pose when it has >= :data:`MIN_COAST_PNP_INLIERS` inliers
+  and lies within ``moving_prior_gate_m`` of the prediction (it uses the three-view tracks too); else it
+  coasts at constant velocity (at most :data:`~vo.estimators.base.MAX_COAST_FRAMES` frames, then held)
+  with the heading of the rotation-only fit to the left tracks when there are >=
+  :data:`MIN_ROTATION_TRACKS`; never NaN; the frame becomes a fresh keyframe (keeping its tracks when
+  only the ROP step was suspect).
 * Covariance of ``T_o_c0`` from an :class:`~vo.rop.uncertainty.UncertaintyModel` (first order by
   default; ``cov="chain_bootstrap"``; or any model passed as ``uncertainty=``). Rotation-only epochs:
   rotation sigma ``3 max(parallax, 0.1 px) / (f sqrt(n))``, position sigma
@@ -49,13 +54,14 @@ from vo.rop.config import RopConfig
 from vo.rop.consensus import predicted_rops, rotation_consensus, solve_rops
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops
-from vo.rop.moving import static_track_mask
+from vo.rop.moving import TrackFilter, filter_tracks
 from vo.rop.ropset import PAIRS
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 from vo.rop.uncertainty import Step, UncertaintyModel, make_uncertainty
 
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
+MIN_COAST_PNP_INLIERS = 20  # PnP inliers of the track filter's motion for it to give a failed frame's pose
 STAGES = ("detect", "track", "stereo", "essential", "initial", "adjust")
 
 
@@ -88,11 +94,15 @@ class RopEstimator(Estimator):
         self._t_kf, self._n_kf = None, 0
         self._T_kf_cur, self._last_motion = np.eye(4), np.eye(4)
         self._lost, self._n_coast = False, 0
+        self._filter = TrackFilter(None)                       # the track filter's verdict on this frame
+        self._T_kf_pnp, self._pnp_motion = np.eye(4), np.eye(4)   # PnP chain: pose in the keyframe, last step
+        self._n_solved = 0
         self.epochs: list[EpochRecord] = []   # one per frame solved against its keyframe (Fig. 5 check)
 
     # ------------------------------------------------------------------------------ front-end
     def _new_keyframe(self, left, right, t_ns: int, timings, keep_tracks: bool) -> int:
         self.T_o_kf, self.cov_kf, self._T_kf_cur = self.T_o_c0.copy(), self.cov.copy(), np.eye(4)
+        self._T_kf_pnp = np.eye(4)
         self._kf_imgs, self._t_kf = (left, right), t_ns
         self._n_kf = self.klt.keyframe(left, right, timings, keep_tracks) if self.klt is not None else 1
         return self._n_kf
@@ -110,17 +120,50 @@ class RopEstimator(Estimator):
         timings["track"] += (time.perf_counter() - t0) * 1e3
         return pairs, min(len(a) for a, _ in pairs.values()), 0.3 * self.focal, None
 
+    def _prior(self) -> np.ndarray:
+        """Constant-velocity prediction ``T_kf_c`` of this frame that selects the motion (``moving_prior``)."""
+        if self.config.moving_prior == "pnp":
+            return self._T_kf_pnp @ self._pnp_motion
+        return self._T_kf_cur @ self._last_motion
+
     def _static_tracks(self, v, timings):
         """With ``moving_objects="prior"``: drop the tracks of rigid motions other than the one nearest the
-        constant-velocity prior (:mod:`vo.rop.moving`); the kept view replaces the tracker's."""
+        prior (:mod:`vo.rop.moving`); the kept view replaces the tracker's."""
+        self._filter = TrackFilter(None)
         if self.config.moving_objects == "none" or len(v) == 0:
             return v
         t0 = time.perf_counter()
-        keep = static_track_mask(v, self.rig, self._T_kf_cur @ self._last_motion, self._moving_pnp)
-        if keep is not None:            # fewer than min_matches left: a failed frame (coasts), not the car's motion
-            v = self.klt.view = v.subset(keep)
+        self._filter = f = filter_tracks(v, self.rig, self._prior(), self._moving_pnp)
+        if f.keep is not None:          # fewer than min_matches left: a failed frame (coasts), not the car's motion
+            v = self.klt.view = v.subset(f.keep)
         timings["track"] += (time.perf_counter() - t0) * 1e3
         return v
+
+    def _pnp_pose(self) -> np.ndarray | None:
+        """The track filter's PnP pose ``T_kf_c`` when it may stand for the frame's: >=
+        :data:`MIN_COAST_PNP_INLIERS` inliers and within ``moving_prior_gate_m`` of the prediction (unless
+        that rests on no solved frame or on a held pose: the first frame, or after the coasting limit) - a
+        car's motion as the only candidate (crossing traffic) is far from it. Else None."""
+        f = self._filter
+        if f.T_kf_c is None or f.n_inliers < MIN_COAST_PNP_INLIERS:
+            return None
+        trusted = self._n_solved > 0 and self._n_coast < MAX_COAST_FRAMES
+        return None if trusted and f.prior_offset_m > self.config.moving_prior_gate_m else f.T_kf_c
+
+    def _step_miss(self, T_kf_c: np.ndarray) -> str:
+        """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): farther than ``moving_step_gate_m``
+        from the track filter's PnP pose of the same tracks."""
+        T_pnp, gate = self._pnp_pose(), self.config.moving_step_gate_m
+        if T_pnp is None or self.config.moving_objects == "none":
+            return ""
+        d = float(np.linalg.norm(T_kf_c[:3, 3] - T_pnp[:3, 3]))
+        return f"ROP step {d:.2f} m > {gate} m from the track filter's PnP pose" if d > gate else ""
+
+    def _advance_prior(self, T_kf_c: np.ndarray) -> None:
+        """Extend the PnP chain of the prediction by this frame (its PnP pose, else the frame's own)."""
+        T_pnp = self._pnp_pose()
+        T = T_pnp if T_pnp is not None else T_kf_c
+        self._pnp_motion, self._T_kf_pnp = inv_T(self._T_kf_pnp) @ T, T.copy()
 
     # ------------------------------------------------------------------------------- solving
     def _rotation_only_step(self, R_1_3, parallax, n, disparity) -> tuple:
@@ -188,24 +231,33 @@ class RopEstimator(Estimator):
         return FrameResult(frame.t_ns, self.T_o_c0.copy(), status, int(n_feat), int(n_inl), self.cov.copy(), msg,
                            timings)
 
-    def _fail(self, frame, left, right, status, n_feat, msg, timings, t0, R_1_3=None) -> FrameResult:
-        """Coast: the rotation-only fit's rotation when there was one (tracks survive a failed ROP
-        solve), the translation held or, with ``constant_velocity``, extrapolated; then a fresh keyframe."""
+    def _fail(self, frame, left, right, status, n_feat, msg, timings, t0, R_1_3=None,
+              keep_tracks=False) -> FrameResult:
+        """The track filter's PnP pose when it may stand for the frame's (:meth:`_pnp_pose`); else coast: the
+        rotation-only fit's rotation when there was one (tracks survive a failed ROP solve), the translation
+        held or, with ``constant_velocity``, extrapolated; then a fresh keyframe."""
         T_prev = self.T_o_c0
         coast = self.config.constant_velocity and self._n_coast < MAX_COAST_FRAMES
         T_step = self._T_kf_cur @ self._last_motion if coast else self._T_kf_cur.copy()
-        if R_1_3 is not None:
+        T_pnp = self._pnp_pose()
+        if T_pnp is not None:
+            T_step, R_1_3 = T_pnp, None
+        elif R_1_3 is not None:
             T_step = make_T(R_1_3, T_step[:3, 3])
+        self._advance_prior(T_step)
         T_new = self.T_o_kf @ T_step
         if np.all(np.isfinite(T_new)):
             self.T_o_c0 = T_new
         self._last_motion = inv_T(T_prev) @ self.T_o_c0
         self._n_coast += 1
         self.uncertainty.reset(self.T_o_c0, self.cov)
-        self._new_keyframe(left, right, int(frame.t_ns), timings, keep_tracks=False)
+        self._new_keyframe(left, right, int(frame.t_ns), timings, keep_tracks=keep_tracks)
         self._lost = True
-        msg += ("; rotation from the rotation-only fit" if R_1_3 is not None else "") + "; translation " + \
-               ("extrapolated (constant velocity)" if coast else "held") + ", re-initialising from this frame"
+        if T_pnp is not None:
+            msg += f"; pose from the track filter's PnP ({self._filter.n_inliers} inliers), new keyframe"
+        else:
+            msg += ("; rotation from the rotation-only fit" if R_1_3 is not None else "") + "; translation " + \
+                   ("extrapolated (constant velocity)" if coast else "held") + ", re-initialising from this frame"
         return self._result(frame, status, n_feat, 0, msg, timings, t0)
 
     def process(self, frame: StereoFrame) -> FrameResult:
@@ -224,6 +276,9 @@ class RopEstimator(Estimator):
         T_kf_c, cov_step, epoch, msg, R_rot = self._step(pairs, disparity, timings)
         if T_kf_c is None:
             return self._fail(frame, left, right, "lost", n_feat, msg, timings, t0, R_rot)
+        if epoch[0] == "rops" and self._step_miss(T_kf_c):
+            return self._fail(frame, left, right, "lost", n_feat, self._step_miss(T_kf_c), timings, t0,
+                              keep_tracks=True)
         self._record_epoch(frame.t_ns, T_kf_c, epoch)
         is_kf = self._is_keyframe(T_kf_c, n_feat)
         step = Step(int(frame.t_ns), self.T_o_kf, self.cov_kf, T_kf_c, cov_step, is_kf, epoch[3], epoch[4], pairs,
@@ -233,6 +288,8 @@ class RopEstimator(Estimator):
         timings["adjust"] += (time.perf_counter() - t1) * 1e3
         T_prev, self.T_o_c0 = self.T_o_c0, step.T_o_c
         self._last_motion, self._T_kf_cur, self._n_coast = inv_T(T_prev) @ self.T_o_c0, T_kf_c, 0
+        self._advance_prior(T_kf_c)
+        self._n_solved += 1
         status = "ok"
         if self._lost:
             status, msg, self._lost = "reinit", ("re-initialised after a failed frame; " + msg).rstrip("; "), False

@@ -9,30 +9,59 @@ and the current left points ``p3`` give candidate rigid motions keyframe -> curr
 (:func:`vo.estimators.pnp_core.choose_motion`: up to ``max_models`` RANSAC fits in turn and the LM fit
 from the prior). When two motions with at least ``min_model_fraction`` of the triangulated tracks are
 different (:func:`~vo.estimators.pnp_core.separated`: enough tracks of one lie more than ``separation_px``
-off the other), only the tracks of the one whose camera position is nearest the prior (the
-constant-velocity prediction of the keyframe -> current pose) are kept, with the tracks too far to
-triangulate (which constrain the rotation only and fit every translation). With one motion nothing changes. The pose itself still comes from the ROPs: the
-point cloud only selects tracks.
+off the other), only the tracks of the one whose camera position is nearest the prior are kept, with the
+tracks too far to triangulate (which constrain the rotation only and fit every translation). With one
+motion no track is dropped. The pose itself still comes from the ROPs: the point cloud selects tracks,
+and its PnP pose (:attr:`TrackFilter.T_kf_c`) serves the estimator as the motion prior of the next
+frame, as a cross-check of the ROP step and as the pose of a failed frame (:mod:`vo.rop.estimator`).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from rigs.geometry import inv_T
 from vo.estimators.pnp_core import PnpConfig, choose_motion
 from vo.frontend.stereo import triangulate, undistort_px
 
 
-def static_track_mask(view, rig, T_kf_c_prior: np.ndarray, config: PnpConfig) -> np.ndarray | None:
-    """(N,) bool tracks of ``view`` (:class:`~vo.rop.tracks.FourView`) to keep, or None when the tracks
-    hold a single rigid motion (nothing to choose)."""
+@dataclass(frozen=True)
+class TrackFilter:
+    """The track filter's verdict on one frame: ``keep`` (N,) bool tracks to keep, None for all of them
+    (one rigid motion, or too few triangulated tracks to tell); ``T_kf_c`` the PnP pose keyframe -> current
+    of the chosen motion (None without a fit); ``n_inliers`` its inliers; ``competing`` several motions;
+    ``prior_offset_m`` distance of its camera position from the prior's."""
+
+    keep: np.ndarray | None
+    T_kf_c: np.ndarray | None = None
+    n_inliers: int = 0
+    competing: bool = False
+    prior_offset_m: float = float("inf")
+
+
+def filter_tracks(view, rig, T_kf_c_prior: np.ndarray, config: PnpConfig) -> TrackFilter:
+    """:class:`TrackFilter` of the tracks of ``view`` (:class:`~vo.rop.tracks.FourView`): every track
+    triangulated from the keyframe pair ``(p1, p2)`` against its current left point ``p3`` (four-view or
+    not), the motion nearest ``T_kf_c_prior`` (:func:`~vo.estimators.pnp_core.choose_motion`)."""
     p_kf, tri = triangulate(rig, view.p1, view.p2, config.max_depth, config.max_triangulation_px)
     if tri.sum() < 2 * config.min_pnp_inliers:
-        return None
+        return TrackFilter(None)
     cam = rig.cameras[0]
     chosen = choose_motion(p_kf[tri], undistort_px(view.p3[tri], cam), cam.K, config, T_kf_c_prior)
-    if chosen is None or not chosen[2]:
-        return None
-    inl = chosen[1]
-    keep = ~tri
-    keep[tri] = inl
-    return keep
+    if chosen is None:
+        return TrackFilter(None)
+    T_c_kf, inl, competing = chosen
+    T_kf_c = inv_T(T_c_kf)
+    offset = float(np.linalg.norm(T_kf_c[:3, 3] - np.asarray(T_kf_c_prior, float)[:3, 3]))
+    keep = None
+    if competing:
+        keep = ~tri
+        keep[tri] = inl
+    return TrackFilter(keep, T_kf_c, int(inl.sum()), bool(competing), offset)
+
+
+def static_track_mask(view, rig, T_kf_c_prior: np.ndarray, config: PnpConfig) -> np.ndarray | None:
+    """(N,) bool tracks of ``view`` to keep, or None when the tracks hold a single rigid motion (nothing to
+    choose): :attr:`TrackFilter.keep` of :func:`filter_tracks`."""
+    return filter_tracks(view, rig, T_kf_c_prior, config).keep
