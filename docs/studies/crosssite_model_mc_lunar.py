@@ -19,16 +19,20 @@ IMU levels it and it stands on the ground; 15 % of the leg on height and 0.03 ra
 are a floor for the gate, not errors a dead reckoning makes), or with ``--full-leg-draw`` from the
 whole leg prior. The localizer is the
 product default :class:`vo.crosssite.CrossSiteConfig` (forward-forward regions, ground-plane zoom,
-SIFT first and ASIFT when fewer than 20 eq. 2 ties remain). Every run is measured as in
+SIFT first and ASIFT when fewer than 20 eq. 2 ties remain, least-squares refinement of the cross-site
+ties, at least ``min_ba_ties`` ties for the BA); ``--xsite-lsm 0`` and ``--min-ba-ties 6`` give the
+localizer without the refinement and without the minimum count. Every run is measured as in
 ``crosssite_model_mc.py`` (:func:`crosssite_model_mc.measure`) plus the tie diagnostics of
 ``crosssite_model_mc_ties.py`` (each BA tie against its exact observations, the BA solved again with
 single error components and with the cross-site matching error in its weights), and the rows are
 written after every run, so an interrupted invocation still leaves a table (``--table CSV`` prints it
 again). Variants: ``--asift-fallback 0`` (ASIFT in every run), ``--mast-sigma-deg`` (soft mast
-constraints in the BA). ``--ties-dir`` keeps every run's tie set; ``--from-ties CSV`` measures the
+constraints in the BA). Outputs go to ``docs/studies/figures/crosssite_model_mc/`` (``--out``: another
+directory; ``--suffix``: appended to the names).
+``--ties-dir`` keeps every run's tie set; ``--from-ties CSV`` measures the
 runs of that CSV again from their saved ties, without matching, with this invocation's BA settings.
 
-    MUJOCO_GL=egl nice -n 10 OPENBLAS_NUM_THREADS=1 .venv/bin/python docs/studies/crosssite_model_mc_lunar.py \\
+    MUJOCO_GL=egl OPENBLAS_NUM_THREADS=1 nice -n 10 .venv/bin/python docs/studies/crosssite_model_mc_lunar.py \\
         --runs 20 --first 1000 --cache /tmp/lunar_pair.npz
     ... --runs 20 --first 1000 --mast-deg 0.05 --cache /tmp/lunar_pair.npz --ties-dir /tmp/lunar_ties/mast
     ... --runs 20 --first 1000 --mast-deg 0.05 --mast-sigma-deg 0.05 --cache /tmp/lunar_pair.npz \
@@ -154,6 +158,7 @@ def one_run(pair: dict, r: int, image_sigma: float, mast_deg: float, cfg: CrossS
         res = ties.rebuild_result(prev, pair["T0"], cur, Path(ties_dir) / f"ties_{r}.npz", cfg)
         res.stats["matcher"] = from_row.get("matcher", "")
         row = {k: from_row[k] for k in ("run", "status", "time_s", "n_eq2_all") if k in from_row}
+        row["status"] = res.status
     else:
         res = localize_site(prev, pair["T0"], cur, cfg)
         row = {"run": r, "status": res.status, "time_s": round(time.perf_counter() - t0, 1),
@@ -207,10 +212,16 @@ def main(argv=None) -> None:
                     help="no matching: rebuild every run of this runs CSV from --ties-dir (BA with this invocation's "
                          "configuration) and measure again")
     ap.add_argument("--table", default=None, help="only print the table of this runs CSV")
+    ap.add_argument("--xsite-lsm", type=int, choices=(0, 1), default=None,
+                    help="CrossSiteConfig.xsite_lsm (default the product's): LSM refinement of the cross-site ties")
+    ap.add_argument("--min-ba-ties", type=int, default=None, help="CrossSiteConfig.min_ba_ties (default the product's)")
+    ap.add_argument("--out", default=None, help="directory of the CSV and PNG (default: figures/crosssite_model_mc)")
+    ap.add_argument("--suffix", default="", help="appended to the output names")
     args = ap.parse_args(argv)
     if args.from_ties and not args.ties_dir:
         ap.error("--from-ties needs --ties-dir (where the runs' tie sets were saved)")
-    mc.OUT.mkdir(parents=True, exist_ok=True)
+    out = Path(args.out) if args.out else mc.OUT
+    out.mkdir(parents=True, exist_ok=True)
     if args.table:
         rows = mc.read_rows(Path(args.table))
         report(rows, Path(args.table).with_suffix(".png"), f"lunar pair, {Path(args.table).stem}")
@@ -218,6 +229,10 @@ def main(argv=None) -> None:
     cfg = CrossSiteConfig(ba_xsite_sigma_px=args.xsite_sigma_px)
     if args.asift_fallback is not None:
         cfg = replace(cfg, asift_fallback_ties=args.asift_fallback)
+    if args.xsite_lsm is not None:
+        cfg = replace(cfg, xsite_lsm=bool(args.xsite_lsm))
+    if args.min_ba_ties is not None:
+        cfg = replace(cfg, min_ba_ties=args.min_ba_ties)
     if args.mast_sigma_deg > 0:   # the mast translation is known to MAST_SIGMA_M
         cfg = replace(cfg, mast_sigma_rad=float(np.radians(args.mast_sigma_deg)), mast_sigma_m=MAST_SIGMA_M)
     t0 = time.perf_counter()
@@ -229,18 +244,18 @@ def main(argv=None) -> None:
     tag = f"lunar_{args.first}-{args.first + args.runs - 1}" + (f"_mast{args.mast_deg:g}" if args.mast_deg else "") + \
         ("_fullleg" if args.full_leg_draw else "") + \
         (f"_asift{args.asift_fallback}" if args.asift_fallback is not None else "") + \
-        (f"_soft{args.mast_sigma_deg:g}" if args.mast_sigma_deg > 0 else "")
+        (f"_soft{args.mast_sigma_deg:g}" if args.mast_sigma_deg > 0 else "") + args.suffix
     old = {r["run"]: r for r in mc.read_rows(Path(args.from_ties))} if args.from_ties else {}
     if args.ties_dir:
         Path(args.ties_dir).mkdir(parents=True, exist_ok=True)
     rows = []
     for r in range(args.first, args.first + args.runs):
         rows.append(one_run(pair, r, sigma, args.mast_deg, cfg, args.full_leg_draw, args.ties_dir, old.get(r)))
-        mc.write_rows(rows, mc.OUT / f"runs_{tag}.csv")
+        mc.write_rows(rows, out / f"runs_{tag}.csv")
         print({k: (round(v, 4) if isinstance(v, float) else v) for k, v in rows[-1].items()
                if k in ("run", "status", "n_ties", "err_along", "err_cross", "err_vertical", "nees_pos", "time_s")},
               flush=True)
-    report(rows, mc.OUT / f"model_mc_{tag}.png", f"lunar pair (yutu-traverse leg 0-1), 7+7 pointings, runs {tag}, "
+    report(rows, out / f"model_mc_{tag}.png", f"lunar pair (yutu-traverse leg 0-1), 7+7 pointings, runs {tag}, "
            f"image sigma {sigma:g}, mast {args.mast_deg:g} deg")
 
 

@@ -296,8 +296,8 @@ def print_diagnostics(rows, title: str = "all ok runs") -> None:
 
 
 def rebuild_result(prev, T0, cur, path, cfg):
-    """The ``ok`` SiteResult of a run from its saved tie set (``ties_<run>.npz``): the localizer's
-    stage 6 and BA on those ties (deterministic: the same pose and covariance)."""
+    """The SiteResult of a run from its saved tie set (``ties_<run>.npz``): the localizer's stage 6, its
+    ``min_ba_ties`` rule and BA on those ties (deterministic: the same pose and covariance)."""
     from vo.crosssite.bundle import bundle_adjust
     from vo.crosssite.localizer import _observations
     from vo.crosssite.ties import TieSet
@@ -306,6 +306,8 @@ def rebuild_result(prev, T0, cur, path, cfg):
         t = TieSet(**{k: z[k] for k in z.files})
     res = SiteResult(cur.index, "ok", cur.T_w_b_prior, cur.cov_prior, int(t.inlier.sum()), ties=t)
     idx, P_w, T_init = ba_tie_set(prev, T0, cur, res, cfg)
+    if len(idx) < cfg.min_ba_ties:   # the localizer's minimum tie count
+        return SiteResult(cur.index, "few_tie_points", cur.T_w_b_prior, cur.cov_prior, int(t.inlier.sum()), ties=t)
     b = bundle_adjust(T0, T_init, [[p.T_b_c0 for p in prev.pairs], [p.T_b_c0 for p in cur.pairs]], _observations(t, idx),
                       P_w, cur.cal.K, cur.cal.baseline, cfg.ba_sigma_px, cfg.ba_huber_k, cfg.mast_sigma_rad,
                       cfg.mast_sigma_m)

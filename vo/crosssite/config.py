@@ -48,6 +48,12 @@ class CrossSiteConfig:
     median_rel: float = knob(0.15, ge=0)
     lsm_half_px: int = knob(7, ge=1)
     lsm_max_shift_px: float = knob(1.0, ge=0)
+    # least-squares matching of the cross-site ties (beyond seed 001, which applies LSM to stereo only):
+    # each eq. 2 tie's current-image position refined against the previous image (vo.crosssite.ties.refine_cross_site);
+    # on by default: on the lunar pair it removes ASIFT's common v error and cuts the BA's spread (docs/crosssite.md)
+    xsite_lsm: bool = True
+    xsite_lsm_half_px: int = knob(10, ge=2)
+    xsite_lsm_max_shift_px: float = knob(2.0, gt=0)   # a tie the refinement moves farther is dropped
     # distance consistency (eq. 2)
     consistency_abs_m: float = knob(0.05, ge=0)
     consistency_k_sigma: float = knob(3.0, ge=0)
@@ -56,11 +62,12 @@ class CrossSiteConfig:
     consistency_iterations: int = knob(3, ge=1)
     # initial values and BA (eq. 3-5)
     min_tie_points: int = knob(6, ge=4)              # at least 4 for the resection
+    min_ba_ties: int = knob(10, ge=4)                # fewer ties agree with the resection: prior kept
     ambiguity_px: float = knob(20.0, ge=0)           # a second resection consensus this far (median px) from the first: ambiguous; 0 off
     pnp_reproj_px: float = knob(2.0, ge=0)
     ba_sigma_px: float = knob(1.0 / 3.0, gt=0)
     ba_huber_k: float = knob(1.345, ge=0)
-    ba_xsite_sigma_px: float = knob(1.0, ge=0)       # matching error of the current site's ties (sigma_theta); 0 off
+    ba_xsite_sigma_px: float = knob(0.0, ge=0)       # sigma_theta of the current ties, added to sigma_p; 0 off
     mast_sigma_rad: float = knob(0.0, ge=0)          # 0: mast rotations as hard constraints (eq. 5)
     mast_sigma_m: float = knob(0.0, ge=0)
     max_ba_points: int = knob(400, ge=1)

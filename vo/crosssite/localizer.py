@@ -3,7 +3,9 @@
 Stages 1-5 (:mod:`vo.crosssite.ties`) give tie points; stage 6 the initial values (space
 intersection at the previous site, resection at the current one, eq. 3); stage 7 the bundle
 adjustment (:mod:`vo.crosssite.bundle`). Without tie points (``no_tie_points``) or with fewer than
-``min_tie_points`` after the outlier test, a failed resection/BA, or a BA pose farther from the prior
+``min_tie_points`` after the outlier test or fewer than ``min_ba_ties`` agreeing with the resection
+(a small set can hold false matches the BA absorbs: its points slide along their rays), a failed
+resection/BA, or a BA pose farther from the prior
 than ``prior_gate_chi2`` (a periodic texture can give a consistent wrong solution) (``few_tie_points``), or a
 tie set that holds a second self-consistent motion (:func:`second_motion`, ``ambiguous``) the
 dead-reckoning pose is kept and its covariance multiplied by ``inflate``: never an exception or NaN
@@ -22,7 +24,7 @@ from vo.crosssite.asift import DetectionCache
 from vo.crosssite.bundle import TieObservations, bundle_adjust
 from vo.crosssite.config import CrossSiteConfig
 from vo.crosssite.initial import resection
-from vo.crosssite.ties import TieSet, body_points, candidate_ties, stereo_and_consistency
+from vo.crosssite.ties import TieSet, body_points, candidate_ties, refine_cross_site, stereo_and_consistency
 from vo.crosssite.types import Site, SiteResult
 
 
@@ -128,6 +130,8 @@ def _ties(prev: Site, T_w_b_prev, cur: Site, cfg: CrossSiteConfig, cache) -> tup
     cpu = time.process_time() - c0
     if len(ties.pair_prev):
         ties = stereo_and_consistency(prev, cur, ties, cfg, T_w_b_prev)
+        if cfg.xsite_lsm:
+            ties = refine_cross_site(prev, T_w_b_prev, cur, ties, cfg)
     ties.stats["matcher"] = "asift" if cfg.use_asift else "sift"
     return ties, dict(ties.timings_s, cpu_asift=cpu)
 
@@ -176,6 +180,10 @@ def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSite
         timings.update(initial=time.perf_counter() - t1, total=time.perf_counter() - t0)
         return _fallback(cur, "few_tie_points", cfg, ties, f"{int(keep.sum())} tie points agree with the resection",
                          timings)
+    if keep.sum() < cfg.min_ba_ties:
+        timings.update(initial=time.perf_counter() - t1, total=time.perf_counter() - t0)
+        return _fallback(cur, "few_tie_points", cfg, ties, f"{int(keep.sum())} tie points agree with the resection "
+                         f"(min_ba_ties {cfg.min_ba_ties})", timings)
     ambiguous = second_motion(cur, ties, idx, P_w, keep, T_init, cfg)
     if ambiguous:
         timings.update(initial=time.perf_counter() - t1, total=time.perf_counter() - t0)

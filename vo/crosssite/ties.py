@@ -1,5 +1,6 @@
 """Tie points between two sites: stages 1-5 of seed 001 §2 (regions, Wallis, ASIFT, stereo ZNCC +
-LSM, distance consistency) on :class:`vo.crosssite.types.Site` records."""
+LSM, distance consistency) on :class:`vo.crosssite.types.Site` records, and the optional least-squares
+refinement of the cross-site ties (:func:`refine_cross_site`, beyond the paper)."""
 from __future__ import annotations
 
 import dataclasses
@@ -7,12 +8,13 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from vo.crosssite import asift, ortho, regions, wallis, zoom
 from vo.crosssite.consistency import distance_consistency, range_sigma
 from vo.crosssite.initial import intersect_rectified
-from vo.crosssite.zncc import match_stereo
+from vo.crosssite.zncc import lsm_refine, match_stereo
 
 
 @dataclass
@@ -252,3 +254,83 @@ def body_points(site, pair_idx, uv_l, u_r, K, B) -> tuple:
         T = site.pairs[k].T_b_c0
         P_b[s] = P_c[s] @ T[:3, :3].T + T[:3, 3]
     return P_b, P_c
+
+
+def homography_jacobian(M: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """2x2 derivative of the 3x3 map ``M`` (pixel -> pixel) at ``uv``: the local affine it implies."""
+    x = M @ np.array([uv[0], uv[1], 1.0])
+    p = x[:2] / x[2]
+    return (M[:2, :2] - np.outer(p, M[2, :2])) / x[2]
+
+
+def refine_cross_site(prev, T_w_b_prev, cur, ties: TieSet, cfg) -> TieSet:
+    """Least-squares matching of the eq. 2 ties across sites (``cfg.xsite_lsm``; seed 001 applies LSM to
+    the stereo matches only, this is an extension). Each tie's current left pixel is refined by
+    :func:`vo.crosssite.zncc.lsm_refine` of the previous left image (as the matcher saw it: Wallis-filtered
+    when ``use_wallis``) against the current one (low-passed to the previous resolution), the previous
+    window resampled through the ground-plane homography of the prior pose
+    (:func:`vo.crosssite.zoom.plane_homography`; the identity where it does not exist). The current
+    right column follows by a stereo LSM started from the old disparity. A tie whose refinement fails or
+    moves more than ``xsite_lsm_max_shift_px`` leaves the inliers. Refining after eq. 2 touches only the
+    ties eq. 2 kept (tens to hundreds, against thousands of candidates). -> ``ties``, updated in place."""
+    t0 = time.perf_counter()
+    idx = np.flatnonzero(ties.inlier) if ties.inlier is not None else np.zeros(0, int)
+    if len(idx) == 0:
+        return ties
+    K, W, H = cur.cal.K, cur.cal.width, cur.cal.height
+    imgs_p, imgs_c = _enhanced(prev, cur, ties.boxes, cfg)
+    h, m_st = cfg.xsite_lsm_half_px, cfg.lsm_half_px + 2
+    n_drop = 0
+    for i, j in {(int(a), int(b)) for a, b in zip(ties.pair_prev[idx], ties.pair_cur[idx])}:
+        M = zoom.plane_homography(T_w_b_prev @ prev.pairs[i].T_b_c0, cur.T_w_b_prior @ cur.pairs[j].T_b_c0,
+                                  cur.T_w_b_prior, K, W, H, cfg.region_max_range_m)
+        sel = idx[(ties.pair_prev[idx] == i) & (ties.pair_cur[idx] == j)]
+        img_c = _to_previous_resolution(imgs_c[j], M, ties.uv_prev[sel])
+        for n in sel:
+            r = _refine_one(imgs_p[i], img_c, cur.pairs[j], ties, n, M, h, m_st, cfg)
+            if r is None:
+                ties.inlier[n] = False
+                n_drop += 1
+            else:
+                ties.uv_cur[n], ties.ur_cur[n] = r[:2], r[2]
+    ties.stats.update(n_xsite_lsm_dropped=n_drop, n_consistent=int(ties.inlier.sum()))
+    ties.timings_s.update(xsite_lsm=time.perf_counter() - t0)
+    return ties
+
+
+def _to_previous_resolution(img: np.ndarray, M, uv_prev: np.ndarray) -> np.ndarray:
+    """The current image low-passed to the previous image's resolution: a previous pixel covers ``s``
+    current pixels (``s`` the median of ``sqrt|det J|`` of the homography ``M`` at the ties), so a
+    Gaussian of ``0.5 sqrt(s^2 - 1)`` px (the previous pixel's footprint less the current one's);
+    without it the sharper current window pulls the match by a few tenths of a pixel."""
+    if M is None or len(uv_prev) == 0:
+        return img
+    s = float(np.median([np.sqrt(abs(np.linalg.det(homography_jacobian(M, uv)))) for uv in uv_prev]))
+    if not np.isfinite(s) or s <= 1.0:
+        return img
+    return cv2.GaussianBlur(img.astype(np.float32), (0, 0), 0.5 * np.sqrt(s * s - 1.0))
+
+
+def _inside(uv, margin: float, W: int, H: int) -> bool:
+    return bool(margin <= uv[0] < W - margin and margin <= uv[1] < H - margin)
+
+
+def _refine_one(img_p, img_c, pair_c, ties: TieSet, n: int, M, half: int, m_stereo: int, cfg):
+    """(u, v, u_r) of tie ``n`` after the cross-site and the current stereo LSM, or None."""
+    H, W = img_c.shape[:2]
+    A0 = homography_jacobian(M, ties.uv_prev[n]) if M is not None else np.eye(2)
+    if not np.all(np.isfinite(A0)) or abs(np.linalg.det(A0)) < 1e-6:
+        M, A0 = None, np.eye(2)
+    reach_p = 1.5 * half * float(np.abs(np.linalg.inv(A0)).sum(axis=1).max()) + 2
+    reach_c = half + cfg.xsite_lsm_max_shift_px + 2
+    if not (_inside(ties.uv_prev[n], reach_p, W, H) and _inside(ties.uv_cur[n], reach_c, W, H)):
+        return None
+    r = lsm_refine(img_p, img_c, ties.uv_prev[n], ties.uv_cur[n], half, cfg.xsite_lsm_max_shift_px, M)
+    if r is None:
+        return None
+    uv = np.array(r)
+    ur0 = np.array([ties.ur_cur[n] + uv[0] - ties.uv_cur[n, 0], uv[1]])
+    if not (_inside(uv, m_stereo, W, H) and _inside(ur0, m_stereo + cfg.lsm_max_shift_px, W, H)):
+        return None
+    s = lsm_refine(pair_c.left, pair_c.right, uv, ur0, cfg.lsm_half_px, cfg.lsm_max_shift_px)
+    return None if s is None else (uv[0], uv[1], s[0])

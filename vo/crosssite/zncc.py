@@ -69,14 +69,25 @@ def median_disparity_filter(uv_l: np.ndarray, disp: np.ndarray, ok: np.ndarray, 
     return keep
 
 
-def lsm_refine(left: np.ndarray, right: np.ndarray, uv_l, uv_r0, half: int, max_shift: float):
+def lsm_refine(left: np.ndarray, right: np.ndarray, uv_l, uv_r0, half: int, max_shift: float, H0=None):
     """Least-squares matching of one point: the right window is the left one under an affine map
     ``x_r = uv_r0 + s + A (x_l - uv_l)`` with a radiometric gain and offset ``h0 + h1 g``; eight
     parameters, solved by ``scipy.optimize.least_squares`` on bilinearly interpolated grey values.
+    ``H0`` (3x3 map left pixel -> right pixel, default the identity) is the warp the geometry predicts:
+    the left window is then sampled at ``H0^-1(H0(uv_l) + d)`` for the right window's offsets ``d``,
+    i.e. resampled into the right image's geometry (the whole homography, not its affine part, whose
+    neglected curvature would shift the match), and ``A`` refines what is left.
     -> refined (u_r, v_r) or None when it does not converge or moves more than ``max_shift``."""
     dy, dx = np.mgrid[-half:half + 1, -half:half + 1].astype(float)
     dx, dy = dx.ravel(), dy.ravel()
-    g_l = map_coordinates(left.astype(float), [uv_l[1] + dy, uv_l[0] + dx], order=1)
+    if H0 is None:
+        lx, ly = uv_l[0] + dx, uv_l[1] + dy
+    else:
+        H0 = np.asarray(H0, float)
+        c = H0 @ np.array([uv_l[0], uv_l[1], 1.0])
+        q = np.linalg.solve(H0, np.vstack([c[0] / c[2] + dx, c[1] / c[2] + dy, np.ones_like(dx)]))
+        lx, ly = q[0] / q[2], q[1] / q[2]
+    g_l = map_coordinates(left.astype(float), [ly, lx], order=1)
     Rf = right.astype(float)
 
     def resid(p):
