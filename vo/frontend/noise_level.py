@@ -31,18 +31,18 @@ _KERNEL = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 
 def estimate_noise_sigma(img: np.ndarray, flat_fraction: float = 0.2) -> float:
     """Noise std (grey levels) of a (H,W) image, H, W >= 3 (module docstring)."""
-    img = _check(img, flat_fraction)
+    img = _check(img, flat_fraction, "estimate_noise_sigma")
     r, g = _laplacian_sobel(img)
     flat = g <= np.quantile(g, flat_fraction)
     return _immerkaer(r[flat])
 
 
-def _check(img: np.ndarray, flat_fraction: float) -> np.ndarray:
+def _check(img: np.ndarray, flat_fraction: float, name: str) -> np.ndarray:
     img = np.asarray(img)
     if img.ndim != 2 or min(img.shape) < 3:
-        raise VoError(f"estimate_noise_sigma: expected a (H,W) image with H, W >= 3, got shape {img.shape}")
+        raise VoError(f"{name}: expected a (H,W) image with H, W >= 3, got shape {img.shape}")
     if not 0.0 < flat_fraction <= 1.0:
-        raise VoError(f"estimate_noise_sigma.flat_fraction: {flat_fraction!r}; must be in (0, 1]")
+        raise VoError(f"{name}.flat_fraction: {flat_fraction!r}; must be in (0, 1]")
     return img
 
 
@@ -64,7 +64,7 @@ def noise_level_curve(img: np.ndarray, bin_edges=None, flat_fraction: float = 0.
     ``bin_edges`` (B+1,) grey levels of the 3x3 local mean, default 0, 16, ..., 256. Returns ``levels``
     (M,) bin centres, ``sigmas`` (M,) and ``counts`` (M,) unclipped pixels, for the M <= B bins holding at
     least ``min_pixels`` unclipped pixels."""
-    img = _check(img, flat_fraction)
+    img = _check(img, flat_fraction, "noise_level_curve")
     edges = np.arange(0, 257, 16) if bin_edges is None else np.asarray(bin_edges, float)
     r, g = _laplacian_sobel(img)
     f = img.astype(np.float32)

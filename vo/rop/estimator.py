@@ -276,8 +276,9 @@ class RopEstimator(Estimator):
         T_kf_c, cov_step, epoch, msg, R_rot = self._step(pairs, disparity, timings)
         if T_kf_c is None:
             return self._fail(frame, left, right, "lost", n_feat, msg, timings, t0, R_rot)
-        if epoch[0] == "rops" and self._step_miss(T_kf_c):
-            return self._fail(frame, left, right, "lost", n_feat, self._step_miss(T_kf_c), timings, t0,
+        miss = self._step_miss(T_kf_c) if epoch[0] == "rops" else ""
+        if miss:
+            return self._fail(frame, left, right, "lost", n_feat, miss, timings, t0,
                               keep_tracks=True)
         self._record_epoch(frame.t_ns, T_kf_c, epoch)
         is_kf = self._is_keyframe(T_kf_c, n_feat)
