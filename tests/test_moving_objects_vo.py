@@ -104,7 +104,7 @@ def test_rop_track_filter_keeps_the_static_tracks():
     paper002 stereo rig: the tracks of the car are dropped, every static one is kept; with a prior at the car's
     motion the car would be kept (the prior decides, not the cluster size)."""
     from rigs.presets import get_rig
-    from vo.rop.moving import static_track_mask
+    from vo.rop.moving import filter_tracks
     from vo.rop.tracks import FourView
 
     rig = get_rig("paper002")
@@ -120,12 +120,12 @@ def test_rop_track_filter_keeps_the_static_tracks():
     xs = [np.linalg.solve(K0, np.c_[p, np.ones(n)].T).T[:, :2] for p in (p1, p2, p3, p4)]
     view = FourView(p1, p2, p3, p4, *xs, np.ones(n, bool))
 
-    keep = static_track_mask(view, rig, _prior(T_o_c3), PnpConfig())
+    keep = filter_tracks(view, rig, _prior(T_o_c3), PnpConfig()).keep
     assert keep is not None and np.array_equal(keep, ~is_car)
-    keep_car = static_track_mask(view, rig, make_T(np.eye(3), np.zeros(3)), PnpConfig())
+    keep_car = filter_tracks(view, rig, make_T(np.eye(3), np.zeros(3)), PnpConfig()).keep
     assert keep_car[is_car].all() and keep_car.sum() < n
     static_only = view.subset(~is_car)
-    assert static_track_mask(static_only, rig, _prior(T_o_c3), PnpConfig()) is None   # one motion: untouched
+    assert filter_tracks(static_only, rig, _prior(T_o_c3), PnpConfig()).keep is None   # one motion: untouched
 
 
 def test_rop_moving_objects_option():

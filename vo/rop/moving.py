@@ -30,13 +30,12 @@ from vo.frontend.stereo import triangulate, undistort_px
 class TrackFilter:
     """The track filter's verdict on one frame: ``keep`` (N,) bool tracks to keep, None for all of them
     (one rigid motion, or too few triangulated tracks to tell); ``T_kf_c`` the PnP pose keyframe -> current
-    of the chosen motion (None without a fit); ``n_inliers`` its inliers; ``competing`` several motions;
-    ``prior_offset_m`` distance of its camera position from the prior's."""
+    of the chosen motion (None without a fit); ``n_inliers`` its inliers; ``prior_offset_m`` distance of its
+    camera position from the prior's."""
 
     keep: np.ndarray | None
     T_kf_c: np.ndarray | None = None
     n_inliers: int = 0
-    competing: bool = False
     prior_offset_m: float = float("inf")
 
 
@@ -58,10 +57,5 @@ def filter_tracks(view, rig, T_kf_c_prior: np.ndarray, config: PnpConfig) -> Tra
     if competing:
         keep = ~tri
         keep[tri] = inl
-    return TrackFilter(keep, T_kf_c, int(inl.sum()), bool(competing), offset)
+    return TrackFilter(keep, T_kf_c, int(inl.sum()), offset)
 
-
-def static_track_mask(view, rig, T_kf_c_prior: np.ndarray, config: PnpConfig) -> np.ndarray | None:
-    """(N,) bool tracks of ``view`` to keep, or None when the tracks hold a single rigid motion (nothing to
-    choose): :attr:`TrackFilter.keep` of :func:`filter_tracks`."""
-    return filter_tracks(view, rig, T_kf_c_prior, config).keep
