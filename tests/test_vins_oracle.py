@@ -60,9 +60,10 @@ def test_rule_confusion_counts():
                                               "dynamic_as_inlier": 1}
 
 
-def test_oracle_drops_dynamic_features_before_the_back_end(campus_short):
+def test_oracle_keeps_features_off_moving_objects_and_refills_the_static_scene(campus_short):
     """On a rendered dataset whose (faked) segmentation marks the right half of the image as moving, vins-oracle's
-    back-end sees only left-half features and the diagnostics count the right half as dynamic."""
+    back-end sees only left-half features, more of them than vins has there (its detector fills the left half),
+    and the diagnostics count vins's right-half features as dynamic."""
     from vo.dataset.open import open_dataset
     from vo.vins.estimator import VinsEstimator, VinsOracle
     ds = open_dataset(campus_short)
@@ -79,18 +80,22 @@ def test_oracle_drops_dynamic_features_before_the_back_end(campus_short):
             ids[:, w // 2:] = 1
             return ids, ids == 1
 
+    last = {}
     for cls in (VinsEstimator, VinsOracle):
         est = cls(ds.rig)
         est.set_imu(ds.imu)
         est.set_dataset(Half())
         for k in range(3):
             est.process(ds.frame(k))
-        d = est.diagnostics[-1]
+        last[cls] = d = est.diagnostics[-1]
         if cls is VinsOracle:
             assert d["n_dynamic"] == 0 and d["n_static"] == len(d["counts"]) > 20
+            assert np.all(d["px"][:, 0] < w // 2 - 0.5)
         else:
             right = d["dynamic"]
             assert 0 < right.sum() < len(right) and d["n_dynamic"] == right.sum()
+    # the budget freed by the right half goes to the left half: more static features than vins keeps there
+    assert last[VinsOracle]["n_static"] > last[VinsEstimator]["n_static"]
 
 
 def test_table_metrics_after_initialisation():

@@ -9,7 +9,8 @@ Per-frame diagnostics for plots and tables: ``self.diagnostics`` (a list of dict
 ``status``, ``message``;
 with a segmentation (``set_dataset``) also the true labels and the rule's confusion, :mod:`vo.vins.oracle`).
 ``FrameResult.cov``: the covariance of ``[rotvec, position]`` of ``T_o_c0`` every frame (:mod:`vo.vins.covariance`).
-``vins-oracle`` removes the features on moving objects (true segmentation) before the back-end.
+``vins-oracle`` keeps features off moving objects (true segmentation): its front-end drops those tracked onto
+them and detects none there, so the feature budget goes to the static scene.
 """
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ from vo.errors import EstimatorError
 from vo.estimators.base import Estimator, FrameResult
 from vo.vins.config import VinsConfig
 from vo.vins.covariance import INIT_COV, output_covariance
-from vo.vins.frontend import FeatureFrame, KltFrontend, parallax_px
+from vo.vins.frontend import KltFrontend, parallax_px
 from vo.vins.imu import GRAVITY, ImuStream, imu_params, preintegrate
 from vo.vins.initial import SFM_FAILED, initialize, usable_points
 from vo.vins.oracle import FeatureLabels, rule_confusion
@@ -37,7 +38,7 @@ class VinsEstimator(Estimator):
 
     name = "vins"
     preset = "vins"
-    remove_dynamic = False         # vins-oracle: drop features on moving objects (true segmentation)
+    remove_dynamic = False         # vins-oracle: no features on moving objects (true segmentation)
 
     def __init__(self, rig, **options):
         super().__init__(rig, **options)
@@ -77,11 +78,9 @@ class VinsEstimator(Estimator):
         if self.stream is None:
             raise EstimatorError(f"{self.name}: the dataset has no IMU (imu0/data.csv missing); VINS needs imu0")
         t0 = time.perf_counter()
-        feats = self.frontend.track(frame.left, frame.t_ns)
+        exclude = self.labels.mask(frame.index) if self.remove_dynamic else None
+        feats = self.frontend.track(frame.left, frame.t_ns, exclude)
         dynamic = self.labels.dynamic(frame.index, feats.px) if self.labels is not None else None
-        if self.remove_dynamic:
-            feats = _select(feats, ~dynamic)
-            dynamic = dynamic[~dynamic]
         t1 = time.perf_counter()
         if self.first_frame is None and feats.t_ns >= self.stream.t[0]:
             self.first_frame = feats        # images older than the first IMU sample are dropped, as in VINS-Mono
@@ -271,10 +270,6 @@ class VinsEstimator(Estimator):
             d["dynamic"] = np.asarray(dynamic, bool)
             d.update(rule_confusion(dynamic, feats.count))
         self.diagnostics.append(d)
-
-
-def _select(feats: FeatureFrame, keep: np.ndarray) -> FeatureFrame:
-    return FeatureFrame(feats.t_ns, feats.ids[keep], feats.px[keep], feats.xy[keep], feats.count[keep])
 
 
 def _rotation_to_down(g_v: np.ndarray) -> np.ndarray:

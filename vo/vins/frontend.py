@@ -1,6 +1,10 @@
 """VINS-Mono style monocular front-end (seed 002 §3.3): Shi-Tomasi corners tracked by pyramidal KLT,
 F-matrix RANSAC outlier rejection on undistorted points, new corners outside a minimum-distance mask around
 the tracked ones (longest-tracked first), and the number of times each feature was tracked (N, eq. 26).
+
+``track(img, t_ns, exclude)`` also takes a mask of pixels where no feature may live (``vins-oracle``: the
+moving objects of the true segmentation). Features tracked into it are dropped and no corner is detected in
+it, so the feature budget goes to the rest of the image, as a detect-and-remove front-end does.
 """
 from __future__ import annotations
 
@@ -49,11 +53,19 @@ class KltFrontend:
             return np.zeros((0, 2))
         return cv2.undistortPoints(px.reshape(-1, 1, 2).astype(np.float64), self.K, self.dist).reshape(-1, 2)
 
-    def track(self, img: np.ndarray, t_ns: int) -> FeatureFrame:
+    def track(self, img: np.ndarray, t_ns: int, exclude: np.ndarray | None = None) -> FeatureFrame:
+        """Track into ``img`` (h,w) uint8 and top up with new corners. ``exclude``: (h,w) bool, True where
+        features must not lie (dropped when tracked there, never detected there), or None."""
+        if exclude is not None and np.shape(exclude) != (self.size[1], self.size[0]):
+            raise ValueError(f"KltFrontend.track: exclude mask shape {np.shape(exclude)}, "
+                             f"expected {(self.size[1], self.size[0])}")
         if self.prev_img is not None and len(self.px):
             self._track_klt(img)
+        if exclude is not None and len(self.px):
+            u, v = np.rint(self.px).astype(int).T                 # the pixel whose label the feature takes
+            self._keep(~exclude[v.clip(0, self.size[1] - 1), u.clip(0, self.size[0] - 1)])
         self.count = self.count + 1
-        self._detect(img)
+        self._detect(img, exclude)
         self.prev_img = img
         return FeatureFrame(int(t_ns), self.ids.copy(), self.px.astype(float), self.undistort(self.px),
                             self.count.copy())
@@ -78,7 +90,7 @@ class KltFrontend:
             if inl is not None:
                 self._keep(inl.ravel() == 1)
 
-    def _detect(self, img: np.ndarray) -> None:
+    def _detect(self, img: np.ndarray, exclude: np.ndarray | None = None) -> None:
         order = np.argsort(-self.count, kind="stable")           # longest tracks claim their area first
         self._keep(order)
         w, h = self.size
@@ -89,6 +101,8 @@ class KltFrontend:
                 keep[k] = True
                 cv2.circle(mask, (int(x), int(y)), self.min_dist, 0, -1)
         self._keep(keep)
+        if exclude is not None:
+            mask[exclude] = 0
         n_new = self.max_features - len(self.px)
         if n_new <= 0:
             return

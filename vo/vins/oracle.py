@@ -15,7 +15,8 @@ from vo.errors import DatasetError, EstimatorError
 
 
 class FeatureLabels:
-    """``dynamic(k, px)`` -> (n,) bool: which raw-pixel positions ``px`` (n,2) of frame ``k`` are on moving objects."""
+    """``dynamic(k, px)`` -> (n,) bool: which raw-pixel positions ``px`` (n,2) of frame ``k`` are on moving objects;
+    ``mask(k)`` -> (h,w) bool, the moving objects of frame ``k``."""
 
     def __init__(self, dataset):
         self.dataset = dataset
@@ -32,7 +33,7 @@ class FeatureLabels:
             return None
         return cls(dataset)
 
-    def _mask(self, k: int) -> np.ndarray:
+    def mask(self, k: int) -> np.ndarray:
         """Moving objects of frame ``k``: ids whose ``moving`` flag is set in ``segmentation_ids.csv`` when the
         dataset has it (the dynamic mask also covers actors that stand still the whole run, e.g. all of them
         at ``dynamic_density`` 0), else the dynamic mask."""
@@ -45,7 +46,7 @@ class FeatureLabels:
         return np.asarray(dyn, bool)
 
     def dynamic(self, k: int, px: np.ndarray) -> np.ndarray:
-        mask = self._mask(k)
+        mask = self.mask(k)
         h, w = mask.shape
         px = np.asarray(px, float).reshape(-1, 2)
         u = np.clip(np.rint(px[:, 0]).astype(int), 0, w - 1)

@@ -9,7 +9,8 @@ with a segmentation, the true dynamic percentage and the N < 10 rule's confusion
 ``OUT/<name>.npz`` keeps poses, truth, statuses and covariances.
 
 :func:`table23` / :func:`format_table23` lay rows out as seed 002's Tables 2 and 3 (metrics down, configurations
-across), with the rows the paper cannot give (true dynamic share, the N < 10 rule's two confusion rates).
+across), with the rows the paper cannot give (true dynamic share, the N < 10 rule's two confusion rates);
+:func:`seed_medians` / :func:`format_seed_table` summarise several seeds (medians, per-seed improvement).
 """
 from __future__ import annotations
 
@@ -180,6 +181,52 @@ def format_table23(rows, baseline: str = "vins") -> str:
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for (label, values), (_, _, fmt) in zip(table23(rows, baseline), TABLE_ROWS):
         lines.append("| " + " | ".join([label, *("-" if v is None else fmt.format(v) for v in values)]) + " |")
+    return "\n".join(lines)
+
+
+def seed_medians(runs) -> list:
+    """Rows over seeds: ``runs`` {seed: [row per configuration]} -> one row per configuration (first seed's
+    order) with ``seeds`` (how many), ``seeds_initialised``, the medians over the initialised seeds of the RPE
+    mean/std/max, drift and label columns, and ``improvement_pct``: the median over seeds of the per-seed
+    improvement of the mean RPE over ``vins`` (seeds where both initialised)."""
+    names = [r["name"] for r in next(iter(runs.values()))]
+    imps = {s: improvement_pct(rows) for s, rows in runs.items()}
+    out = []
+    for name in names:
+        per = {s: r for s, rows in runs.items() for r in rows if r["name"] == name}
+        ok = [r for r in per.values() if "rpe10" in r]
+        row = {"name": name, "seeds": len(per), "seeds_initialised": len(ok)}
+        med = lambda f: (float(np.median(v)) if (v := [x for x in map(f, ok) if x is not None]) else None)
+        if ok:
+            row["rpe10"] = [med(_rpe(i)) for i in range(3)]
+        for key in ("drift_pct", "n_lt_10_pct", "true_dynamic_pct", "static_as_outlier_pct",
+                    "dynamic_as_inlier_pct", "init_frame"):
+            row[key] = med(lambda r, k=key: r.get(k))
+        imp = [v for s in per if (v := imps[s].get(name)) is not None]
+        row["improvement_pct"] = float(np.median(imp)) if imp else None
+        out.append(row)
+    return out
+
+
+def format_seed_table(runs) -> str:
+    """Markdown: one line per configuration with the :func:`seed_medians` columns, then per-seed RPE / drift."""
+    cols = ("seeds initialised", "RPE mean m", "RPE std m", "RPE max m", "drift %", "RPE vs vins",
+            "N<10 %", "true dynamic %", "static N<10 %", "dynamic N>=10 %")
+    f = lambda v, fmt: "-" if v is None else fmt.format(v)
+    lines = ["| config | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+    for r in seed_medians(runs):
+        rp = r.get("rpe10", [None] * 3)
+        lines.append("| " + " | ".join([r["name"], f"{r['seeds_initialised']} of {r['seeds']}",
+                                         *(f(v, "{:.3f}") for v in rp), f(r["drift_pct"], "{:.2f}"),
+                                         f(r["improvement_pct"], "{:+.1f} %"),
+                                         *(f(r[k], "{:.1f}") for k in ("n_lt_10_pct", "true_dynamic_pct",
+                                                                       "static_as_outlier_pct",
+                                                                       "dynamic_as_inlier_pct"))]) + " |")
+    lines.append("")
+    for name in (r["name"] for r in next(iter(runs.values()))):
+        per = [f"{s}: " + (f"{r['rpe10'][0]:.2f} m / {r['drift_pct']:.1f} %" if "rpe10" in r else "no initialisation")
+               for s, rows in runs.items() for r in rows if r["name"] == name]
+        lines.append(f"* {name}, RPE mean / drift per seed: " + "; ".join(per) + ".")
     return "\n".join(lines)
 
 

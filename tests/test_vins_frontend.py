@@ -1,0 +1,50 @@
+"""seed 002 front-end: KLT tracks follow a known image shift exactly; an exclusion mask keeps features off
+the masked pixels (dropped when tracked into them, never detected there)."""
+import cv2
+import numpy as np
+import pytest
+
+from rigs.model import Camera
+from vo.vins.frontend import KltFrontend
+
+W, H = 320, 240
+
+
+def _texture(shift_px: int = 0) -> np.ndarray:
+    """A smooth random texture (seeded), shifted right by ``shift_px`` whole pixels."""
+    rng = np.random.default_rng(7)
+    big = rng.integers(0, 256, (H // 8 + 2, (W + 64) // 8 + 2)).astype(np.float32)
+    img = cv2.resize(big, ((W + 64) // 8 * 8 + 16, H // 8 * 8 + 16), interpolation=cv2.INTER_CUBIC)
+    img = np.clip(img, 0, 255).astype(np.uint8)[:H]
+    return img[:, 32 - shift_px:32 - shift_px + W].copy()
+
+
+def _frontend() -> KltFrontend:
+    cam = Camera(name="cam0", width=W, height=H, fx=200.0, fy=200.0, cx=W / 2 - 0.5, cy=H / 2 - 0.5)
+    return KltFrontend(cam, max_features=80, min_distance_px=15)
+
+
+def test_tracks_follow_a_whole_pixel_shift():
+    fe = _frontend()
+    a = fe.track(_texture(0), 0)
+    b = fe.track(_texture(3), 100)
+    common, ia, ib = np.intersect1d(a.ids, b.ids, return_indices=True)
+    assert len(common) > 0.8 * len(a.ids) > 30
+    d = b.px[ib] - a.px[ia]
+    assert np.median(np.abs(d[:, 0] - 3.0)) < 0.05 and np.median(np.abs(d[:, 1])) < 0.05
+    assert np.all(b.count[ib] == 2)
+
+
+def test_exclusion_mask_drops_tracked_features_and_refills_elsewhere():
+    fe = _frontend()
+    a = fe.track(_texture(0), 0)
+    right = np.zeros((H, W), bool)
+    right[:, W // 2:] = True
+    b = fe.track(_texture(0), 100, exclude=right)
+    assert np.all(b.px[:, 0] < W // 2 - 0.5)                              # none on the masked half
+    kept = np.intersect1d(a.ids[a.px[:, 0] < W // 2 - 0.5], b.ids)
+    assert len(kept) > 0                                                   # left-half tracks survive
+    n_left_before = int(np.sum(a.px[:, 0] < W // 2 - 0.5))
+    assert len(b.ids) > n_left_before                                      # the freed budget went left
+    with pytest.raises(ValueError, match="exclude mask shape"):
+        fe.track(_texture(0), 200, exclude=right[:, :10])
