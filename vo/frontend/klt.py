@@ -6,7 +6,7 @@ Pyramid levels: seed 003 says "pyramid level 4"; OpenCV's ``maxLevel`` is the in
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import cv2
 import numpy as np
@@ -27,7 +27,9 @@ class KltConfig:
     ``fb_threshold_px`` forward-backward tolerance (1 px); ``epipolar_threshold_px`` stereo epipolar
     tolerance; ``quality_level``, ``min_distance``, ``block_size`` Shi-Tomasi parameters;
     ``min_eigenvalue`` absolute floor on the Shi-Tomasi score (rejects corners of blank cells);
-    ``illumination_invariant`` use :func:`lk_illumination_invariant` instead of OpenCV's LK.
+    ``illumination_invariant`` use :func:`lk_illumination_invariant` instead of OpenCV's LK;
+    ``stereo_win`` LK window of the left -> right stereo match in :func:`stereo_klt` only (0 = ``win``;
+    temporal tracking always uses ``win``). Seed 003 uses one 21x21 window for both.
     """
 
     cell: int = 32
@@ -44,6 +46,7 @@ class KltConfig:
     lk_iters: int = 30
     lk_eps: float = 0.01
     illumination_invariant: bool = False
+    stereo_win: int = 0
 
     def __post_init__(self):
         checks = {
@@ -53,11 +56,13 @@ class KltConfig:
             "quality_level": 0 < self.quality_level < 1, "min_distance": self.min_distance >= 0,
             "block_size": self.block_size >= 3 and self.block_size % 2 == 1, "min_eigenvalue": self.min_eigenvalue >= 0,
             "lk_iters": self.lk_iters >= 1, "lk_eps": self.lk_eps > 0,
+            "stereo_win": self.stereo_win == 0 or (self.stereo_win >= 3 and self.stereo_win % 2 == 1),
         }
         for name, good in checks.items():
             if not good:
                 raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
-                              "(cell>=8, odd win>=3, levels>=1, 0<=max_empty_fraction<=1, thresholds > 0)")
+                              "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, levels>=1, "
+                              "0<=max_empty_fraction<=1, thresholds > 0)")
 
     @classmethod
     def from_option(cls, value, where: str = "klt_config") -> "KltConfig":
@@ -145,7 +150,11 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
 
 def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,
                config: KltConfig = KltConfig()) -> tuple:
-    """Left -> right LK with forward-backward and calibrated epipolar checks -> ``(p_right, ok)``."""
+    """Left -> right LK with forward-backward and calibrated epipolar checks -> ``(p_right, ok)``.
+
+    The LK window (both directions) is ``config.stereo_win`` when set, else ``config.win``."""
+    if config.stereo_win:
+        config = replace(config, win=config.stereo_win)
     p_right, ok = track_fb(left, right, p_left, config)
     if ok.any():
         ok[ok] &= epipolar_mask(rig, np.asarray(p_left)[ok], p_right[ok], config.epipolar_threshold_px)
