@@ -20,9 +20,10 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from rigs.typed_config import parse_value
 from vo.dataset import open_dataset
+from vo.errors import EstimatorError
 from vo.eval.plots import plt, save_figure
 from vo.vins.tables import RPE_DELTA, TABLE_CONFIGS, format_seed_table, rpe_series, run
 
@@ -83,7 +84,7 @@ def main(argv=None) -> int:
     ap.add_argument("--plot", type=Path, help="PNG: RPE over time, speed and scale error of one seed")
     ap.add_argument("--plot-seed", type=int, default=1)
     a = ap.parse_args(argv)
-    opts = {k: yaml.safe_load(v) for k, v in (o.split("=", 1) for o in a.opt)}
+    opts = {k: parse_value(v, f"--opt {k}", EstimatorError) for k, v in (o.split("=", 1) for o in a.opt)}
     configs = a.configs.split(",")
     runs = {}
     for s in a.seeds.split(","):

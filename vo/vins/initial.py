@@ -347,8 +347,9 @@ def report(dataset_path, n_frames: int = 300, **options) -> str:
 
 if __name__ == "__main__":     # python -m vo.vins.initial DATASET [FRAMES] [key=value ...]
     import sys
-    import yaml
     from rigs.errors import TestbedError
+    from rigs.typed_config import parse_value
+    from vo.errors import EstimatorError
     args = sys.argv[1:]
     n_arg = len(args) > 1 and args[1].isdigit()
     opts = args[1 + n_arg:]
@@ -358,7 +359,7 @@ if __name__ == "__main__":     # python -m vo.vins.initial DATASET [FRAMES] [key
         sys.exit(2)
     try:
         print(report(args[0], int(args[1]) if n_arg else 300,
-                     **{k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in opts)}))
+                     **{k: parse_value(v, k, EstimatorError) for k, v in (a.split("=", 1) for a in opts)}))
     except TestbedError as e:
         print(f"error: {e}", file=sys.stderr)
         sys.exit(2)

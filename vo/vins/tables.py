@@ -20,9 +20,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from rigs.typed_config import parse_value
 from vo.dataset import open_dataset
+from vo.errors import EstimatorError
 from vo.estimators.registry import make_estimator
 from vo.eval.rpe import rpe
 from vo.trajectory import Trajectory
@@ -232,6 +233,6 @@ def format_seed_table(runs) -> str:
 
 if __name__ == "__main__":
     path, out, n, names = sys.argv[1:5]
-    opts = {k: yaml.safe_load(v) for k, v in (a.split("=", 1) for a in sys.argv[5:])}
+    opts = {k: parse_value(v, k, EstimatorError) for k, v in (a.split("=", 1) for a in sys.argv[5:])}
     for r in run(path, out, int(n), names.split(","), opts):
         print(json.dumps(r))

@@ -14,7 +14,7 @@ import click
 def crosssite_config(mode: str, items) -> object:
     """CrossSiteConfig from ``--mode`` and ``--set field=value`` items (values parsed as YAML)."""
     import dataclasses
-    import yaml
+    from rigs.typed_config import parse_value
     from vo.crosssite import CrossSiteConfig
     from vo.errors import VoError
     names = {f.name for f in dataclasses.fields(CrossSiteConfig)}
@@ -24,7 +24,7 @@ def crosssite_config(mode: str, items) -> object:
         if not sep or key not in names:
             raise VoError(f"--set {item!r}: expected FIELD=VALUE with FIELD one of the crosssite config fields "
                           f"(e.g. asift_max_tilt, sift_features)")
-        kw[key] = yaml.safe_load(value)
+        kw[key] = parse_value(value, f"--set {key}", VoError)
     return CrossSiteConfig(**kw)
 
 

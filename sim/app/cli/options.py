@@ -38,11 +38,11 @@ opt_option = click.option("--opt", "estimator_opts", multiple=True, metavar="KEY
 
 def parse_opts(items, frontend=None) -> dict:
     """``("weights=sampson", "min_matches=40")`` -> ``{"weights": "sampson", "min_matches": 40}``."""
-    import yaml
+    from rigs.typed_config import parse_value
     out = {} if frontend is None else {"frontend": frontend}
     for item in items:
         key, sep, raw = item.partition("=")
         if not sep or not key:
             raise click.BadParameter(f"expected KEY=VALUE, got {item!r}", param_hint="--opt")
-        out[key] = yaml.safe_load(raw)
+        out[key] = parse_value(raw, f"--opt {key}", lambda m: click.BadParameter(m, param_hint="--opt"))
     return out
