@@ -48,3 +48,44 @@ def test_exclusion_mask_drops_tracked_features_and_refills_elsewhere():
     assert len(b.ids) > n_left_before                                      # the freed budget went left
     with pytest.raises(ValueError, match="exclude mask shape"):
         fe.track(_texture(0), 200, exclude=right[:, :10])
+
+
+def _zoomed(base: np.ndarray, scale: float) -> np.ndarray:
+    """``base`` magnified by ``scale`` about (u0, v0) = (W/2 - 40, H/2 - 60) (bicubic), as a plane approaching
+    the camera off the image centre (the flow varies across every LK window)."""
+    c = np.array([W / 2 - 40, H / 2 - 60])
+    M = np.array([[scale, 0, (1 - scale) * c[0]], [0, scale, (1 - scale) * c[1]]])
+    return cv2.warpAffine(base, M, (W, H), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+
+
+@pytest.mark.parametrize("refine", ["none", "affine"])
+def test_tracks_on_an_approaching_plane_follow_the_exact_zoom(refine):
+    """12 frames of 3 % zoom each (42 % in all): the exact position of a corner is c + s^k (p0 - c). The
+    translation-only KLT track accumulates its per-frame window bias; the affine refinement against the first
+    image does not. Measured (this texture): median end error 1.67 px without (24 tracks), 0.002 px with
+    refinement (20 tracks); the bounds leave a 3x / 10x margin."""
+    base = _texture(0)
+    fe = KltFrontend(Camera(name="cam0", width=W, height=H, fx=200.0, fy=200.0, cx=W / 2 - 0.5, cy=H / 2 - 0.5),
+                     max_features=60, min_distance_px=20, refine=refine)
+    first = fe.track(base, 0)
+    c, s = np.array([W / 2 - 40, H / 2 - 60]), 1.03
+    for k in range(1, 13):
+        last = fe.track(_zoomed(base, s ** k), k)
+    common, i0, i1 = np.intersect1d(first.ids, last.ids, return_indices=True)
+    assert len(common) >= 15
+    err = np.linalg.norm(last.px[i1] - (c + s ** 12 * (first.px[i0] - c)), axis=1)
+    if refine == "affine":
+        assert np.median(err) < 0.02
+    else:
+        assert np.median(err) > 0.5
+
+
+def test_refine_option_is_validated():
+    from vo.errors import EstimatorError
+    from vo.vins.config import VinsConfig
+    assert VinsConfig(klt_refine="affine").klt_refine == "affine"
+    with pytest.raises(EstimatorError, match="klt_refine"):
+        VinsConfig(klt_refine="projective")
+    with pytest.raises(ValueError, match="refine 'x'"):
+        KltFrontend(Camera(name="cam0", width=W, height=H, fx=200.0, fy=200.0, cx=W / 2 - 0.5, cy=H / 2 - 0.5),
+                    refine="x")

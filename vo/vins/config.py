@@ -19,6 +19,7 @@ IMU_NOISE = ("rig", "table1")
 COVARIANCE = ("frame", "off")
 INIT = ("vi", "truth")
 N_COUNT = ("track", "window")
+KLT_REFINE = ("none", "affine")
 
 # seed 002 Table 2/3 configurations (plus a fixed-k Huber for comparison). "VINS" is VINS-Mono [6], whose
 # visual factors carry a Cauchy loss (scale 1 in whitened units); VINS-AC-ME replaces it by the adaptive Huber.
@@ -53,7 +54,8 @@ class VinsConfig:
     ``weight_min``/``weight_max`` bound the eq. 26 weight (a guard against degenerate g_f; 0 / inf = off).
     Window: ``window_size`` states (n = 11: 10 keyframes + newest), ``lm_iterations`` per frame.
     Front-end: ``max_features``, ``min_distance_px``, ``f_threshold_px``, ``min_parallax_px`` (at F_c),
-    ``min_tracked`` (fewer tracked features than this -> keyframe). IMU: ``imu_noise`` "rig" (the rig's
+    ``min_tracked`` (fewer tracked features than this -> keyframe), ``klt_refine`` "none" (VINS-Mono's KLT) or
+    "affine" (each track refined against its first image, :mod:`vo.vins.frontend`). IMU: ``imu_noise`` "rig" (the rig's
     calibrated Kalibr densities, as a VINS-Mono user configures the IMU; Table 1's when the rig has none) or
     "table1" (seed 002's Xsens values ``acc_n``, ``gyr_n``, ``acc_w``, ``gyr_w``).
     Start-up: SfM + alignment is tried at every new keyframe once there are ``init_min_keyframes``, on at most
@@ -84,6 +86,7 @@ class VinsConfig:
     f_threshold_px: float = knob(1.0, gt=0)
     min_parallax_px: float = knob(10.0, gt=0)
     min_tracked: int = knob(20, ge=0)
+    klt_refine: Literal[KLT_REFINE] = "none"
     imu_noise: Literal[IMU_NOISE] = "rig"
     acc_n: float = knob(0.1, gt=0)
     gyr_n: float = knob(0.01, gt=0)

@@ -47,7 +47,7 @@ class VinsEstimator(Estimator):
         self.T_i_c = np.linalg.inv(rig.imu.T_b_i_array) @ self.camera.T_b_c_array
         self.params = imu_params(self.config, rig.imu)
         self.frontend = KltFrontend(self.camera, self.config.max_features, self.config.min_distance_px,
-                                    self.config.f_threshold_px)
+                                    self.config.f_threshold_px, self.config.klt_refine)
         self.stream = None
         self.first_frame = None
         self.diagnostics: list = []

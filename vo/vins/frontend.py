@@ -2,6 +2,13 @@
 F-matrix RANSAC outlier rejection on undistorted points, new corners outside a minimum-distance mask around
 the tracked ones (longest-tracked first), and the number of times each feature was tracked (N, eq. 26).
 
+``refine="affine"`` (not in seed 002 / VINS-Mono; :mod:`vo.frontend.affine_lk`): each KLT result is refined by
+an affine window warp against the track's FIRST image (its template is kept, the warp carried from frame to
+frame), so a track's position no longer accumulates the frame-to-frame bias of translation-only LK where the
+flow varies across the window (road and roadside at car speed). Where the refinement fails (the window scaled
+or sheared beyond the bounds of :func:`vo.frontend.affine_lk.refine_to`, more than 2 px from the KLT result,
+or leaving the image) the KLT position stands and the track is re-anchored on the current image.
+
 ``track(img, t_ns, exclude)`` also takes a mask of pixels where no feature may live (``vins-oracle``: the
 moving objects of the true segmentation). Features tracked into it are dropped and no corner is detected in
 it, so the feature budget goes to the rest of the image, as a detect-and-remove front-end does.
@@ -12,6 +19,11 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
+from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
+
+REFINES = ("none", "affine")
+WIN = 21                 # LK window (VINS-Mono: 21x21)
 
 
 @dataclass(frozen=True)
@@ -37,14 +49,20 @@ class FeatureFrame:
 class KltFrontend:
     """``track(img, t_ns)`` -> :class:`FeatureFrame`. ``camera``: :class:`rigs.model.Camera` (left)."""
 
-    def __init__(self, camera, max_features: int = 150, min_distance_px: int = 30, f_threshold_px: float = 1.0):
+    def __init__(self, camera, max_features: int = 150, min_distance_px: int = 30, f_threshold_px: float = 1.0,
+                 refine: str = "none"):
+        if refine not in REFINES:
+            raise ValueError(f"KltFrontend: refine {refine!r}, expected one of {', '.join(REFINES)}")
         self.K, self.dist = camera.K, camera.dist_coeffs
         self.size = (camera.width, camera.height)
         self.max_features, self.min_dist, self.f_thr = max_features, int(min_distance_px), f_threshold_px
+        self.refine = refine
         self.prev_img = None
         self.px = np.zeros((0, 2), np.float32)
         self.ids = np.zeros(0, np.int64)
         self.count = np.zeros(0, np.int64)
+        self.tmpl = affine_template(np.zeros((WIN, WIN), np.uint8), np.zeros((0, 2)), WIN)  # refine="affine"
+        self.A = np.zeros((0, 2, 2))
         self.next_id = 0
 
     def undistort(self, px: np.ndarray) -> np.ndarray:
@@ -72,13 +90,17 @@ class KltFrontend:
 
     def _keep(self, mask: np.ndarray) -> None:
         self.px, self.ids, self.count = self.px[mask], self.ids[mask], self.count[mask]
+        if self.refine == "affine":
+            self.tmpl, self.A = self.tmpl.subset(mask), self.A[mask]
 
     def _track_klt(self, img: np.ndarray) -> None:
         p1, st, _ = cv2.calcOpticalFlowPyrLK(self.prev_img, img, self.px.reshape(-1, 1, 2), None,
-                                             winSize=(21, 21), maxLevel=3)
+                                             winSize=(WIN, WIN), maxLevel=3)
         p1 = p1.reshape(-1, 2)
         w, h = self.size
         ok = (st.ravel() == 1) & (p1[:, 0] >= 1) & (p1[:, 1] >= 1) & (p1[:, 0] < w - 1) & (p1[:, 1] < h - 1)
+        if self.refine == "affine" and ok.any():
+            self._refine(img, p1, np.flatnonzero(ok))
         p0 = self.px
         self.px = p1
         self._keep(ok)
@@ -89,6 +111,16 @@ class KltFrontend:
             _, inl = cv2.findFundamentalMat(u0, u1, cv2.FM_RANSAC, self.f_thr, 0.99)
             if inl is not None:
                 self._keep(inl.ravel() == 1)
+
+    def _refine(self, img: np.ndarray, p1: np.ndarray, idx: np.ndarray) -> None:
+        """Affine refinement of the KLT results ``p1[idx]`` against each track's template (in place). Where it
+        fails the KLT position stands and the track is re-anchored: new template there, warp reset."""
+        c, A, ok_r = refine_to(self.tmpl.subset(idx), img, p1[idx], self.A[idx])
+        good, bad = idx[ok_r], idx[~ok_r]
+        p1[good], self.A[good] = c[ok_r].astype(p1.dtype), A[ok_r]
+        if len(bad):
+            self.tmpl = _replace(self.tmpl, bad, affine_template(img, p1[bad], WIN))
+            self.A[bad] = 0.0
 
     def _detect(self, img: np.ndarray, exclude: np.ndarray | None = None) -> None:
         order = np.argsort(-self.count, kind="stable")           # longest tracks claim their area first
@@ -110,10 +142,28 @@ class KltFrontend:
         if pts is None:
             return
         pts = pts.reshape(-1, 2).astype(np.float32)
+        if self.refine == "affine":
+            self.tmpl = _concat(self.tmpl, affine_template(img, pts, WIN))
+            self.A = np.concatenate([self.A, np.zeros((len(pts), 2, 2))])
         self.px = np.vstack([self.px, pts])
         self.ids = np.concatenate([self.ids, np.arange(self.next_id, self.next_id + len(pts), dtype=np.int64)])
         self.count = np.concatenate([self.count, np.ones(len(pts), np.int64)])
         self.next_id += len(pts)
+
+
+def _replace(a: AffineTemplate, idx: np.ndarray, b: AffineTemplate) -> AffineTemplate:
+    """``a`` with its rows ``idx`` replaced by the rows of ``b``."""
+    parts = []
+    for f in ("p0", "T", "Jt", "Hinv", "ok"):
+        v = getattr(a, f).copy()
+        v[idx] = getattr(b, f)
+        parts.append(v)
+    return AffineTemplate(*parts, a.win)
+
+
+def _concat(a: AffineTemplate, b: AffineTemplate) -> AffineTemplate:
+    return AffineTemplate(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in ("p0", "T", "Jt", "Hinv", "ok")),
+                          a.win)
 
 
 def parallax_px(a: FeatureFrame, b: FeatureFrame, virtual_focal: float) -> tuple:
