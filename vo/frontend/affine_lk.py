@@ -81,6 +81,22 @@ class AffineTemplate:
         return AffineTemplate(self.p0[index], self.T[index], self.Jt[index], self.Hinv[index], self.ok[index],
                               self.win)
 
+    def concat(self, other: "AffineTemplate") -> "AffineTemplate":
+        """These points followed by ``other``'s (same ``win``)."""
+        return AffineTemplate(*(np.concatenate([getattr(self, f), getattr(other, f)]) for f in _ARRAYS), self.win)
+
+    def replaced(self, index, other: "AffineTemplate") -> "AffineTemplate":
+        """A copy whose points ``index`` (integer indices) are ``other``'s points, in order (same ``win``)."""
+        parts = []
+        for f in _ARRAYS:
+            v = getattr(self, f).copy()
+            v[index] = getattr(other, f)
+            parts.append(v)
+        return AffineTemplate(*parts, self.win)
+
+
+_ARRAYS = ("p0", "T", "Jt", "Hinv", "ok")
+
 
 def affine_template(img0: np.ndarray, p0: np.ndarray, win: int = 21) -> AffineTemplate:
     """:class:`AffineTemplate` of the ``win`` x ``win`` windows of ``img0`` at ``p0`` (N,2)."""

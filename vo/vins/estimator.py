@@ -25,7 +25,7 @@ from vo.errors import EstimatorError
 from vo.estimators.base import Estimator, FrameResult
 from vo.vins.config import VinsConfig
 from vo.vins.covariance import INIT_COV, output_covariance
-from vo.vins.frontend import KltFrontend, parallax_px
+from vo.vins.frontend import KltFrontend, mask_at, parallax_px
 from vo.vins.imu import GRAVITY, ImuStream, imu_params, preintegrate
 from vo.vins.initial import SFM_FAILED, initialize, usable_points
 from vo.vins.oracle import FeatureLabels, rule_confusion
@@ -78,9 +78,9 @@ class VinsEstimator(Estimator):
         if self.stream is None:
             raise EstimatorError(f"{self.name}: the dataset has no IMU (imu0/data.csv missing); VINS needs imu0")
         t0 = time.perf_counter()
-        exclude = self.labels.mask(frame.index) if self.remove_dynamic else None
-        feats = self.frontend.track(frame.left, frame.t_ns, exclude)
-        dynamic = self.labels.dynamic(frame.index, feats.px) if self.labels is not None else None
+        moving = self.labels.mask(frame.index) if self.labels is not None else None
+        feats = self.frontend.track(frame.left, frame.t_ns, moving if self.remove_dynamic else None)
+        dynamic = mask_at(moving, feats.px) if moving is not None else None
         t1 = time.perf_counter()
         if self.first_frame is None and feats.t_ns >= self.stream.t[0]:
             self.first_frame = feats        # images older than the first IMU sample are dropped, as in VINS-Mono

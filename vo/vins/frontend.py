@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
+from vo.frontend.affine_lk import affine_template, refine_to
 
 REFINES = ("none", "affine")
 WIN = 21                 # LK window (VINS-Mono: 21x21)
@@ -80,8 +80,7 @@ class KltFrontend:
         if self.prev_img is not None and len(self.px):
             self._track_klt(img)
         if exclude is not None and len(self.px):
-            u, v = np.rint(self.px).astype(int).T                 # the pixel whose label the feature takes
-            self._keep(~exclude[v.clip(0, self.size[1] - 1), u.clip(0, self.size[0] - 1)])
+            self._keep(~mask_at(exclude, self.px))
         self.count = self.count + 1
         self._detect(img, exclude)
         self.prev_img = img
@@ -119,7 +118,7 @@ class KltFrontend:
         good, bad = idx[ok_r], idx[~ok_r]
         p1[good], self.A[good] = c[ok_r].astype(p1.dtype), A[ok_r]
         if len(bad):
-            self.tmpl = _replace(self.tmpl, bad, affine_template(img, p1[bad], WIN))
+            self.tmpl = self.tmpl.replaced(bad, affine_template(img, p1[bad], WIN))
             self.A[bad] = 0.0
 
     def _detect(self, img: np.ndarray, exclude: np.ndarray | None = None) -> None:
@@ -143,7 +142,7 @@ class KltFrontend:
             return
         pts = pts.reshape(-1, 2).astype(np.float32)
         if self.refine == "affine":
-            self.tmpl = _concat(self.tmpl, affine_template(img, pts, WIN))
+            self.tmpl = self.tmpl.concat(affine_template(img, pts, WIN))
             self.A = np.concatenate([self.A, np.zeros((len(pts), 2, 2))])
         self.px = np.vstack([self.px, pts])
         self.ids = np.concatenate([self.ids, np.arange(self.next_id, self.next_id + len(pts), dtype=np.int64)])
@@ -151,19 +150,13 @@ class KltFrontend:
         self.next_id += len(pts)
 
 
-def _replace(a: AffineTemplate, idx: np.ndarray, b: AffineTemplate) -> AffineTemplate:
-    """``a`` with its rows ``idx`` replaced by the rows of ``b``."""
-    parts = []
-    for f in ("p0", "T", "Jt", "Hinv", "ok"):
-        v = getattr(a, f).copy()
-        v[idx] = getattr(b, f)
-        parts.append(v)
-    return AffineTemplate(*parts, a.win)
-
-
-def _concat(a: AffineTemplate, b: AffineTemplate) -> AffineTemplate:
-    return AffineTemplate(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in ("p0", "T", "Jt", "Hinv", "ok")),
-                          a.win)
+def mask_at(mask: np.ndarray, px: np.ndarray) -> np.ndarray:
+    """(n,) values of the (h,w) ``mask`` at the pixels nearest ``px`` (n,2) raw pixels (clamped to the image)."""
+    h, w = mask.shape
+    px = np.asarray(px, float).reshape(-1, 2)
+    u = np.clip(np.rint(px[:, 0]).astype(int), 0, w - 1)
+    v = np.clip(np.rint(px[:, 1]).astype(int), 0, h - 1)
+    return mask[v, u]
 
 
 def parallax_px(a: FeatureFrame, b: FeatureFrame, virtual_focal: float) -> tuple:

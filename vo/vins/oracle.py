@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from vo.errors import DatasetError, EstimatorError
+from vo.vins.frontend import mask_at
 
 
 class FeatureLabels:
@@ -46,12 +47,7 @@ class FeatureLabels:
         return np.asarray(dyn, bool)
 
     def dynamic(self, k: int, px: np.ndarray) -> np.ndarray:
-        mask = self.mask(k)
-        h, w = mask.shape
-        px = np.asarray(px, float).reshape(-1, 2)
-        u = np.clip(np.rint(px[:, 0]).astype(int), 0, w - 1)
-        v = np.clip(np.rint(px[:, 1]).astype(int), 0, h - 1)
-        return mask[v, u]
+        return mask_at(self.mask(k), px)
 
 
 def _moving_ids(path: Path) -> np.ndarray:
