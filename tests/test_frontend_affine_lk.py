@@ -7,7 +7,7 @@ homography), where translation-only LK is biased by the window-averaged flow.
 import cv2
 import numpy as np
 
-from vo.frontend.affine_lk import bilinear, refine_affine
+from vo.frontend.affine_lk import affine_template, bilinear, refine_affine
 from vo.frontend.klt import KltConfig, lk
 
 
@@ -138,3 +138,16 @@ def test_untrackable_points_are_flagged():
     assert not ok.any()
     p1, A, ok = refine_affine(img, img, np.zeros((0, 2)), np.zeros((0, 2)))
     assert p1.shape == (0, 2) and A.shape == (0, 2, 2) and ok.shape == (0,)
+
+
+def test_template_concat_and_replaced_round_trip():
+    """concat then subset gives back each part; replaced swaps exactly the given rows."""
+    rng = np.random.default_rng(3)
+    img = (rng.random((60, 80)) * 255).astype(np.uint8)
+    a = affine_template(img, np.array([[20.0, 20.0], [40.0, 30.0]]), 11)
+    b = affine_template(img, np.array([[50.0, 25.0]]), 11)
+    ab = a.concat(b)
+    assert len(ab) == 3 and np.array_equal(ab.subset([2]).T, b.T) and np.array_equal(ab.subset([0, 1]).Jt, a.Jt)
+    r = ab.replaced(np.array([0]), b)
+    assert np.array_equal(r.p0[0], b.p0[0]) and np.array_equal(r.Hinv[1:], ab.Hinv[1:])
+    assert np.array_equal(ab.p0[0], a.p0[0])                       # the original is unchanged
