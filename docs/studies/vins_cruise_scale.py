@@ -119,29 +119,16 @@ def along_sigma(cov, T_est: np.ndarray, k: int) -> float:
 
 
 class FlowBackKlt(KltFrontend):
-    """:class:`KltFrontend` with a forward-backward check (``back_px``) before the F-matrix RANSAC."""
+    """:class:`KltFrontend` whose KLT also tracks each result back (``back_px``), before the F-matrix RANSAC."""
 
     back_px = 0.5
 
-    def _track_klt(self, img: np.ndarray) -> None:
-        p0 = self.px.reshape(-1, 1, 2)
-        p1, st, _ = cv2.calcOpticalFlowPyrLK(self.prev_img, img, p0, None, winSize=(21, 21), maxLevel=3)
-        back, st_b, _ = cv2.calcOpticalFlowPyrLK(img, self.prev_img, p1, p0.copy(), winSize=(21, 21), maxLevel=1,
+    def _flow(self, img: np.ndarray) -> tuple:
+        p1, ok = super()._flow(img)
+        back, st_b, _ = cv2.calcOpticalFlowPyrLK(img, self.prev_img, p1.reshape(-1, 1, 2).astype(np.float32),
+                                                 self.px.reshape(-1, 1, 2).copy(), winSize=(21, 21), maxLevel=1,
                                                  flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
-        p1 = p1.reshape(-1, 2)
-        w, h = self.size
-        ok = (st.ravel() == 1) & (st_b.ravel() == 1) & (p1[:, 0] >= 1) & (p1[:, 1] >= 1) & (p1[:, 0] < w - 1) \
-            & (p1[:, 1] < h - 1) & (np.linalg.norm(back.reshape(-1, 2) - self.px, axis=1) <= self.back_px)
-        p0 = self.px
-        self.px = p1
-        self._keep(ok)
-        p0 = p0[ok]
-        if len(p0) >= 8:
-            f = float(self.K[0, 0])
-            _, inl = cv2.findFundamentalMat(self.undistort(p0) * f, self.undistort(self.px) * f, cv2.FM_RANSAC,
-                                            self.f_thr, 0.99)
-            if inl is not None:
-                self._keep(inl.ravel() == 1)
+        return p1, ok & (st_b.ravel() == 1) & (np.linalg.norm(back.reshape(-1, 2) - self.px, axis=1) <= self.back_px)
 
 
 def flow_back_frontend(frontend: KltFrontend, back_px: float) -> FlowBackKlt:

@@ -92,12 +92,16 @@ class KltFrontend:
         if self.refine == "affine":
             self.tmpl, self.A = self.tmpl.subset(mask), self.A[mask]
 
-    def _track_klt(self, img: np.ndarray) -> None:
+    def _flow(self, img: np.ndarray) -> tuple:
+        """Pyramidal KLT of the current features into ``img`` -> ``(p1 (n,2), ok (n,))``, inside the image."""
         p1, st, _ = cv2.calcOpticalFlowPyrLK(self.prev_img, img, self.px.reshape(-1, 1, 2), None,
                                              winSize=(WIN, WIN), maxLevel=3)
         p1 = p1.reshape(-1, 2)
         w, h = self.size
-        ok = (st.ravel() == 1) & (p1[:, 0] >= 1) & (p1[:, 1] >= 1) & (p1[:, 0] < w - 1) & (p1[:, 1] < h - 1)
+        return p1, (st.ravel() == 1) & (p1[:, 0] >= 1) & (p1[:, 1] >= 1) & (p1[:, 0] < w - 1) & (p1[:, 1] < h - 1)
+
+    def _track_klt(self, img: np.ndarray) -> None:
+        p1, ok = self._flow(img)
         if self.refine == "affine" and ok.any():
             self._refine(img, p1, np.flatnonzero(ok))
         p0 = self.px
