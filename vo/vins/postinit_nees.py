@@ -37,6 +37,27 @@ def post_init_nees(T_est: np.ndarray, cov: np.ndarray, T_true: np.ndarray) -> di
             "end_predicted_sqrt_trace_m": float(np.sqrt(np.trace(P[:, -1, 3:, 3:], axis1=1, axis2=2)).mean())}
 
 
+def main(argv=None) -> int:
+    """CLI: one-line error and exit 2 on a missing or malformed ``runs.npz``."""
+    import argparse
+    ap = argparse.ArgumentParser(prog="python -m vo.vins.postinit_nees", description=__doc__.splitlines()[0])
+    ap.add_argument("runs_npz", help="runs.npz written by vo-testbed consistency")
+    a = ap.parse_args(argv)
+    try:
+        with np.load(a.runs_npz) as d:
+            missing = [k for k in ("T_est", "cov", "T_true") if k not in d.files]
+            if missing:
+                raise VoError(f"{a.runs_npz}: no field {missing[0]!r} (a vo-testbed consistency runs.npz has "
+                              f"T_est, cov, T_true)")
+            print(post_init_nees(d["T_est"], d["cov"], d["T_true"]))
+    except (OSError, ValueError) as e:
+        print(f"error: {a.runs_npz}: cannot read ({e})", file=sys.stderr)
+        return 2
+    except VoError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
 if __name__ == "__main__":
-    d = np.load(sys.argv[1])
-    print(post_init_nees(d["T_est"], d["cov"], d["T_true"]))
+    sys.exit(main())

@@ -231,8 +231,29 @@ def format_seed_table(runs) -> str:
     return "\n".join(lines)
 
 
+def main(argv=None) -> int:
+    """CLI (module docstring): one-line error and exit 2 on bad arguments or a bad dataset."""
+    import argparse
+    from rigs.errors import TestbedError
+    ap = argparse.ArgumentParser(prog="python -m vo.vins.tables", description=__doc__.splitlines()[0])
+    ap.add_argument("dataset")
+    ap.add_argument("out")
+    ap.add_argument("frames", type=int)
+    ap.add_argument("configs", help="comma-separated estimator names, e.g. vins,vins-ac-me")
+    ap.add_argument("options", nargs="*", metavar="key=value")
+    a = ap.parse_args(argv)
+    bad = [o for o in a.options if "=" not in o]
+    if bad:
+        ap.error(f"option {bad[0]!r}: expected key=value")
+    try:
+        opts = {k: parse_value(v, k, EstimatorError) for k, v in (o.split("=", 1) for o in a.options)}
+        for r in run(a.dataset, a.out, a.frames, a.configs.split(","), opts):
+            print(json.dumps(r))
+    except TestbedError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
 if __name__ == "__main__":
-    path, out, n, names = sys.argv[1:5]
-    opts = {k: parse_value(v, k, EstimatorError) for k, v in (a.split("=", 1) for a in sys.argv[5:])}
-    for r in run(path, out, int(n), names.split(","), opts):
-        print(json.dumps(r))
+    sys.exit(main())
