@@ -1,6 +1,7 @@
 """VINS output covariance: the tangent-space map to T_o_c0 and the landmark Schur complement."""
 import gtsam
 import numpy as np
+import pytest
 
 from rigs.geometry import pose_error_left
 from vo.vins.covariance import output_covariance, output_jacobian
@@ -44,18 +45,19 @@ def test_output_covariance_is_symmetric_psd_and_maps_position():
     assert np.allclose(C, C.T) and np.linalg.eigvalsh(C).min() > -1e-15
 
 
-def test_pose_block_marginal_equals_dense_inverse():
-    """Schur complement over 3x3 landmark blocks = the corresponding block of the full inverse (to 1e-9 relative)."""
+@pytest.mark.parametrize("d", [3, 1])         # Point3 / inverse-depth landmarks
+def test_pose_block_marginal_equals_dense_inverse(d):
+    """Schur complement over dxd landmark blocks = the corresponding block of the full inverse (to 1e-9 relative)."""
     rng = np.random.default_rng(5)
     n_s, m = 21, 15
-    J = rng.normal(size=(200, n_s + 3 * m))
+    J = rng.normal(size=(200, n_s + d * m))
     for j in range(m):                      # landmark j appears only in its own rows (no landmark coupling)
         rows = np.r_[j * 12:(j + 1) * 12]
         mask = np.ones(J.shape[0], bool)
         mask[rows] = False
-        J[mask, n_s + 3 * j:n_s + 3 * j + 3] = 0.0
-    H = J.T @ J + 1e-3 * np.eye(n_s + 3 * m)
-    P = _pose_block_marginal(H, n_s)
+        J[mask, n_s + d * j:n_s + d * j + d] = 0.0
+    H = J.T @ J + 1e-3 * np.eye(n_s + d * m)
+    P = _pose_block_marginal(H, n_s, d)
     P_ref = np.linalg.inv(H)[:6, :6]
     assert np.allclose(P, P_ref, rtol=1e-9, atol=1e-12 * np.abs(P_ref).max())
 

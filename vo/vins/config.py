@@ -20,6 +20,7 @@ COVARIANCE = ("frame", "off")
 INIT = ("vi", "truth")
 N_COUNT = ("track", "window")
 KLT_REFINE = ("none", "affine")
+LANDMARK = ("point3", "inverse-depth")
 
 # seed 002 Table 2/3 configurations (plus a fixed-k Huber for comparison). "VINS" is VINS-Mono [6], whose
 # visual factors carry a Cauchy loss (scale 1 in whitened units); VINS-AC-ME replaces it by the adaptive Huber.
@@ -52,7 +53,14 @@ class VinsConfig:
     "track" (times tracked since the first detection, the front-end's count, uncapped: the reading of §4.1)
     or "window" (the number of window states observing the feature, VINS-Mono's ``used_num``, <= n).
     ``weight_min``/``weight_max`` bound the eq. 26 weight (a guard against degenerate g_f; 0 / inf = off).
-    Window: ``window_size`` states (n = 11: 10 keyframes + newest), ``lm_iterations`` per frame.
+    Window: ``window_size`` states (n = 11: 10 keyframes + newest), ``lm_iterations`` per frame; ``landmark``
+    "point3" (world points, gtsam's built-in image-plane reprojection; new landmarks need
+    ``min_triangulation_deg`` of ray parallax) or "inverse-depth" (eq. 14-19: inverse depth in the anchor
+    frame, unit-sphere residual; every feature seen twice enters, as in VINS-Mono), :mod:`vo.vins.window`;
+    ``shift_depth`` (point3): a marginalized landmark whose track goes on stays at its estimate as a new
+    landmark at once, instead of waiting for re-triangulation (inverse depth always does, as VINS-Mono);
+    ``hold_gauge``: after each optimization the window is moved back so that its oldest state keeps its position
+    and yaw (VINS-Mono's ``double2vector``; position and yaw are unobservable).
     Front-end: ``max_features``, ``min_distance_px``, ``f_threshold_px``, ``min_parallax_px`` (at F_c),
     ``min_tracked`` (fewer tracked features than this -> keyframe), ``klt_refine`` "none" (VINS-Mono's KLT) or
     "affine" (each track refined against its first image, :mod:`vo.vins.frontend`). IMU: ``imu_noise`` "rig" (the rig's
@@ -81,6 +89,10 @@ class VinsConfig:
     weight_max: Real = knob(math.inf, gt=0, parse=_positive_or_inf)
     window_size: int = knob(11, ge=3)
     lm_iterations: int = knob(6, ge=1)
+    landmark: Literal[LANDMARK] = "point3"
+    min_triangulation_deg: float = knob(1.0, ge=0, lt=90)
+    shift_depth: bool = False
+    hold_gauge: bool = False
     max_features: int = knob(150, ge=8)
     min_distance_px: int = knob(30, ge=1)
     f_threshold_px: float = knob(1.0, gt=0)

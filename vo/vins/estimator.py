@@ -231,7 +231,9 @@ class VinsEstimator(Estimator):
         return FrameResult(frame.t_ns, T, "keyframe" if is_kf else "ok", n_inliers=len(w.lm))
 
     def _triangulate_new(self) -> None:
-        """Point3 landmarks for tracks seen in >= 2 window states with >= 1 deg of ray parallax."""
+        """Landmarks for tracks seen in >= 2 window states, from the first and the newest observation.
+        Point3: only with >= ``min_triangulation_deg`` of ray parallax and a point in front of both cameras.
+        Inverse depth: every such track (VINS-Mono), at ``INIT_DEPTH_M`` where the triangulation fails."""
         w = self.window
         newest = w.states[-1]
         first_obs = {}
@@ -239,23 +241,14 @@ class VinsEstimator(Estimator):
             for i, xy in zip(st.feats.ids, st.feats.xy):
                 first_obs.setdefault(int(i), (st, xy))
         T_b = np.linalg.inv(w.T_w_c(newest))
+        max_cos = np.cos(np.radians(self.config.min_triangulation_deg))
         for i, xy in zip(newest.feats.ids, newest.feats.xy):
             i = int(i)
             if i in w.lm or i not in first_obs:
                 continue
             st, xa = first_obs[i]
-            T_a = np.linalg.inv(w.T_w_c(st))
-            ra = T_a[:3, :3].T @ np.append(xa, 1.0)
-            rb = T_b[:3, :3].T @ np.append(xy, 1.0)
-            cosang = ra @ rb / np.linalg.norm(ra) / np.linalg.norm(rb)
-            if cosang > np.cos(np.radians(1.0)):
-                continue
-            P = cv2.triangulatePoints(T_a[:3], T_b[:3], xa.reshape(2, 1), xy.reshape(2, 1)).ravel()
-            if abs(P[3]) < 1e-12:
-                continue
-            p = P[:3] / P[3]
-            za, zb = (T_a @ np.append(p, 1))[2], (T_b @ np.append(p, 1))[2]
-            if 0.1 < za < 1e3 and 0.1 < zb < 1e3:
+            p = _two_view_point(np.linalg.inv(w.T_w_c(st)), T_b, xa, xy, 1.0 if w.inv_depth else max_cos)
+            if p is not None or w.inv_depth:
                 w.add_landmark(i, p)
 
     def _diagnose(self, feats, res, dynamic=None) -> None:
@@ -270,6 +263,22 @@ class VinsEstimator(Estimator):
             d["dynamic"] = np.asarray(dynamic, bool)
             d.update(rule_confusion(dynamic, feats.count))
         self.diagnostics.append(d)
+
+
+def _two_view_point(T_a: np.ndarray, T_b: np.ndarray, xa: np.ndarray, xb: np.ndarray, max_cos: float):
+    """World point (3,) of normalized observations ``xa``/``xb`` in cameras ``T_a``/``T_b`` (T_c_w, 4x4), or None
+    when the rays' parallax angle has a cosine above ``max_cos``, the solution is at infinity, or it is not
+    0.1-1000 m in front of both cameras."""
+    ra = T_a[:3, :3].T @ np.append(xa, 1.0)
+    rb = T_b[:3, :3].T @ np.append(xb, 1.0)
+    if max_cos < 1 and ra @ rb / np.linalg.norm(ra) / np.linalg.norm(rb) > max_cos:
+        return None
+    P = cv2.triangulatePoints(T_a[:3], T_b[:3], xa.reshape(2, 1), xb.reshape(2, 1)).ravel()
+    if abs(P[3]) < 1e-12:
+        return None
+    p = P[:3] / P[3]
+    za, zb = (T_a @ np.append(p, 1))[2], (T_b @ np.append(p, 1))[2]
+    return p if 0.1 < za < 1e3 and 0.1 < zb < 1e3 else None
 
 
 def _rotation_to_down(g_v: np.ndarray) -> np.ndarray:

@@ -1,22 +1,27 @@
 """Sliding-window visual-inertial factor graph (seed 002 §3.4-3.5, eq. 20/31) on gtsam.
 
 States per frame (eq. 2): ``X(k)`` Pose3 ``T_w_i`` (IMU = body), ``V(k)`` velocity in w, ``B(k)`` the
-accelerometer and gyro biases. Camera-IMU extrinsics (eq. 3) are fixed from the calibration (the
-projection factor's ``body_P_sensor``). Features are gtsam ``Point3`` landmarks ``L(j)`` in w.
+accelerometer and gyro biases. Camera-IMU extrinsics (eq. 3) are fixed from the calibration.
 
-Deviation from the paper: eq. 14-19 parametrize a feature by its inverse depth in the first observing
-frame and measure on the unit sphere. Both need a Python ``CustomFactor`` (about 10x the cost of a built-in
-factor), so the landmarks are Point3 and the residual is gtsam's image-plane reprojection
-(``GenericProjectionFactorCal3_S2`` on undistorted pixels). For the same noise the image-plane and
-tangent-plane residuals agree to first order near the image centre; they differ for wide fields of view
-(the cameras here are < 100 deg). The adaptive weights and the Huber loss are carried per factor.
+Features (option ``landmark``):
+* ``"inverse-depth"`` (eq. 3, 14-19): ``L(j)`` is a 1-vector, the inverse depth of the feature in its anchor,
+  the first window state that observes it; each later observation is a unit-sphere residual
+  (:mod:`vo.vins.inverse_depth`, a Python ``CustomFactor``). When the anchor is marginalized the feature's
+  depth moves to the next observing state (VINS-Mono's ``shift_depth``).
+* ``"point3"`` (the default, for speed): ``L(j)`` is a gtsam ``Point3`` in w and the residual gtsam's built-in
+  image-plane reprojection (``GenericProjectionFactorCal3_S2`` on undistorted pixels, the extrinsics as its
+  ``body_P_sensor``), about 10x cheaper than the custom factor. For the same noise the image-plane and
+  tangent-plane residuals agree to first order near the image centre (the cameras here are < 100 deg);
+  every observation, the first included, is a residual. A track whose landmark was marginalized continues
+  as a new landmark once it is re-triangulated (at once, at its estimate, with ``shift_depth``).
+The adaptive weights and the Huber loss are carried per factor in both.
 
 Window (n = ``window_size`` states, the two strategies of §3.4): when a frame arrives and the previous
 newest frame is not a keyframe, that frame is dropped with its visual measurements and the IMU is
 pre-integrated from the keyframe before it (the IMU information is kept); when it is a keyframe and the
 window is full, the oldest state is marginalized with the landmarks it observes by the Schur complement
-(``eliminatePartialSequential``) into a ``LinearContainerFactor`` prior. As in VINS-Mono, a track whose
-landmark was marginalized continues as a new landmark.
+(``eliminatePartialSequential``) into a ``LinearContainerFactor`` prior. With ``hold_gauge`` the window is
+moved back after each optimization so that its oldest state keeps its position and yaw (VINS-Mono).
 """
 from __future__ import annotations
 
@@ -28,9 +33,11 @@ from gtsam.symbol_shorthand import B, L, V, X
 
 from vo.vins.adaptive import geometry_factor, noise_model
 from vo.vins.imu import preintegrate
+from vo.vins.inverse_depth import inverse_depth_factor, inverse_depth_of, point_of
 
 LANDMARK_PRIOR_M = 1e3      # std of the regularising landmark prior of pose_covariance
 MARG_PRIOR_RELATIVE = 3e-8     # landmark prior of marginalization, relative to its bearing information
+INIT_DEPTH_M = 5.0             # inverse-depth landmarks: depth where two-view triangulation fails (VINS-Mono)
 
 
 @dataclass
@@ -47,7 +54,12 @@ class Window:
         self.cfg, self.stream, self.params = config, imu_stream, imu_params
         self.K = gtsam.Cal3_S2(camera.fx, camera.fy, 0.0, camera.cx, camera.cy)
         self.fx = camera.fx
-        self.P_i_c = gtsam.Pose3(np.asarray(T_i_c, float))
+        self.T_i_c = np.asarray(T_i_c, float)
+        self.P_i_c = gtsam.Pose3(self.T_i_c)
+        self.inv_depth = config.landmark == "inverse-depth"
+        self.noise_fx = 1.0 if self.inv_depth else self.fx     # residual unit: radians / pixels
+        self.anchor: dict = {}          # inverse depth: track id -> (anchor state k, its normalized xy)
+        self.noise_depends_on_n = config.use_track_count or config.robust == "adaptive-huber"
         self.states: list[State] = []
         self.values = gtsam.Values()
         self.priors: list = []
@@ -83,6 +95,8 @@ class Window:
     def drop_second_newest(self) -> None:
         """§3.4 strategy 2: remove the second-newest (non-keyframe) state and its visual measurements."""
         st = self.states.pop(-2)
+        for i in [i for i, (k, _) in self.anchor.items() if k == st.k]:
+            self.remove_landmark(i)
         for key in (X(st.k), V(st.k), B(st.k)):
             self.values.erase(key)
         self._forget(st.k)
@@ -94,19 +108,41 @@ class Window:
 
     def set_geometry(self, st: State) -> None:
         """g_f of the image (eq. 22-25) from the landmarks it sees and its (predicted) camera position."""
-        p_w = [self.values.atPoint3(L(self.lm[i])) for i in st.feats.ids.tolist() if i in self.lm]
-        T_w_c = self.values.atPose3(X(st.k)).compose(self.P_i_c)
-        st.g_f = geometry_factor(np.array(p_w).reshape(-1, 3), T_w_c.translation())
+        p_w = [self.landmark_w(i) for i in st.feats.ids.tolist() if i in self.lm]
+        st.g_f = geometry_factor(np.array(p_w).reshape(-1, 3), self.T_w_c(st)[:3, 3])
 
     # ------------------------------------------------------------------ landmarks
     def add_landmark(self, track: int, p_w: np.ndarray) -> None:
+        """A landmark at the world point ``p_w`` (as the inverse depth in its anchor: INIT_DEPTH_M if behind)."""
         key = self.next_lm
         self.next_lm += 1
         self.lm[int(track)] = key
-        self.values.insert(L(key), gtsam.Point3(*np.asarray(p_w, float)))
+        if not self.inv_depth:
+            self.values.insert(L(key), gtsam.Point3(*np.asarray(p_w, float)))
+            return
+        st, xy = self.first_observation(int(track))
+        rho = inverse_depth_of(p_w, self.T_w_c(st)) if p_w is not None else float("nan")
+        self.anchor[int(track)] = (st.k, xy)
+        self.values.insert(L(key), np.array([rho if np.isfinite(rho) else 1.0 / INIT_DEPTH_M]))
+
+    def first_observation(self, track: int):
+        """(state, normalized xy) of the oldest window state observing ``track``."""
+        for st in self.states:
+            if track in st.feats.id_set:
+                return st, st.feats.xy[int(np.flatnonzero(st.feats.ids == track)[0])].copy()
+        raise KeyError(track)
+
+    def landmark_w(self, track: int) -> np.ndarray:
+        """World position (3,) of the landmark of ``track``."""
+        key = L(self.lm[track])
+        if not self.inv_depth:
+            return self.values.atPoint3(key)
+        k, xy = self.anchor[track]
+        return point_of(self.values.atVector(key)[0], xy, self.values.atPose3(X(k)).compose(self.P_i_c).matrix())
 
     def remove_landmark(self, track: int) -> None:
         key = self.lm.pop(int(track))
+        self.anchor.pop(int(track), None)
         self.values.erase(L(key))
         for per_state in self.cache.values():
             per_state.pop(key, None)
@@ -125,17 +161,24 @@ class Window:
         changes."""
         if n is None:
             n = (self._window_counts() if self.cfg.n_count == "window" else self.counts).get(track, 1)
+        if not self.noise_depends_on_n:
+            n = 0                         # the same noise for every N: keep the factor across frames
         key = self.lm[track]
+        if self.inv_depth and self.anchor[track][0] == st.k:
+            return None                   # the anchor observation defines the bearing (no residual)
         per_state = self.cache.setdefault(st.k, {})
         hit = per_state.get(key)
         if hit is None or hit[0] != n:
             noise = self.noise_cache.get((st.k, n))
             if noise is None:
-                noise = self.noise_cache[(st.k, n)] = noise_model(self.cfg, st.g_f, n, self.fx)
-            uv = np.array([self.K.fx() * xy[0] + self.K.px(), self.K.fy() * xy[1] + self.K.py()])
-            hit = (n, gtsam.GenericProjectionFactorCal3_S2(uv, noise, X(st.k), L(key), self.K, False, False,
-                                                           self.P_i_c))
-            per_state[key] = hit
+                noise = self.noise_cache[(st.k, n)] = noise_model(self.cfg, st.g_f, n, self.noise_fx)
+            if self.inv_depth:
+                k_a, xy_a = self.anchor[track]
+                f = inverse_depth_factor(noise, X(k_a), X(st.k), L(key), xy_a, xy, self.T_i_c)
+            else:
+                uv = np.array([self.K.fx() * xy[0] + self.K.px(), self.K.fy() * xy[1] + self.K.py()])
+                f = gtsam.GenericProjectionFactorCal3_S2(uv, noise, X(st.k), L(key), self.K, False, False, self.P_i_c)
+            hit = per_state[key] = (n, f)
         return hit[1]
 
     # ------------------------------------------------------------------ graph
@@ -157,7 +200,9 @@ class Window:
             for i, xy in zip(st.feats.ids, st.feats.xy):
                 i = int(i)
                 if i in self.lm and (tracks is None or i in tracks):
-                    out.append(self._factor(st, i, xy, counts.get(i, 1)))
+                    f = self._factor(st, i, xy, counts.get(i, 1))
+                    if f is not None:
+                        out.append(f)
         return out
 
     def graph(self) -> gtsam.NonlinearFactorGraph:
@@ -175,8 +220,30 @@ class Window:
         g = self.graph()
         params = gtsam.LevenbergMarquardtParams()
         params.setMaxIterations(self.cfg.lm_iterations)
+        before = self.values.atPose3(X(self.states[0].k))
         self.values = gtsam.LevenbergMarquardtOptimizer(g, self.values, params).optimize()
+        if self.cfg.hold_gauge:
+            self._hold_gauge(before)
         self._reject_bad_landmarks()
+
+    def _hold_gauge(self, T_before: gtsam.Pose3) -> None:
+        """VINS-Mono's ``double2vector``: position and yaw are unobservable, so after the optimization the whole
+        window (poses, velocities, world landmarks) is moved by the rotation about the vertical and the shift
+        that put the oldest state back at its position and yaw from before it (roll and pitch are observable
+        through gravity and keep their optimized values)."""
+        T_after = self.values.atPose3(X(self.states[0].k))
+        yaw = lambda R: np.arctan2(R[1, 0], R[0, 0])                      # noqa: E731
+        dyaw = yaw(T_before.rotation().matrix()) - yaw(T_after.rotation().matrix())
+        R_d = gtsam.Rot3.Rz(dyaw)
+        p0_before, p0_after = T_before.translation(), T_after.translation()
+        move = lambda p: R_d.matrix() @ (np.asarray(p) - p0_after) + p0_before     # noqa: E731
+        for st in self.states:
+            T = self.values.atPose3(X(st.k))
+            self.values.update(X(st.k), gtsam.Pose3(R_d.compose(T.rotation()), move(T.translation())))
+            self.values.update(V(st.k), R_d.matrix() @ self.values.atVector(V(st.k)))
+        if not self.inv_depth:
+            for key in self.lm.values():
+                self.values.update(L(key), gtsam.Point3(*move(self.values.atPoint3(L(key)))))
 
     def _drop_single_observations(self) -> None:
         """Remove landmarks seen by fewer than two window states (VINS-Mono optimises features with
@@ -187,14 +254,15 @@ class Window:
             self.remove_landmark(i)
 
     def _reject_bad_landmarks(self) -> None:
-        """Drop landmarks behind or too close to any observing camera (VINS-Mono's failed-depth removal)."""
-        bad = set()
+        """Drop landmarks behind, closer than 0.1 m to or farther than 10 km from any observing camera
+        (VINS-Mono's failed-depth removal); an inverse depth at or below 1e-4 m^-1 is the same 10 km."""
+        bad = {i for i, key in self.lm.items() if self.inv_depth and not self.values.atVector(L(key))[0] > 1e-4}
         for st in self.states:
             T_c_w = self.values.atPose3(X(st.k)).compose(self.P_i_c).inverse()
             for i in st.feats.ids:
                 i = int(i)
                 if i in self.lm and i not in bad:
-                    z = T_c_w.transformFrom(self.values.atPoint3(L(self.lm[i])))[2]
+                    z = T_c_w.transformFrom(self.landmark_w(i))[2]
                     if not 0.1 < z < 1e4:
                         bad.add(i)
         for i in bad:
@@ -234,12 +302,17 @@ class Window:
             sub.insert(key, self.values.atPose3(key) if c == ord("x") else
                        self.values.atVector(key) if c == ord("v") else self.values.atConstantBias(key))
         self.priors = rest + [gtsam.LinearContainerFactor(f, sub) for f in factors]
+        moved = {i: self.landmark_w(i) for i in tracks} if self.inv_depth or self.cfg.shift_depth else {}
         for i in tracks:
             self.remove_landmark(i)
         self.states.pop(0)
         for key in (X(old.k), V(old.k), B(old.k)):
             self.values.erase(key)
         self._forget(old.k)
+        n_obs = self._window_counts()
+        for i, p_w in moved.items():         # shift_depth: the track continues, anchored at its next observer
+            if n_obs.get(i, 0) >= 2:
+                self.add_landmark(i, p_w)
 
     def _landmark_regularisers(self, visual, c_w: np.ndarray) -> list:
         """A prior at the estimate of each landmark of the reprojection factors ``visual``, whose information
@@ -253,10 +326,15 @@ class Window:
         for f in visual:
             m = f.noiseModel()
             sigma = (m.noise() if isinstance(m, gtsam.noiseModel.Robust) else m).sigmas()[0]
-            key = f.keys()[1]
-            info[key] = info.get(key, 0.0) + (self.fx / sigma) ** 2
+            key = f.keys()[-1]
+            info[key] = info.get(key, 0.0) + (self.noise_fx / sigma) ** 2
         out = []
         for key, bearing in info.items():
+            if self.inv_depth:          # the same information along the ray: sigma_rho = rho / sqrt(c bearing)
+                rho = self.values.atVector(key)
+                noise = gtsam.noiseModel.Isotropic.Sigma(1, abs(rho[0]) / np.sqrt(MARG_PRIOR_RELATIVE * bearing))
+                out.append(gtsam.PriorFactorVector(key, rho, noise))
+                continue
             p_w = self.values.atPoint3(key)
             r = max(float(np.linalg.norm(p_w - c_w)), 0.1)
             sigma_m = r / np.sqrt(MARG_PRIOR_RELATIVE * bearing)
@@ -277,23 +355,35 @@ class Window:
         estimate; 1e-6 m^-2 of information) so that ``H`` is invertible; it changes the pose marginal by far
         less than its own size."""
         g = self.graph()
-        noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_PRIOR_M)
-        for key in self.lm.values():
-            g.add(gtsam.PriorFactorPoint3(L(key), self.values.atPoint3(L(key)), noise))
+        for i in self.lm:
+            g.add(self._weak_landmark_prior(i))
         lm_keys = [L(key) for key in self.lm.values()]
         lm_set = set(lm_keys)
         keys = list(dict.fromkeys([X(st.k)] + [k for k in g.keyVector() if k not in lm_set])) + lm_keys
         H, _ = g.linearize(self.values).hessian(gtsam.Ordering(keys))
-        return _pose_block_marginal(H, H.shape[0] - 3 * len(lm_keys))
+        d = 1 if self.inv_depth else 3
+        return _pose_block_marginal(H, H.shape[0] - d * len(lm_keys), d)
+
+    def _weak_landmark_prior(self, track: int):
+        """``LANDMARK_PRIOR_M`` std at the estimate; for an inverse depth the same std along the ray
+        (d p / d rho = |m_a| / rho^2)."""
+        key = L(self.lm[track])
+        if not self.inv_depth:
+            return gtsam.PriorFactorPoint3(key, self.values.atPoint3(key),
+                                           gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_PRIOR_M))
+        rho = self.values.atVector(key)
+        m_a = np.append(self.anchor[track][1], 1.0)
+        sigma = LANDMARK_PRIOR_M * rho[0] ** 2 / np.linalg.norm(m_a)
+        return gtsam.PriorFactorVector(key, rho, gtsam.noiseModel.Isotropic.Sigma(1, max(sigma, 1e-12)))
 
 
-def _pose_block_marginal(H: np.ndarray, n_s: int) -> np.ndarray:
-    """Covariance of the first 6 variables of information ``H`` whose variables after ``n_s`` are 3-vectors
-    coupled only to the first ``n_s`` (landmarks): Schur complement of the 3x3 landmark blocks, then a solve."""
-    m = (H.shape[0] - n_s) // 3
-    H_ss, H_sl = H[:n_s, :n_s], H[:n_s, n_s:].reshape(n_s, m, 3)
-    blocks = np.stack([H[n_s + 3 * j:n_s + 3 * j + 3, n_s + 3 * j:n_s + 3 * j + 3] for j in range(m)]) if m else \
-        np.zeros((0, 3, 3))
+def _pose_block_marginal(H: np.ndarray, n_s: int, d: int = 3) -> np.ndarray:
+    """Covariance of the first 6 variables of information ``H`` whose variables after ``n_s`` are d-vectors
+    coupled only to the first ``n_s`` (landmarks): Schur complement of the dxd landmark blocks, then a solve."""
+    m = (H.shape[0] - n_s) // d
+    H_ss, H_sl = H[:n_s, :n_s], H[:n_s, n_s:].reshape(n_s, m, d)
+    blocks = np.stack([H[n_s + d * j:n_s + d * j + d, n_s + d * j:n_s + d * j + d] for j in range(m)]) if m else \
+        np.zeros((0, d, d))
     Y = np.einsum("iak,akl->ial", H_sl, np.linalg.inv(blocks), optimize=True)
     S = H_ss - Y.reshape(n_s, -1) @ H_sl.reshape(n_s, -1).T
     P = np.linalg.solve(S, np.eye(n_s)[:, :6])[:6]
