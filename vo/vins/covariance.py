@@ -17,12 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from rigs.geometry import skew
+
 # reported while the estimator is initialising (identity pose, motion unknown): 1 rad and 100 m std
 INIT_COV = np.diag([1.0] * 3 + [1e4] * 3)
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def output_jacobian(T_o_w: np.ndarray, T_w_i: np.ndarray, T_i_c: np.ndarray) -> np.ndarray:
@@ -31,7 +29,7 @@ def output_jacobian(T_o_w: np.ndarray, T_w_i: np.ndarray, T_i_c: np.ndarray) -> 
     A = R_o_w @ R_w_i
     J = np.zeros((6, 6))
     J[:3, :3] = A
-    J[3:, :3] = -R_o_w @ _skew(R_w_i @ T_i_c[:3, 3]) @ R_w_i
+    J[3:, :3] = -R_o_w @ skew(R_w_i @ T_i_c[:3, 3]) @ R_w_i
     J[3:, 3:] = A
     return J
 

@@ -28,6 +28,8 @@ from functools import partial
 import gtsam
 import numpy as np
 
+from rigs.geometry import skew
+
 
 def tangent_basis(b: np.ndarray) -> np.ndarray:
     """(2,3) rows: an orthonormal basis of the plane orthogonal to the unit vector ``b`` (3,)."""
@@ -35,11 +37,6 @@ def tangent_basis(b: np.ndarray) -> np.ndarray:
     e1 = np.array([y, -x, 0.0]) if abs(z) < 0.9 else np.array([0.0, z, -y])     # b x e_z, else b x e_x
     e1 /= math.sqrt(e1 @ e1)
     return np.stack([e1, [y * e1[2] - z * e1[1], z * e1[0] - x * e1[2], x * e1[1] - y * e1[0]]])
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    x, y, z = v.tolist()
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
 @dataclass(frozen=True)
@@ -78,8 +75,8 @@ def residual_and_jacobians(M_a: np.ndarray, M_j: np.ndarray, rho: float, ob: _Ob
         return r, None
     A = (ob.BT - Bu[:, None] * u) @ (ob.R_ic.T / n)     # d r / d P_bj (d r / d P_cj = (BT - Bu u^T) / n)
     AjRa = A @ (R_j.T @ R_a)                           # d r / d (R_a^T P_w)
-    H_a = np.hstack([AjRa @ _skew(-P_ba), AjRa])
-    H_j = np.hstack([A @ _skew(q), -A])
+    H_a = np.hstack([AjRa @ skew(-P_ba), AjRa])
+    H_j = np.hstack([A @ skew(q), -A])
     return r, (H_a, H_j, (AjRa @ ob.Rm).reshape(2, 1) / (-rho * rho))
 
 
