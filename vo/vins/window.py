@@ -138,7 +138,7 @@ class Window:
         if not self.inv_depth:
             return self.values.atPoint3(key)
         k, xy = self.anchor[track]
-        return point_of(self.values.atVector(key)[0], xy, self.values.atPose3(X(k)).compose(self.P_i_c).matrix())
+        return point_of(self.values.atVector(key)[0], xy, self._T_w_c_of(k))
 
     def remove_landmark(self, track: int) -> None:
         key = self.lm.pop(int(track))
@@ -257,12 +257,13 @@ class Window:
         """Drop landmarks behind, closer than 0.1 m to or farther than 10 km from any observing camera
         (VINS-Mono's failed-depth removal); an inverse depth at or below 1e-4 m^-1 is the same 10 km."""
         bad = {i for i, key in self.lm.items() if self.inv_depth and not self.values.atVector(L(key))[0] > 1e-4}
+        p_w = {i: self.landmark_w(i) for i in self.lm if i not in bad}
         for st in self.states:
             T_c_w = self.values.atPose3(X(st.k)).compose(self.P_i_c).inverse()
             for i in st.feats.ids:
                 i = int(i)
                 if i in self.lm and i not in bad:
-                    z = T_c_w.transformFrom(self.landmark_w(i))[2]
+                    z = T_c_w.transformFrom(p_w[i])[2]
                     if not 0.1 < z < 1e4:
                         bad.add(i)
         for i in bad:
@@ -343,7 +344,10 @@ class Window:
 
     # ------------------------------------------------------------------ outputs
     def T_w_c(self, st: State) -> np.ndarray:
-        return self.values.atPose3(X(st.k)).compose(self.P_i_c).matrix()
+        return self._T_w_c_of(st.k)
+
+    def _T_w_c_of(self, k: int) -> np.ndarray:
+        return self.values.atPose3(X(k)).compose(self.P_i_c).matrix()
 
     def pose_covariance(self, st: State):
         """6x6 marginal covariance of X(k) (gtsam's tangent [rotation, translation], body frame).
