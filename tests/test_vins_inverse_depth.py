@@ -8,7 +8,7 @@ from rigs.geometry import R_from_opk_deg, inv_T, make_T
 from rigs.model import Camera, Imu
 from vo.vins.config import VinsConfig
 from vo.vins.frontend import FeatureFrame
-from vo.vins.inverse_depth import inverse_depth_factor, inverse_depth_of, point_of, tangent_basis
+from vo.vins.inverse_depth import inverse_depth_factor, inverse_depth_group, inverse_depth_of, point_of, tangent_basis
 from vo.vins.window import Window
 
 CAM = Camera("cam0", 640, 480, 500.0, 500.0, 320.0, 240.0,
@@ -99,12 +99,14 @@ def _window(landmark):
 
 
 def test_window_inverse_depth_landmarks():
-    """Anchored at the first observer (no residual there: 2 factors per landmark for 3 states, 3 with
-    Point3), world positions recovered exactly, zero visual error at the truth."""
-    for landmark, per_lm in (("inverse-depth", 2), ("point3", 3)):
+    """Anchored at the first observer (no residual there: 2 residuals per landmark for 3 states, 3 with
+    Point3; inverse depth groups them by (anchor, observer) pair), world positions recovered exactly, zero
+    visual error at the truth."""
+    for landmark, per_lm, n_factors in (("inverse-depth", 2, 2), ("point3", 3, 15)):
         w, p_w = _window(landmark)
         fs = w.visual_factors()
-        assert len(fs) == per_lm * len(p_w)
+        assert len(list(w.observations())) == per_lm * len(p_w) and len(fs) == n_factors
+        assert sum(f.dim() for f in fs) == 2 * per_lm * len(p_w)
         for i, p in p_w.items():
             assert np.allclose(w.landmark_w(i), p, atol=1e-12)
         assert max(abs(f.error(w.values)) for f in fs) < 1e-20
@@ -150,3 +152,40 @@ def test_hold_gauge_undoes_a_yaw_and_shift_of_the_whole_window(landmark):
     R0 = w.values.atPose3(X(w.states[0].k)).rotation().matrix()
     assert np.degrees(np.arccos(np.clip((np.trace(R0.T @ before[0][:3, :3]) - 1) / 2, -1, 1))) == \
         pytest.approx(2.0, abs=0.05)
+
+
+@pytest.mark.parametrize("kind", ["none", "huber", "cauchy"])
+def test_group_equals_single_factors_with_gtsam_robust_noise(kind):
+    """One group factor of 6 observations (features anchored in X(0), seen in X(1)) gives the same linear
+    system (information and gradient) and the same error as 6 single-observation factors, each with gtsam's
+    own ``noiseModel.Robust`` (mEstimator on an isotropic sigma). The observations are perturbed by 0 to 20
+    sigma, so the robust losses act inside and outside their thresholds."""
+    rng = np.random.default_rng(7)
+    T_a, T_j, _, _, _ = _scene(rng)
+    k = 6
+    xy_a = rng.uniform(-0.3, 0.3, (k, 2))
+    rho = 1.0 / rng.uniform(4.0, 30.0, k)
+    sigma = 1.5 / 460 / rng.uniform(0.5, 2.0, k)
+    c = rng.uniform(0.5, 3.0, k)
+    xy_j = np.zeros((k, 2))
+    for i in range(k):
+        p_c = (inv_T(T_j @ T_I_C) @ np.append(point_of(rho[i], xy_a[i], T_a @ T_I_C), 1.0))[:3]
+        xy_j[i] = p_c[:2] / p_c[2] + sigma[i] * i * 4.0 * np.array([0.6, -0.8])
+    v = gtsam.Values()
+    v.insert(X(0), gtsam.Pose3(T_a))
+    v.insert(X(1), gtsam.Pose3(T_j))
+    for i in range(k):
+        v.insert(L(i), np.array([rho[i] * (1.0 + 0.05 * i)]))
+    make = {"huber": gtsam.noiseModel.mEstimator.Huber.Create, "cauchy": gtsam.noiseModel.mEstimator.Cauchy.Create}
+    singles, group = gtsam.NonlinearFactorGraph(), gtsam.NonlinearFactorGraph()
+    for i in range(k):
+        base = gtsam.noiseModel.Isotropic.Sigma(2, sigma[i])
+        noise = base if kind == "none" else gtsam.noiseModel.Robust.Create(make[kind](c[i]), base)
+        singles.add(inverse_depth_factor(noise, X(0), X(1), L(i), xy_a[i], xy_j[i], T_I_C))
+    group.add(inverse_depth_group(X(0), X(1), [L(i) for i in range(k)], xy_a, xy_j, T_I_C, sigma, kind, c))
+    order = gtsam.Ordering([X(0), X(1)] + [L(i) for i in range(k)])
+    H1, g1 = singles.linearize(v).hessian(order)
+    H2, g2 = group.linearize(v).hessian(order)
+    assert np.abs(H1 - H2).max() < 1e-9 * np.abs(H1).max() and np.abs(g1 - g2).max() < 1e-9 * np.abs(g1).max()
+    assert group.error(v) == pytest.approx(singles.error(v), rel=1e-12)
+    assert singles.error(v) > 10.0                      # the perturbations are felt

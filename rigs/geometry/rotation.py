@@ -62,9 +62,12 @@ def opk_deg_from_R(R: np.ndarray) -> np.ndarray:
 
 
 def skew(v) -> np.ndarray:
-    """(3,) -> (3,3) cross-product matrix."""
-    x, y, z = np.asarray(v, dtype=float)
-    return np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
+    """(..., 3) -> (..., 3, 3) cross-product matrices: ``skew(a) @ b = a x b``."""
+    v = np.asarray(v, dtype=float)
+    S = np.zeros(v.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    S[..., 1, 0], S[..., 2, 0], S[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    return S
 
 
 def so3_exp(phi) -> np.ndarray:

@@ -51,13 +51,23 @@ def huber_k(config, count: int) -> float | None:
     return None
 
 
+def residual_sigma(config, g_f: float, count: int, fx: float) -> float:
+    """Standard deviation of one reprojection residual in pixels of focal length ``fx`` (radians at fx = 1)."""
+    return config.pixel_sigma / config.virtual_focal * fx / visual_weight(config, g_f, count)
+
+
+def robust_kernel(config, count: int) -> tuple[str, float]:
+    """(kind, threshold) of the robust loss (:data:`vo.vins.robust.KINDS`): Cauchy of scale ``robust_k``, Huber
+    of :func:`huber_k`, or ("none", inf)."""
+    if config.robust == "cauchy":
+        return "cauchy", config.robust_k
+    k = huber_k(config, count)
+    return ("none", float("inf")) if k is None else ("huber", k)
+
+
 def noise_model(config, g_f: float, count: int, fx: float):
     """gtsam noise model of one reprojection residual in pixels of focal length ``fx``."""
-    sigma_px = config.pixel_sigma / config.virtual_focal * fx / visual_weight(config, g_f, count)
-    base = gtsam.noiseModel.Isotropic.Sigma(2, sigma_px)
-    if config.robust == "cauchy":
-        return gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(config.robust_k), base)
-    k = huber_k(config, count)
-    if k is None:
-        return base
-    return gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(k), base)
+    base = gtsam.noiseModel.Isotropic.Sigma(2, residual_sigma(config, g_f, count, fx))
+    kind, c = robust_kernel(config, count)
+    make = {"cauchy": gtsam.noiseModel.mEstimator.Cauchy.Create, "huber": gtsam.noiseModel.mEstimator.Huber.Create}
+    return base if kind == "none" else gtsam.noiseModel.Robust.Create(make[kind](c), base)

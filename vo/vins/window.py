@@ -6,8 +6,9 @@ accelerometer and gyro biases. Camera-IMU extrinsics (eq. 3) are fixed from the 
 Features (option ``landmark``):
 * ``"inverse-depth"`` (eq. 3, 14-19): ``L(j)`` is a 1-vector, the inverse depth of the feature in its anchor,
   the first window state that observes it; each later observation is a unit-sphere residual
-  (:mod:`vo.vins.inverse_depth`, a Python ``CustomFactor``). When the anchor is marginalized the feature's
-  depth moves to the next observing state (VINS-Mono's ``shift_depth``).
+  (:mod:`vo.vins.inverse_depth`; one Python ``CustomFactor`` per (anchor, observer) pair of states, each
+  observation with its own sigma and robust loss). When the anchor is marginalized the feature's depth moves
+  to the next observing state (VINS-Mono's ``shift_depth``).
 * ``"point3"`` (the default, for speed): ``L(j)`` is a gtsam ``Point3`` in w and the residual gtsam's built-in
   image-plane reprojection (``GenericProjectionFactorCal3_S2`` on undistorted pixels, the extrinsics as its
   ``body_P_sensor``), about 10x cheaper than the custom factor. For the same noise the image-plane and
@@ -31,9 +32,9 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import B, L, V, X
 
-from vo.vins.adaptive import geometry_factor, noise_model
+from vo.vins.adaptive import geometry_factor, noise_model, residual_sigma, robust_kernel
 from vo.vins.imu import preintegrate
-from vo.vins.inverse_depth import inverse_depth_factor, inverse_depth_of, point_of
+from vo.vins.inverse_depth import inverse_depth_group, inverse_depth_of, point_of
 
 LANDMARK_PRIOR_M = 1e3      # std of the regularising landmark prior of pose_covariance
 MARG_PRIOR_RELATIVE = 3e-8     # landmark prior of marginalization, relative to its bearing information
@@ -156,28 +157,22 @@ class Window:
         return out
 
     def _factor(self, st: State, track: int, xy: np.ndarray, n: int | None = None):
-        """Reprojection factor of ``track`` in ``st``; its noise uses the image's g_f and the feature's current
-        N (eq. 26: N_{f,t,l} at the optimisation epoch t; ``n``, else counted here), so it is rebuilt when N
-        changes."""
+        """Point3 reprojection factor of ``track`` in ``st``; its noise uses the image's g_f and the feature's
+        current N (eq. 26: N_{f,t,l} at the optimisation epoch t; ``n``, else counted here), so it is rebuilt
+        when N changes."""
         if n is None:
             n = (self._window_counts() if self.cfg.n_count == "window" else self.counts).get(track, 1)
         if not self.noise_depends_on_n:
             n = 0                         # the same noise for every N: keep the factor across frames
         key = self.lm[track]
-        if self.inv_depth and self.anchor[track][0] == st.k:
-            return None                   # the anchor observation defines the bearing (no residual)
         per_state = self.cache.setdefault(st.k, {})
         hit = per_state.get(key)
         if hit is None or hit[0] != n:
             noise = self.noise_cache.get((st.k, n))
             if noise is None:
                 noise = self.noise_cache[(st.k, n)] = noise_model(self.cfg, st.g_f, n, self.noise_fx)
-            if self.inv_depth:
-                k_a, xy_a = self.anchor[track]
-                f = inverse_depth_factor(noise, X(k_a), X(st.k), L(key), xy_a, xy, self.T_i_c)
-            else:
-                uv = np.array([self.K.fx() * xy[0] + self.K.px(), self.K.fy() * xy[1] + self.K.py()])
-                f = gtsam.GenericProjectionFactorCal3_S2(uv, noise, X(st.k), L(key), self.K, False, False, self.P_i_c)
+            uv = np.array([self.K.fx() * xy[0] + self.K.px(), self.K.fy() * xy[1] + self.K.py()])
+            f = gtsam.GenericProjectionFactorCal3_S2(uv, noise, X(st.k), L(key), self.K, False, False, self.P_i_c)
             hit = per_state[key] = (n, f)
         return hit[1]
 
@@ -191,19 +186,33 @@ class Window:
                                                        self.values.atConstantBias(B(a.k)))
         return gtsam.CombinedImuFactor(X(a.k), V(a.k), X(b.k), V(b.k), B(a.k), B(b.k), pim)
 
-    def visual_factors(self, states=None, tracks=None):
-        """Reprojection factors; N per track is the front-end count (``n_count=track``) or the number of
-        observing window states (``n_count=window``), both as of the newest frame."""
+    def observations(self, states=None, tracks=None):
+        """(state, track id, normalized xy, N) of every reprojection residual of ``states`` (all by default)
+        on landmarks (of ``tracks`` if given); N is the front-end count (``n_count=track``) or the number of
+        observing window states (``n_count=window``), both as of the newest frame. An inverse-depth anchor
+        observation is no residual."""
         counts = self._window_counts() if self.cfg.n_count == "window" else self.counts
-        out = []
         for st in (self.states if states is None else states):
-            for i, xy in zip(st.feats.ids, st.feats.xy):
-                i = int(i)
-                if i in self.lm and (tracks is None or i in tracks):
-                    f = self._factor(st, i, xy, counts.get(i, 1))
-                    if f is not None:
-                        out.append(f)
-        return out
+            for i, xy in zip(st.feats.ids.tolist(), st.feats.xy):
+                if i in self.lm and (tracks is None or i in tracks) and \
+                        not (self.inv_depth and self.anchor[i][0] == st.k):
+                    yield st, i, xy, counts.get(i, 1)
+
+    def visual_factors(self, states=None, tracks=None) -> list:
+        """Reprojection factors of :meth:`observations`: one per observation (point3), or one per (anchor,
+        observer) pair of states (inverse depth, :func:`vo.vins.inverse_depth.inverse_depth_group`)."""
+        if not self.inv_depth:
+            return [self._factor(st, i, xy, n) for st, i, xy, n in self.observations(states, tracks)]
+        groups: dict = {}
+        for st, i, xy, n in self.observations(states, tracks):
+            k_a, xy_a = self.anchor[i]
+            kind, c = robust_kernel(self.cfg, n)
+            groups.setdefault((k_a, st.k, kind), []).append(
+                (L(self.lm[i]), xy_a, xy, residual_sigma(self.cfg, st.g_f, n, 1.0), c))
+        return [inverse_depth_group(X(k_a), X(k_j), [o[0] for o in obs], np.array([o[1] for o in obs]),
+                                    np.array([o[2] for o in obs]), self.T_i_c, np.array([o[3] for o in obs]),
+                                    kind, np.array([o[4] for o in obs]))
+                for (k_a, k_j, kind), obs in groups.items()]
 
     def graph(self) -> gtsam.NonlinearFactorGraph:
         g = gtsam.NonlinearFactorGraph()
@@ -291,8 +300,8 @@ class Window:
         for p in self.priors:
             (g.add(p) if mset.intersection(p.keys()) else rest.append(p))
         g.add(self.imu_factor(self.states[0], self.states[1]))
-        visual = self.visual_factors(keep_states, tracks)
-        for f in visual + self._landmark_regularisers(visual, self.T_w_c(old)[:3, 3]):
+        for f in self.visual_factors(keep_states, tracks) + \
+                self._landmark_regularisers(keep_states, tracks, self.T_w_c(old)[:3, 3]):
             g.add(f)
         lin = g.linearize(self.values)
         _, remaining = lin.eliminatePartialSequential(gtsam.Ordering(marg))
@@ -315,8 +324,8 @@ class Window:
             if n_obs.get(i, 0) >= 2:
                 self.add_landmark(i, p_w)
 
-    def _landmark_regularisers(self, visual, c_w: np.ndarray) -> list:
-        """A prior at the estimate of each landmark of the reprojection factors ``visual``, whose information
+    def _landmark_regularisers(self, states, tracks, c_w: np.ndarray) -> list:
+        """A prior at the estimate of each landmark of ``tracks`` observed in ``states``, whose information
         is ``MARG_PRIOR_RELATIVE`` times the bearing information of its observations (sum of (f/sigma_px)^2
         over them, divided by the squared range from ``c_w``). VINS-Mono inverts the landmark block by a
         pseudo-inverse (eigenvalues below a threshold dropped); a relative Tikhonov term does the same job
@@ -324,11 +333,9 @@ class Window:
         along a ray it adds 3e-8 of a bearing's information. gtsam refuses a landmark seen from 11 identical
         poses below about 2e-9 (``tests/test_vins_window.py``)."""
         info: dict = {}
-        for f in visual:
-            m = f.noiseModel()
-            sigma = (m.noise() if isinstance(m, gtsam.noiseModel.Robust) else m).sigmas()[0]
-            key = f.keys()[-1]
-            info[key] = info.get(key, 0.0) + (self.noise_fx / sigma) ** 2
+        for st, i, _, n in self.observations(states, tracks):
+            key = L(self.lm[i])
+            info[key] = info.get(key, 0.0) + (1.0 / residual_sigma(self.cfg, st.g_f, n, 1.0)) ** 2
         out = []
         for key, bearing in info.items():
             if self.inv_depth:          # the same information along the ray: sigma_rho = rho / sqrt(c bearing)
