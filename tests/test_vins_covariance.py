@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from rigs.geometry import pose_error_left
-from vo.vins.covariance import output_covariance, output_jacobian
-from vo.vins.window import _pose_block_marginal
+from vo.vins.covariance import output_covariance, output_jacobian, pose_block_marginal
 
 
 def _random_T(rng):
@@ -57,7 +56,7 @@ def test_pose_block_marginal_equals_dense_inverse(d):
         mask[rows] = False
         J[mask, n_s + d * j:n_s + d * j + d] = 0.0
     H = J.T @ J + 1e-3 * np.eye(n_s + d * m)
-    P = _pose_block_marginal(H, n_s, d)
+    P = pose_block_marginal(H, n_s, d)
     P_ref = np.linalg.inv(H)[:6, :6]
     assert np.allclose(P, P_ref, rtol=1e-9, atol=1e-12 * np.abs(P_ref).max())
 

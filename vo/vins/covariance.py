@@ -1,4 +1,4 @@
-"""Per-frame pose covariance of the VINS output (``FrameResult.cov``).
+"""Per-frame pose covariance of the VINS output (``FrameResult.cov``) and the window's pose marginal.
 
 gtsam's marginal covariance of ``X(k)`` = ``T_w_i`` is in its tangent space ``[dtheta, dt]`` with the
 perturbation on the right: ``T_w_i = T_hat Exp([dtheta, dt])``, i.e. ``R = R_hat Exp(dtheta)`` and
@@ -39,3 +39,16 @@ def output_covariance(P_x: np.ndarray, T_o_w: np.ndarray, T_w_i: np.ndarray, T_i
     J = output_jacobian(T_o_w, T_w_i, T_i_c)
     C = J @ np.asarray(P_x, float) @ J.T
     return 0.5 * (C + C.T)
+
+
+def pose_block_marginal(H: np.ndarray, n_s: int, d: int = 3) -> np.ndarray:
+    """Covariance of the first 6 variables of information ``H`` whose variables after ``n_s`` are d-vectors
+    coupled only to the first ``n_s`` (landmarks): Schur complement of the dxd landmark blocks, then a solve."""
+    m = (H.shape[0] - n_s) // d
+    H_ss, H_sl = H[:n_s, :n_s], H[:n_s, n_s:].reshape(n_s, m, d)
+    blocks = np.stack([H[n_s + d * j:n_s + d * j + d, n_s + d * j:n_s + d * j + d] for j in range(m)]) if m else \
+        np.zeros((0, d, d))
+    Y = np.einsum("iak,akl->ial", H_sl, np.linalg.inv(blocks), optimize=True)
+    S = H_ss - Y.reshape(n_s, -1) @ H_sl.reshape(n_s, -1).T
+    P = np.linalg.solve(S, np.eye(n_s)[:, :6])[:6]
+    return 0.5 * (P + P.T)

@@ -33,6 +33,7 @@ import numpy as np
 from gtsam.symbol_shorthand import B, L, V, X
 
 from vo.vins.adaptive import geometry_factor, noise_model, residual_sigma, robust_kernel
+from vo.vins.covariance import pose_block_marginal
 from vo.vins.imu import preintegrate
 from vo.vins.inverse_depth import inverse_depth_group, inverse_depth_of, point_of
 
@@ -373,7 +374,7 @@ class Window:
         keys = list(dict.fromkeys([X(st.k)] + [k for k in g.keyVector() if k not in lm_set])) + lm_keys
         H, _ = g.linearize(self.values).hessian(gtsam.Ordering(keys))
         d = 1 if self.inv_depth else 3
-        return _pose_block_marginal(H, H.shape[0] - d * len(lm_keys), d)
+        return pose_block_marginal(H, H.shape[0] - d * len(lm_keys), d)
 
     def _weak_landmark_prior(self, track: int):
         """``LANDMARK_PRIOR_M`` std at the estimate; for an inverse depth the same std along the ray
@@ -387,15 +388,3 @@ class Window:
         sigma = LANDMARK_PRIOR_M * rho[0] ** 2 / np.linalg.norm(m_a)
         return gtsam.PriorFactorVector(key, rho, gtsam.noiseModel.Isotropic.Sigma(1, max(sigma, 1e-12)))
 
-
-def _pose_block_marginal(H: np.ndarray, n_s: int, d: int = 3) -> np.ndarray:
-    """Covariance of the first 6 variables of information ``H`` whose variables after ``n_s`` are d-vectors
-    coupled only to the first ``n_s`` (landmarks): Schur complement of the dxd landmark blocks, then a solve."""
-    m = (H.shape[0] - n_s) // d
-    H_ss, H_sl = H[:n_s, :n_s], H[:n_s, n_s:].reshape(n_s, m, d)
-    blocks = np.stack([H[n_s + d * j:n_s + d * j + d, n_s + d * j:n_s + d * j + d] for j in range(m)]) if m else \
-        np.zeros((0, d, d))
-    Y = np.einsum("iak,akl->ial", H_sl, np.linalg.inv(blocks), optimize=True)
-    S = H_ss - Y.reshape(n_s, -1) @ H_sl.reshape(n_s, -1).T
-    P = np.linalg.solve(S, np.eye(n_s)[:, :6])[:6]
-    return 0.5 * (P + P.T)
