@@ -17,6 +17,7 @@ class VoBenchRow:
     ate_rmse_m: float
     n_frames: int
     n_lost: int
+    n_init: int                  # frames before the estimator's first pose (status "init": identity pose)
     ms_per_frame: dict = field(default_factory=dict)   # stage -> mean ms
 
     def to_dict(self) -> dict:
@@ -39,21 +40,26 @@ def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp
         ds = open_dataset(cached_dataset(get_scenario(scenario), progress=progress))
         for name in estimators:
             res = run_and_evaluate(ds, name, options=options, progress=progress, max_frames=max_frames)
-            ev = res.evaluation
-            rmsd = tuple(float(v) for v in ev.gcps.rmsd_xyz) if ev.gcps is not None else (np.nan,) * 3
-            rows.append(VoBenchRow(scenario, name, float(ev.drift.gt_length_m), float(ev.drift.drift_ratio_pct),
-                                   float(ev.drift.end_diff_m), rmsd, float(ev.ape.trans.rmse),
-                                   len(res.run.frames), int(res.run.n_lost), dict(res.run.timings_ms)))
+            rows.append(bench_row(scenario, name, res))
     return rows
+
+
+def bench_row(scenario: str, name: str, res) -> VoBenchRow:
+    """The row of one ``vo.pipeline.run_and_evaluate`` result."""
+    ev = res.evaluation
+    rmsd = tuple(float(v) for v in ev.gcps.rmsd_xyz) if ev.gcps is not None else (np.nan,) * 3
+    return VoBenchRow(scenario, name, float(ev.drift.gt_length_m), float(ev.drift.drift_ratio_pct),
+                      float(ev.drift.end_diff_m), rmsd, float(ev.ape.trans.rmse), len(res.run.frames),
+                      int(res.run.n_lost), sum(f.status == "init" for f in res.run.frames), dict(res.run.timings_ms))
 
 
 def format_rows(rows) -> str:
     lines = [f"{'scenario':<17}{'estimator':<10}{'path m':>8}{'drift %':>9}{'RMSD x':>8}{'RMSD y':>8}{'RMSD z':>8}"
-             f"{'ATE m':>8}{'lost':>6}{'ms/frame':>10}  stages (ms)"]
+             f"{'ATE m':>8}{'lost':>6}{'init':>6}{'ms/frame':>10}  stages (ms)"]
     for r in rows:
         total = r.ms_per_frame.get("total", sum(r.ms_per_frame.values()))
         stages = " ".join(f"{k} {v:.1f}" for k, v in sorted(r.ms_per_frame.items()) if k != "total")
         lines.append(f"{r.scenario:<17}{r.estimator:<10}{r.path_length_m:8.1f}{r.drift_pct:9.2f}"
                      f"{r.gcp_rmsd_m[0]:8.3f}{r.gcp_rmsd_m[1]:8.3f}{r.gcp_rmsd_m[2]:8.3f}{r.ate_rmse_m:8.3f}"
-                     f"{r.n_lost:6d}{total:10.1f}  {stages}")
+                     f"{r.n_lost:6d}{r.n_init:6d}{total:10.1f}  {stages}")
     return "\n".join(lines)
