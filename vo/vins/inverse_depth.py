@@ -71,8 +71,8 @@ class Observations:
     @classmethod
     def of(cls, xy_a, xy_j, T_i_c: np.ndarray) -> "Observations":
         """From normalized anchor points ``xy_a`` (k,2), observations ``xy_j`` (k,2) and ``T_i_c`` (4,4)."""
-        m_a = np.column_stack([np.asarray(xy_a, float).reshape(-1, 2), np.ones(len(np.atleast_2d(xy_a)))])
-        m_j = np.column_stack([np.asarray(xy_j, float).reshape(-1, 2), np.ones(len(m_a))])
+        xy_a, xy_j = np.asarray(xy_a, float).reshape(-1, 2), np.asarray(xy_j, float).reshape(-1, 2)
+        m_a, m_j = np.column_stack([xy_a, np.ones(len(xy_a))]), np.column_stack([xy_j, np.ones(len(xy_j))])
         R_ic = np.asarray(T_i_c, float)[:3, :3]
         BT = tangent_bases(m_j / np.linalg.norm(m_j, axis=1, keepdims=True))
         return cls(m_a @ R_ic.T, BT @ R_ic.T, np.asarray(T_i_c, float)[:3, 3].copy())

@@ -59,7 +59,6 @@ class Window:
         self.T_i_c = np.asarray(T_i_c, float)
         self.P_i_c = gtsam.Pose3(self.T_i_c)
         self.inv_depth = config.landmark == "inverse-depth"
-        self.noise_fx = 1.0 if self.inv_depth else self.fx     # residual unit: radians / pixels
         self.anchor: dict = {}          # inverse depth: track id -> (anchor state k, its normalized xy)
         self.noise_depends_on_n = config.use_track_count or config.robust == "adaptive-huber"
         self.states: list[State] = []
@@ -171,7 +170,7 @@ class Window:
         if hit is None or hit[0] != n:
             noise = self.noise_cache.get((st.k, n))
             if noise is None:
-                noise = self.noise_cache[(st.k, n)] = noise_model(self.cfg, st.g_f, n, self.noise_fx)
+                noise = self.noise_cache[(st.k, n)] = noise_model(self.cfg, st.g_f, n, self.fx)
             uv = np.array([self.K.fx() * xy[0] + self.K.px(), self.K.fy() * xy[1] + self.K.py()])
             f = gtsam.GenericProjectionFactorCal3_S2(uv, noise, X(st.k), L(key), self.K, False, False, self.P_i_c)
             hit = per_state[key] = (n, f)
