@@ -35,7 +35,7 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from rigs.typed_config import check_fields, from_mapping, knob
+from rigs.typed_config import check_fields, knob
 from vo.errorprop.triangulation import triangulation_covariance
 from vo.errors import EstimatorError
 from vo.estimators.pnp import KltPnpEstimator, _timer
@@ -62,13 +62,6 @@ class BaConfig:
 
     def __post_init__(self):
         check_fields(self, EstimatorError, "ba.")
-
-    @classmethod
-    def from_option(cls, value, where: str = "ba_config") -> "BaConfig":
-        """``None`` (defaults), a :class:`BaConfig`, or a mapping of its fields (``--opt 'ba_config={window: 5}'``)."""
-        if isinstance(value, cls):
-            return value
-        return from_mapping(cls, value, EstimatorError, where)
 
 
 @dataclass
@@ -193,9 +186,9 @@ class KeyframeWindow:
 class KeyframeBaKltPnp(KltPnpEstimator):
     """``klt-pnp`` whose keyframes adjust the window (:class:`KeyframeWindow`) before triangulating new tracks."""
 
-    def __init__(self, rig, ba_config=None, **options):
+    def __init__(self, rig, ba_config: BaConfig = BaConfig(), **options):
         super().__init__(rig, **options)
-        self.ba = KeyframeWindow(rig, BaConfig.from_option(ba_config))
+        self.ba = KeyframeWindow(rig, ba_config)
 
     def _initialize(self, left, right, timings) -> int:
         self.ba.reset()
