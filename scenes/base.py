@@ -96,6 +96,12 @@ class Scene(abc.ABC):
         """``[(actor_id, kind, moving, T_w_x (N,4,4))]`` of every actor at ``t_ns`` (N,); none by default."""
         return []
 
+    def first_contact(self, t_ns, T_w_b, footprint) -> Optional[tuple]:
+        """``(t_ns, actor_id, kind)`` of the first of the times ``t_ns`` (N,) at which the vehicle, at poses
+        ``T_w_b`` (N,4,4) with ``footprint`` ``(x_centre_b, half_length, half_width)`` (m), touches a solid
+        actor, or None; scenes without actors never touch."""
+        return None
+
     def segmentation_rows(self, geom_names) -> list:
         """``(seg_id, geom_name, actor_id, kind, moving)`` per geom ``g`` (``seg_id = g + 1``, as the segmentation
         PNGs store it); without actors every geom is ``static`` (or ``dynamic`` for a ``dyn/`` geom), actor -1."""

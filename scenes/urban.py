@@ -29,7 +29,7 @@ from scenes.base import GcpSite, Route
 from scenes.built import BuiltScene
 from scenes.errors import SceneError
 from scenes.routes import point_at, resample, rounded_polyline
-from scenes.urban_actors import Lane, actor_poses, add_actors, draw_actors, segmentation_rows
+from scenes.urban_actors import Lane, actor_poses, add_actors, draw_actors, first_contact, segmentation_rows
 from scenes.urban_furniture import add_furniture, add_markings, add_parked_cars
 
 ROAD_HALF = 9.5
@@ -94,6 +94,9 @@ class UrbanScene(BuiltScene):
 
     def actor_truth(self, t_ns) -> list:
         return [(a.actor_id, a.kind, a.moving, a.poses(t_ns)) for a in self.actors]
+
+    def first_contact(self, t_ns, T_w_b, footprint):
+        return first_contact(self.actors, t_ns, T_w_b, footprint)
 
     def segmentation_rows(self, geom_names) -> list:
         return segmentation_rows(geom_names, self.actors)

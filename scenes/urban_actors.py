@@ -159,6 +159,46 @@ def actor_poses(actors, t_ns: int) -> dict:
 
 
 # ---------------------------------------------------------------------------- MJCF
+def footprint_overlap(T_a, half_a, T_b, half_b) -> np.ndarray:
+    """(N,) True where the rectangle of half sizes ``half_a`` (2,) (length, width) at the planar poses ``T_a``
+    (N,4,4; x forward, yaw from the first column) meets the rectangle ``half_b`` at ``T_b`` (separating-axis test)."""
+    def axes(T):                                           # (N,2,2) columns: unit forward, unit left
+        f = T[:, :2, 0] / np.linalg.norm(T[:, :2, 0], axis=1, keepdims=True)
+        return np.stack([f, np.stack([-f[:, 1], f[:, 0]], 1)], 2)
+    Ra, Rb = axes(np.asarray(T_a, float)), axes(np.asarray(T_b, float))
+    d = np.asarray(T_b, float)[:, :2, 3] - np.asarray(T_a, float)[:, :2, 3]
+    apart = np.zeros(len(d), bool)
+    for R in (Ra, Rb):
+        for k in range(2):
+            ax = R[:, :, k]
+            ra = np.abs(np.einsum("ni,nij->nj", ax, Ra)) @ np.asarray(half_a, float)
+            rb = np.abs(np.einsum("ni,nij->nj", ax, Rb)) @ np.asarray(half_b, float)
+            apart |= np.abs(np.einsum("ni,ni->n", d, ax)) > ra + rb
+    return ~apart
+
+
+def first_contact(actors, t_ns, T_w_b, footprint, near_m: float = 15.0):
+    """``(t_ns, actor_id, kind)`` of the earliest time in ``t_ns`` (N,) at which a car or bus footprint (its
+    body box) meets the vehicle's at ``T_w_b`` (N,4,4), ``footprint`` = ``(x_centre_b, half_length, half_width)``
+    (m); None when none does. Pedestrians are not checked (they keep to sidewalks and crossings)."""
+    t_ns = np.asarray(t_ns, np.int64).reshape(-1)
+    T = np.array(T_w_b, float)
+    x_c, half_ego = float(footprint[0]), np.asarray(footprint[1:3], float)
+    T[:, :3, 3] += T[:, :3, 0] * x_c                          # footprint centre in w
+    best = None
+    for a in actors:
+        if a.kind == "pedestrian":
+            continue
+        Ta = a.poses(t_ns)
+        near = np.flatnonzero(np.linalg.norm(Ta[:, :2, 3] - T[:, :2, 3], axis=1) < near_m)
+        if near.size == 0:
+            continue
+        hit = near[footprint_overlap(T[near], half_ego, Ta[near], SHAPES[a.kind][0][0][1][:2])]
+        if hit.size and (best is None or t_ns[hit[0]] < best[0]):
+            best = (int(t_ns[hit[0]]), a.actor_id, a.kind)
+    return best
+
+
 def _parts_mesh(parts, tile_m: float) -> tuple:
     """(vertices, texcoords, faces) of the union of boxes ``(name, half, centre)``, outward faces."""
     v, uv, f = [], [], []

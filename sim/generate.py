@@ -12,7 +12,11 @@ from pathlib import Path
 import numpy as np
 
 from sim.config import GenerateConfig
+from sim.errors import SimError
 from sim.rng import indexed_stream, scene_streams, stream
+
+CLEARANCE_M = 0.5                  # margin around the vehicle's footprint that no actor may enter
+CLEARANCE_STEP_NS = 50_000_000     # the clearance check's time step (50 ms)
 
 
 @dataclass(frozen=True)
@@ -55,6 +59,7 @@ def resolve(config: GenerateConfig) -> Setup:
     scene = make_scene(scene_cfg, scene_streams(scene_cfg.seed), stream(config.seed, "dynamic"))
     traj = VehicleTrajectory.from_route(scene.route, scene.ground_height, config.motion,
                                         stream(config.seed, "motion"), duration_s=config.duration_s)
+    check_clearance(scene, traj, config)
     period_ns = int(round(1e9 / rig.camera_rate_hz))
     frame_t = np.arange(traj.t0_ns, traj.t1_ns + 1, period_ns, dtype=np.int64)
     imu_t = imu_times_ns(traj.t0_ns, traj.t1_ns, rig.imu.rate_hz)
@@ -62,6 +67,22 @@ def resolve(config: GenerateConfig) -> Setup:
     from sim.sensors.effects_timing import frame_stamps_ns
     stamps = frame_stamps_ns(frame_t, config.camera.timestamp_jitter_us, stream(config.seed, "timestamp_jitter"))
     return Setup(config, rig, scene, traj, frame_t, imu_t, noise, config.motion, config.render.supersample, stamps)
+
+
+def check_clearance(scene, trajectory, config: GenerateConfig) -> None:
+    """Raise a one-line SimError when the vehicle's footprint, grown by :data:`CLEARANCE_M`, touches one of
+    the scene's actors at any :data:`CLEARANCE_STEP_NS` step of ``trajectory`` (e.g. a cruise speed that
+    drives the car into the traffic ahead, which a scene places for its default motion)."""
+    from sim.vehicles import vehicle_class
+    t = np.arange(trajectory.t0_ns, trajectory.t1_ns + 1, CLEARANCE_STEP_NS, dtype=np.int64)
+    x_c, half_l, half_w = vehicle_class(config.vehicle)(config.rig).footprint()
+    hit = scene.first_contact(t, trajectory.states(t).T_w_b, (x_c, half_l + CLEARANCE_M, half_w + CLEARANCE_M))
+    if hit is not None:
+        t_hit, actor_id, kind = hit
+        key = "motion.cruise_speed_mps" if config.motion.cruise_speed_mps > 0 else "motion"
+        raise SimError(f"{key}: the vehicle reaches {config.scene.name} actor {actor_id} ({kind}) "
+                       f"{(t_hit - trajectory.t0_ns) * 1e-9:.1f} s after the start; the scene's traffic is "
+                       f"placed for its default motion (choose a lower cruise speed or another start)")
 
 
 def imu_streams(setup: Setup):

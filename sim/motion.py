@@ -13,8 +13,8 @@ Construction (all in world ``w``, z up):
   ``wheelbase_m`` forward and ``track_m`` sideways), sampled on the same ``s`` grid and
   fitted with the same quintic spline; ``pitch = -atan(g_fwd)``, ``roll = atan(g_left /
   sqrt(1 + g_fwd^2))`` puts body x and y exactly in the plane ``dz = g_fwd df + g_left dl``;
-* speed: rest, septic-smoothstep ramp (peak acceleration ``route.accel_mps2``), cruise,
-  symmetric ramp to rest, rest; ``s(t)`` is C4;
+* speed: rest, septic-smoothstep ramp (peak acceleration ``route.accel_mps2``), cruise (the route's
+  speed, or ``motion.cruise_speed_mps`` when set), symmetric ramp to rest, rest; ``s(t)`` is C4;
 * vibration: heave, pitch, roll, yaw offsets, each a sum of sinusoids with seeded
   amplitudes, phases and frequencies, scaled by ``speed / peak speed`` so it vanishes at rest;
 * yaw is the path tangent ``atan2(y', x')`` plus yaw vibration; ``R_w_b = Rz(yaw) Ry(pitch)
@@ -27,6 +27,7 @@ derivative is exact for the defined motion (quintic splines are C4, so ``a_w`` a
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Callable, Optional
@@ -50,6 +51,7 @@ class MotionConfig:
 
     start_time_ns: int = knob(1_000_000_000, ge=0)
     start_speed_mps: float = knob(0.0, ge=0.0)
+    cruise_speed_mps: float = knob(0.0, ge=0.0, le=60.0, doc="cruise speed (m/s); 0: the scene route's")
     rest_before_s: float = knob(0.0, ge=0.0)
     rest_after_s: float = knob(0.0, ge=0.0)
     vibration_pitch_deg: float = knob(0.3, ge=0.0)
@@ -263,7 +265,10 @@ class VehicleTrajectory:
     @classmethod
     def from_route(cls, route, ground_height: Callable, config: MotionConfig, rng: np.random.Generator,
                    duration_s: Optional[float] = None) -> "VehicleTrajectory":
-        """Build the motion along ``route`` (scenes.base.Route); ``duration_s`` only truncates ``t1_ns``."""
+        """Build the motion along ``route`` (scenes.base.Route) at its cruise speed, or at
+        ``config.cruise_speed_mps`` when that is set; ``duration_s`` only truncates ``t1_ns``."""
+        if config.cruise_speed_mps > 0:
+            route = dataclasses.replace(route, cruise_speed_mps=float(config.cruise_speed_mps))
         c, u_knots = chord_spline(route, config.corner_smoothing_m)
         u_f, S_f = arc_length_table(c, u_knots)
         length = float(S_f[-1])

@@ -149,8 +149,29 @@ def test_duration_truncates_only():
     assert full.states(t).T_w_b.tobytes() == cut.states(t).T_w_b.tobytes()
 
 
+def test_cruise_speed_override_replaces_the_routes():
+    """``motion.cruise_speed_mps`` replaces the route's cruise speed on the same path: the peak speed is the
+    override, the duration is L/v + t_ramp at the new speed, and the path (pose against arc length) is the same;
+    0 keeps the route's speed exactly."""
+    route = Route(((0, 0), (100, 0)), cruise_speed_mps=1.5, accel_mps2=0.5)
+    base = VehicleTrajectory.from_route(route, flat, STILL, stream(0, "motion"))
+    same = VehicleTrajectory.from_route(route, flat, MotionConfig(**{**STILL.__dict__, "cruise_speed_mps": 0.0}),
+                                        stream(0, "motion"))
+    fast = VehicleTrajectory.from_route(route, flat, MotionConfig(**{**STILL.__dict__, "cruise_speed_mps": 3.0}),
+                                        stream(0, "motion"))
+    t = np.linspace(base.t0_ns, base.t1_ns, 501).astype(np.int64)
+    assert same.states(t).T_w_b.tobytes() == base.states(t).T_w_b.tobytes()
+    tf = np.linspace(fast.t0_ns, fast.t1_ns, 4001).astype(np.int64)
+    st = fast.states(tf)
+    assert np.linalg.norm(st.v_w, axis=1).max() == pytest.approx(3.0, rel=1e-9)
+    assert (fast.t1_ns - fast.t0_ns) * 1e-9 == pytest.approx(100 / 3.0 + fast.profile.t_ramp, abs=1e-9)
+    assert fast.profile.t_ramp == pytest.approx(2 * base.profile.t_ramp, rel=1e-12)   # ramp time v / a scale
+    assert np.allclose(st.T_w_b[-1, :3, 3], [100, 0, 0], atol=1e-9)
+
+
 @pytest.mark.parametrize("field,value", [("vibration_pitch_deg", -1.0), ("path_sample_m", 0.0),
-                                         ("vibration_freqs_hz", ()), ("start_time_ns", -5)])
+                                         ("vibration_freqs_hz", ()), ("start_time_ns", -5),
+                                         ("cruise_speed_mps", -1.0), ("cruise_speed_mps", 100.0)])
 def test_config_validation_names_the_field(field, value):
     with pytest.raises(SimError, match=field):
         MotionConfig(**{field: value})

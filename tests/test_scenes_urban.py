@@ -128,17 +128,59 @@ def _inside(T, half, pts):
     return np.any(np.all(np.abs(loc) <= half, axis=2), axis=1)
 
 
+def _planar(x, y, yaw):
+    T = np.tile(np.eye(4), (len(x), 1, 1))
+    T[:, 0, 3], T[:, 1, 3] = x, y
+    T[:, 0, 0], T[:, 0, 1], T[:, 1, 0], T[:, 1, 1] = np.cos(yaw), -np.sin(yaw), np.sin(yaw), np.cos(yaw)
+    return T
+
+
+def test_footprint_overlap_exact_cases():
+    """Separating-axis test at known contacts: side by side 4 m apart (touch at 3.99, not at 4.01); a
+    square turned 45 deg whose corner reaches x = c - sqrt(2); a thin bar at 45 deg whose bounding box
+    overlaps the unit square while the bar's own normal separates it (0.141 m apart at x = 2.2,
+    overlapping at 2.05)."""
+    from scenes.urban_actors import footprint_overlap
+    one = _planar([0.0], [0.0], [0.0])
+    assert footprint_overlap(one, (2, 1), _planar([3.99], [0.0], [0.0]), (2, 1))[0]
+    assert not footprint_overlap(one, (2, 1), _planar([4.01], [0.0], [0.0]), (2, 1))[0]
+    r2 = np.sqrt(2)
+    assert footprint_overlap(one, (2, 1), _planar([2 + r2 - 0.01], [0.0], [np.pi / 4]), (1, 1))[0]
+    assert not footprint_overlap(one, (2, 1), _planar([2 + r2 + 0.01], [0.0], [np.pi / 4]), (1, 1))[0]
+    assert not footprint_overlap(one, (1, 1), _planar([2.2], [0.0], [np.pi / 4]), (2, 0.05))[0]
+    assert footprint_overlap(one, (1, 1), _planar([2.05], [0.0], [np.pi / 4]), (2, 0.05))[0]
+
+
+def test_footprint_overlap_agrees_with_sampled_outlines():
+    """2000 random pairs (fixed seed): where densely sampled outlines intersect, the test says overlap; where
+    the rectangles shrunk by 2 % overlap, the sampled outlines of the full ones intersect too."""
+    from scenes.urban_actors import footprint_overlap
+    rng = np.random.default_rng(7)
+    n = 2000
+    Ta = _planar(np.zeros(n), np.zeros(n), rng.uniform(-np.pi, np.pi, n))
+    Tb = _planar(rng.uniform(-6, 6, n), rng.uniform(-4, 4, n), rng.uniform(-np.pi, np.pi, n))
+    ha, hb = np.array([2.2, 0.9]), np.array([1.5, 0.6])
+    sampled = _inside(Ta, ha, _outline(Tb, hb, 80)) | _inside(Tb, hb, _outline(Ta, ha, 80))
+    sat = footprint_overlap(Ta, ha, Tb, hb)
+    assert 200 < sat.sum() < n - 200                      # both outcomes well represented
+    assert np.all(sat[sampled])
+    assert np.all(sampled[footprint_overlap(Ta, 0.98 * ha, Tb, 0.98 * hb)])
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_traffic_never_touches_the_vehicle(seed):
     """Along the ``urban-dynamic`` trajectory no car or bus footprint comes within 0.5 m of the car's
-    (4.4 m x 1.76 m, centred on the body origin) at any 50 ms step."""
+    (4.4 m x 1.76 m) at any 50 ms step: the simulator's own check passes (it runs in every generation), and
+    so does the sampled-outline check here."""
     from scenes.urban_actors import SHAPES
+    from sim.generate import check_clearance
     from sim.motion import VehicleTrajectory
     from sim.scenarios import get_scenario
     from sim.vehicles.car import CAR_HALF_WIDTH_M, CAR_LENGTH_M
     cfg = get_scenario("urban-dynamic", seed=seed)
     sc = make_scene(cfg.scene_config, scene_streams(seed), stream(seed, "dynamic"))
     tr = VehicleTrajectory.from_route(sc.route, sc.ground_height, cfg.motion, stream(seed, "motion"))
+    check_clearance(sc, tr, cfg)
     t = np.arange(tr.t0_ns, tr.t1_ns, 50_000_000)
     T = tr.states(t).T_w_b
     ego_half = np.array([CAR_LENGTH_M / 2, CAR_HALF_WIDTH_M]) + 0.5
@@ -153,6 +195,20 @@ def test_traffic_never_touches_the_vehicle(seed):
         hit = _inside(T[near], ego_half, _outline(Ta[near], half)) | \
             _inside(Ta[near], half, _outline(T[near], ego_half))
         assert not hit.any(), (a.actor_id, a.kind, (t[near][hit][0] - tr.t0_ns) * 1e-9)
+
+
+def test_cruise_speed_into_the_traffic_ahead_is_refused():
+    """At 12 m/s the car catches the platoon placed ahead for 10 m/s: a one-line SimError naming
+    ``motion.cruise_speed_mps``, the actor and the time; at 6 m/s the route resolves at that peak speed."""
+    from sim.errors import SimError
+    from sim.generate import resolve
+    from sim.scenarios import get_scenario
+    with pytest.raises(SimError, match=r"^motion\.cruise_speed_mps: the vehicle reaches urban actor \d+ "
+                                       r"\((car|bus)\) \d+\.\d s after the start") as e:
+        resolve(get_scenario("urban-dynamic", overrides=("motion.cruise_speed_mps=12",)))
+    assert "\n" not in str(e.value)
+    setup = resolve(get_scenario("urban-dynamic", overrides=("motion.cruise_speed_mps=6",)))
+    assert setup.trajectory.profile.v_peak == 6.0
 
 
 @pytest.mark.slow

@@ -119,6 +119,12 @@ class Vehicle:
     def _wheel_name(self, k: int, dx: float, side: int) -> str:
         return f"wheel{k}"
 
+    def footprint(self) -> tuple:
+        """``(x_centre_b, half_length, half_width)`` (m) of the vehicle's ground footprint: by default the
+        wheels' outline (wheelbase plus a wheel diameter long, track plus 0.2 m wide) centred on ``b``."""
+        d = self.dims
+        return 0.0, d.wheelbase_m / 2 + d.wheel_radius_m, d.track_m / 2 + 0.1
+
     def cam_extent(self) -> tuple:
         """(x_front, x_back, z_low) of the cameras' centres in ``b`` (metres)."""
         p_b = np.array([c.T_b_c_array[:3, 3] for c in self.rig.cameras])

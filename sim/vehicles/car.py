@@ -30,9 +30,13 @@ class Car(Vehicle):
     kind = "car"
     dims = CAR
 
+    def footprint(self) -> tuple:
+        x_front = self.cam_extent()[0]
+        return x_front + HOOD_AHEAD_M - CAR_LENGTH_M / 2, CAR_LENGTH_M / 2, CAR_HALF_WIDTH_M
+
     def _add_body_geoms(self, body) -> None:
         x_front, _, z_low = self.cam_extent()
-        xc = x_front + HOOD_AHEAD_M - CAR_LENGTH_M / 2          # footprint centre in b
+        xc = self.footprint()[0]                                 # footprint centre in b
         half_h = (HOOD_TOP_M - SILL_M) / 2
         self.geom(body, "body", "box", [CAR_LENGTH_M / 2, CAR_HALF_WIDTH_M, half_h],
                   [xc, 0.0, SILL_M + half_h], _PAINT)
