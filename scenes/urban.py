@@ -194,11 +194,12 @@ def actor_lanes() -> tuple:
 
     The two ``route_lane`` platoons drive ahead of the vehicle in its own lanes, placed for the default
     motion (start at 1 s, no rest, 10 m/s cruise, 1.5 m/s^2 ramps, at rest at the stop line from about 52 s to
-    57 s after the start): the eastbound platoon (8 m/s) starts 24 m ahead and stays 13 m or more ahead
-    (centre to centre) while the vehicle brakes for the stop; the southbound platoon (8 m/s) crosses the
+    57 s after the start): the eastbound platoon (10 m/s, from rest with the vehicle) starts 24 m ahead and
+    stays 13 m or more ahead (centre to centre) while the vehicle brakes for the stop; the southbound platoon (8 m/s) crosses the
     junction from the north while the vehicle waits; its nearest car is on average 37 m ahead on the cross
     street
-    (tests/test_scenes_urban.py checks the clearance along the scenario trajectories)."""
+    (every generation checks the clearance, :func:`sim.generate.check_clearance`: another
+    ``motion.cruise_speed_mps`` above 10 m/s reaches them and is refused)."""
     e, r = 1.75, ROAD_HALF
     walk = (r + BUILDING_LINE) / 2
     east, west, north, south = 0.0, np.pi, np.pi / 2, -np.pi / 2

@@ -158,7 +158,6 @@ def actor_poses(actors, t_ns: int) -> dict:
     return {a.body_name: a.poses([t_ns])[0] for a in actors}
 
 
-# ---------------------------------------------------------------------------- MJCF
 def footprint_overlap(T_a, half_a, T_b, half_b) -> np.ndarray:
     """(N,) True where the rectangle of half sizes ``half_a`` (2,) (length, width) at the planar poses ``T_a``
     (N,4,4; x forward, yaw from the first column) meets the rectangle ``half_b`` at ``T_b`` (separating-axis test)."""
@@ -199,6 +198,7 @@ def first_contact(actors, t_ns, T_w_b, footprint, near_m: float = 15.0):
     return best
 
 
+# ---------------------------------------------------------------------------- MJCF
 def _parts_mesh(parts, tile_m: float) -> tuple:
     """(vertices, texcoords, faces) of the union of boxes ``(name, half, centre)``, outward faces."""
     v, uv, f = [], [], []
