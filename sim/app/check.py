@@ -4,7 +4,10 @@ The gate fails (``passed`` False, exit code 1 in the CLI) when a figure exceeds 
 estimate covers less than ``min_coverage`` of the frames. Bad input (no bound, a negative bound, an
 unknown estimator, a program that crashes or writes garbage) raises a :class:`TestbedError`
 instead (exit code 2), so a crash never reads as an accuracy failure. External programs run on a
-sensor-only view of the dataset (:mod:`vo.estimators.sensor_view`).
+sensor-only view of the dataset (:mod:`vo.estimators.sensor_view`), with a clean environment, isolated by
+namespaces where the machine allows it (:mod:`vo.estimators.isolation`), and are ended after a timeout
+(:mod:`vo.estimators.external`). In-process estimators get a sensor-only dataset; an estimator that declares
+that it reads ground truth (an oracle: ``vins-oracle``, ``--opt init=truth``) is refused.
 """
 from __future__ import annotations
 
@@ -34,6 +37,7 @@ class CheckResult:
     failures: list = field(default_factory=list)
     n_lost: int = 0
     program_stderr: str = ""
+    isolation: str = "in process"      # an external program's: "namespace" or "view only"
 
     @property
     def passed(self) -> bool:
@@ -44,7 +48,7 @@ class CheckResult:
                 "figures": {k: (v if math.isfinite(v) else None) for k, v in self.figures.items()},
                 "bounds": self.bounds, "coverage": self.coverage, "min_coverage": self.min_coverage,
                 "failures": self.failures, "n_lost": self.n_lost, "passed": self.passed,
-                "program_stderr": self.program_stderr}
+                "program_stderr": self.program_stderr, "isolation": self.isolation}
 
     def text(self, verbose: bool = False) -> str:
         c = self.coverage
@@ -59,6 +63,7 @@ class CheckResult:
             limit = "" if bound is None else f"  (bound {bound:g})"
             lines.append(f"  {label:<38} {self.figures[key]:10.4f}{limit}{verdict}")
         lines.append(f"  frames lost: {self.n_lost}")
+        lines.append(f"  isolation: {self.isolation}")
         if self.program_stderr.strip() and (verbose or not self.passed):
             lines += ["  program stderr:"] + [f"    {line}" for line in self.program_stderr.rstrip().splitlines()]
         lines.append("PASSED" if self.passed else "FAILED: " + "; ".join(f["message"] for f in self.failures))
@@ -96,27 +101,41 @@ def scenario_dataset(scenario: str, overrides=(), seed: Optional[int] = None, pr
 
 def check(estimator: str, scenario: str, bounds: dict, overrides=(), seed: Optional[int] = None,
           out_dir=None, options: Optional[dict] = None, progress: bool = True,
-          min_coverage: float = DEFAULT_MIN_COVERAGE) -> CheckResult:
+          min_coverage: float = DEFAULT_MIN_COVERAGE, timeout_s: Optional[float] = None,
+          isolation: str = "auto") -> CheckResult:
     """Run ``estimator`` on the cached dataset of ``scenario``; a figure above its bound, or fewer than
-    ``min_coverage`` of the frames matched by the estimate, is a failure."""
+    ``min_coverage`` of the frames matched by the estimate, is a failure. ``timeout_s`` (None: 20 x the
+    sequence's duration + 60 s) and ``isolation`` ("auto", "required", "view-only") apply to a ``cmd:`` program;
+    "required" refuses to run without namespace isolation."""
     from vo.dataset import open_dataset
-    from vo.estimators.registry import check_spec
+    from vo.estimators.external import ExternalCommand
+    from vo.estimators.isolation import Isolation
+    from vo.estimators.registry import check_spec, is_external, is_oracle
     from vo.estimators.runner import run_estimator
     from vo.pipeline import prepare_out_dir, reference_truth
 
     bounds = validate_bounds(bounds, min_coverage)
     check_spec(estimator)
+    if is_external(estimator):
+        ExternalCommand(estimator, timeout_s)
+        Isolation(isolation)                        # "required" where none works: refused before any work
+        if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s > 0):
+            raise SimError(f"--timeout: must be a number of seconds > 0, got {timeout_s!r}")
+    elif is_oracle(estimator, options):
+        raise SimError(f"{estimator}: reads ground truth (an oracle for studies, like vins-oracle or --opt "
+                       f"init=truth); a gate cannot judge it")
     if out_dir is not None:
         prepare_out_dir(out_dir)
     path = scenario_dataset(scenario, overrides, seed, progress)
     ds = open_dataset(path)
-    run = run_estimator(estimator, ds, options=options or {}, progress=progress)
+    run = run_estimator(estimator, ds, options=options or {}, progress=progress, timeout_s=timeout_s,
+                        isolation=isolation)
     gt = reference_truth(ds, run)
     cov, ev = _evaluate(ds, run, estimator, gt, out_dir)
     figures = {key: float(fn(ev.evaluation)) if ev else math.nan for key, (_, fn) in BOUND_KEYS.items()}
     failures = _failures(cov, figures if ev is not None else None, bounds, min_coverage)
     return CheckResult(scenario, estimator, str(path), figures, bounds, cov.to_dict(), min_coverage, failures,
-                       run.n_lost, run.stderr)
+                       run.n_lost, run.stderr, run.isolation or "in process")
 
 
 def _failures(cov, figures, bounds: dict, min_coverage: float) -> list:
