@@ -232,7 +232,10 @@ def run_external(spec: str, dataset, timeout_s: float | None = None, isolation: 
             try:
                 out = cmd.run(view, work / "out" / "trajectory_tum.txt", iso, protect)
             finally:
-                sensors.check_untouched(cmd.name)      # also after a crash: a changed input is worse
+                try:
+                    sensors.check_untouched(cmd.name)      # also after a crash: a changed input is worse
+                except EstimatorError as e:
+                    raise ExternalCommandError(str(e), cmd.stderr) from None
             try:
                 traj = read_tum(out, ref="o", frame="c0")
             except VoError as e:
