@@ -26,7 +26,11 @@ class SensorDataset:
         self.name = getattr(dataset, "name", "")
         self.rig = dataset.rig
         self.images_are_rectified = bool(getattr(dataset, "images_are_rectified", False))
-        self.frame_times_ns = np.array(dataset.frame_times_ns, dtype=np.int64)
+
+    @property
+    def frame_times_ns(self) -> np.ndarray:
+        """(N,) int64 frame times (a copy)."""
+        return np.array(self._ds.frame_times_ns, dtype=np.int64)
 
     def __len__(self) -> int:
         return len(self._ds)
