@@ -244,6 +244,9 @@ def test_templates_literal_braces_and_bad_quotes(cache, tmp_path):
     assert r.returncode == 2 and "No closing quotation" in r.stderr and "Traceback" not in r.stderr
     r = check_process(root, "--estimator", f"cmd:{sys.executable} {script} {{data}} {{out}}", "--max-ate", "1")
     assert r.returncode == 2 and "unknown field {data}" in r.stderr
+    r = check_process(root, "--estimator", f"cmd:{sys.executable} {script} {{dataset}} {{out}}", "--max-ate", "1",
+                      "--timeout", "0")
+    assert r.returncode == 2 and "--timeout: must be a number of seconds > 0, got 0.0" in r.stderr
 
 
 def test_program_environment_and_arguments_name_nothing_of_ours(cache, tmp_path):

@@ -115,13 +115,14 @@ def _probe_plan(tmp: Path) -> Plan:
 
 
 def own_paths(argv: list, cwd: Path) -> tuple:
-    """Folders a program needs besides the system's: the installation (or virtual environment and its base
-    Python) of its executable, and the folder of every existing path among its arguments."""
+    """Folders a program needs besides the system's: the installation of its executable (the parent of its
+    ``bin/``, or of a version manager's ``shims/``; a virtual environment and its base Python), and the folder
+    of every existing path among its arguments."""
     out = []
     exe = shutil.which(argv[0]) if argv else None
     if exe:
         for p in {Path(exe).absolute(), Path(os.path.realpath(exe))}:
-            prefix = p.parent.parent if p.parent.name == "bin" else p.parent
+            prefix = p.parent.parent if p.parent.name in ("bin", "shims") else p.parent   # shims: pyenv, asdf
             out.append(prefix)
             home = _venv_home(prefix)
             if home is not None:
