@@ -129,7 +129,8 @@ def test_hostile_program_finds_nothing_under_namespace_isolation(cache, tmp_path
     res = json.loads(r.stdout)
     assert res["isolation"] == "namespace" and res["figures"]["max_ate"] > 0.001
     rep = report_of(res["program_stderr"])
-    assert rep == {**rep, "env": [], "proc": [], "truth": None, "wrote_view": False, "pid": 1}, rep
+    assert rep == {**rep, "env": [], "proc": [], "truth": None, "wrote_view": False}, rep
+    assert rep["pid"] <= 2                                        # its own PID namespace (bwrap's init is 1)
     assert "Read-only file system" in rep["write_error"]
     assert digest(path) == before                                 # the cache: same bytes, same mtimes
 
