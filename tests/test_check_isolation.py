@@ -248,6 +248,8 @@ def test_templates_literal_braces_and_bad_quotes(cache, tmp_path):
     r = check_process(root, "--estimator", f"cmd:{sys.executable} {script} {{dataset}} {{out}}", "--max-ate", "1",
                       "--timeout", "0")
     assert r.returncode == 2 and "--timeout: must be a number of seconds > 0, got 0.0" in r.stderr
+    r = check_process(root, "--estimator", "cmd:no-such-vo {dataset} {out}", "--max-ate", "1")
+    assert r.returncode == 2 and "program not found (no-such-vo)" in r.stderr
 
 
 def test_program_environment_and_arguments_name_nothing_of_ours(cache, tmp_path):

@@ -117,7 +117,7 @@ def check(estimator: str, scenario: str, bounds: dict, overrides=(), seed: Optio
     bounds = validate_bounds(bounds, min_coverage)
     check_spec(estimator)
     if is_external(estimator):
-        ExternalCommand(estimator, timeout_s)
+        ExternalCommand(estimator, timeout_s).check_program()
         Isolation(isolation)                        # "required" where none works: refused before any work
         if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s > 0):
             raise SimError(f"--timeout: must be a number of seconds > 0, got {timeout_s!r}")

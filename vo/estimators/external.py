@@ -86,6 +86,14 @@ class ExternalCommand:
         self.name = "cmd:" + (self.args or ["?"])[0]
         self.stderr = self.stdout = ""
 
+    def check_program(self) -> None:
+        """Raise EstimatorError when the program (the template's first word) is not found (on ``PATH``, or
+        relative to the current folder)."""
+        first = self._absolute(self.args[0]) if self.args else ""
+        if not first or shutil.which(first) is None:
+            raise EstimatorError(f"external command {self.cmd_template!r}: program not found "
+                                 f"({first or 'empty template'})")
+
     def command(self, dataset_path, out_path) -> list:
         """The argument list for one run."""
         return [a.format(dataset=str(dataset_path), out=str(out_path)) for a in self.args]
@@ -98,6 +106,7 @@ class ExternalCommand:
         out_path = Path(out_path)
         home = Path(cwd) if cwd is not None else out_path.parent
         argv = [self._absolute(a) for a in self.command(dataset_path, out_path)]
+        self.check_program()
         plan = Plan(Path(dataset_path), home)
         if isolation.tool:
             own = own_paths(argv, Path.cwd())
@@ -117,8 +126,10 @@ class ExternalCommand:
                                        f"{self.timeout_s:g} s (--timeout); its process group was ended", self.stderr)
         if rc != 0:
             last = next((ln for ln in reversed(self.stderr.splitlines()) if ln.strip()), "")
+            where = (" (under namespace isolation it sees only the system folders, its input, its output folder and "
+                     "its own files: its installation and the paths in its template)") if isolation.tool else ""
             raise ExternalCommandError(f"external command {self.cmd_template!r} failed with exit code "
-                                       f"{rc}: {last}", self.stderr)
+                                       f"{rc}: {last}{where}", self.stderr)
         if not out_path.is_file():
             raise ExternalCommandError(f"external command {self.cmd_template!r}: exit 0 but wrote no trajectory "
                                        f"to {{out}}", self.stderr)
