@@ -22,6 +22,7 @@ from vo.estimators.isolation import available_tool
 
 REPO = Path(__file__).resolve().parents[1]
 NAMESPACE_TOOL, WHY_NOT = available_tool()
+pytestmark = pytest.mark.slow                  # each test starts `check` as its own process (3-16 s)
 needs_namespace = pytest.mark.skipif(NAMESPACE_TOOL is None, reason=f"no namespace isolation here: {WHY_NOT}")
 
 HOSTILE = r'''
@@ -188,7 +189,6 @@ def wait_gone(marker, seconds=10.0):
     return marker_processes(marker)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("isolation", ["auto", "view-only"])
 def test_timeout_ends_the_program_and_its_child(cache, tmp_path, isolation):
     root, _ = cache
@@ -202,7 +202,6 @@ def test_timeout_ends_the_program_and_its_child(cache, tmp_path, isolation):
     assert wait_gone(marker) == []                                # no orphan
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("isolation", ["auto", "view-only"])
 def test_ctrl_c_ends_the_program_and_its_child(cache, tmp_path, isolation):
     root, _ = cache
