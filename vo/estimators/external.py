@@ -120,7 +120,7 @@ class ExternalCommand:
             raise EstimatorError(f"external command {self.cmd_template!r}: program not found ({e.filename})") from None
         finally:
             if isolation.tool:
-                os.rmdir(plan.root)
+                shutil.rmtree(plan.root, ignore_errors=True)      # an empty mount point on our side
         if rc is None:
             raise ExternalCommandError(f"external command {self.cmd_template!r}: timed out after "
                                        f"{self.timeout_s:g} s (--timeout); its process group was ended", self.stderr)
@@ -154,6 +154,9 @@ class ExternalCommand:
             for t in tails:
                 t.join()
             self.stdout, self.stderr = (t.text() for t in tails)
+            for t in tails:
+                if not t.is_alive():          # one still reading: a process that left the group holds the pipe
+                    t.pipe.close()
         return rc
 
 
