@@ -2,7 +2,7 @@
 
 Exit codes (CONVENTIONS.md): 0 pass, 1 a bound exceeded or coverage too low, 2 bad input (including a
 program that fails), 3 internal error. External programs here are small Python scripts; the "perfect"
-ones copy the exact trajectory from a path the test knows (never from the folder they are handed).
+ones copy the exact trajectory that the test put beside them (never from the folder they are handed).
 """
 import hashlib
 import json

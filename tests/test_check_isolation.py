@@ -304,3 +304,26 @@ def test_in_process_plugins_get_sensors_only_and_oracles_are_refused(cache, tmp_
                  ["--estimator", "test_check_isolation:PeekOracle"]):
         r = check_process(root, *args, "--max-ate", "1", path_env=None)
         assert r.returncode == 2 and "reads ground truth" in r.stderr, (args, r.stderr)
+
+
+def test_own_files_are_shown_and_the_cache_inside_them_is_covered(tmp_path):
+    """What namespace isolation binds besides the system: a venv's root and its base Python; the folder of a
+    path in the template; the cache covered when inside it; a program inside the cache refused."""
+    from vo.errors import EstimatorError
+    from vo.estimators.isolation import hidden_within, own_paths
+    venv = tmp_path / "venv"
+    (venv / "bin").mkdir(parents=True)
+    base = tmp_path / "python3.11"
+    (base / "bin").mkdir(parents=True)
+    (venv / "pyvenv.cfg").write_text(f"home = {base / 'bin'}\n")
+    exe = venv / "bin" / "python"
+    exe.write_text("")
+    exe.chmod(0o755)
+    proj = tmp_path / "proj"
+    (proj / ".cache" / "vo-testbed").mkdir(parents=True)
+    (proj / "my_vo.py").write_text("")
+    own = own_paths([str(exe), "my_vo.py", "--fast", "{dataset}"], proj)
+    assert set(own) == {venv.resolve(), base.resolve(), proj.resolve()}
+    assert hidden_within(own, (proj / ".cache" / "vo-testbed",)) == ((proj / ".cache" / "vo-testbed").resolve(),)
+    with pytest.raises(EstimatorError, match="lie inside"):
+        hidden_within(own, (proj,))
