@@ -202,10 +202,14 @@ def test_timeout_ends_the_program_and_its_child(cache, tmp_path, isolation):
     assert wait_gone(marker) == []                                # no orphan
 
 
-@pytest.mark.parametrize("isolation", ["auto", "view-only"])
-def test_ctrl_c_ends_the_program_and_its_child(cache, tmp_path, isolation):
+@pytest.mark.parametrize("isolation, sig, code", [("auto", signal.SIGINT, 130), ("view-only", signal.SIGINT, 130),
+                                                   ("auto", signal.SIGTERM, 143),
+                                                   pytest.param("auto", signal.SIGKILL, -9, marks=needs_namespace)])
+def test_ctrl_c_ends_the_program_and_its_child(cache, tmp_path, isolation, sig, code):
+    """Ctrl-C (SIGINT), a cancelled CI job (SIGTERM), and under namespace isolation even SIGKILL to `check` end the
+    program and the child it started."""
     root, _ = cache
-    marker = f"vo-sigint-child-{os.getpid()}-{isolation}"
+    marker = f"vo-sig{int(sig)}-child-{os.getpid()}-{isolation}"
     proc = check_process(root, "--estimator", spawner(tmp_path, marker), "--max-ate", "1", "--isolation", isolation,
                          wait=False)
     try:
@@ -213,11 +217,11 @@ def test_ctrl_c_ends_the_program_and_its_child(cache, tmp_path, isolation):
         while not marker_processes(marker) and time.monotonic() < deadline:
             time.sleep(0.1)
         assert marker_processes(marker), "the program's child never started"
-        proc.send_signal(signal.SIGINT)                           # Ctrl-C
+        proc.send_signal(sig)
         proc.wait(timeout=30)
     finally:
         proc.kill()
-    assert proc.returncode == 130
+    assert proc.returncode == code
     assert wait_gone(marker) == []                                # the child went with its program
 
 

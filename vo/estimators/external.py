@@ -7,15 +7,17 @@ own (empty) working folder, isolated by namespaces where the machine allows it (
 Process control: the program runs in a new session (its own process group). When it runs longer than the
 timeout (default :func:`default_timeout_s`: 20 x the sequence's duration + 60 s), or when we are interrupted
 (Ctrl-C), the whole group is ended (SIGTERM, then SIGKILL 2 s later); the group is also ended when the program
-exits, so no child it started outlives it. Under namespace isolation the program is PID 1 of its own PID
-namespace: every process it started ends with it, even one that left the group. Only the last
-:data:`TAIL_BYTES` of its stderr (and of its stdout) are kept.
+exits, so no child it started outlives it; SIGTERM to us (a cancelled CI job) does the same (exit 143). If we
+are killed outright, ``setpriv --pdeathsig`` (util-linux) kills the program. Under namespace isolation the
+program runs in its own PID namespace: every process it started ends with it, even one that left the group.
+Only the last :data:`TAIL_BYTES` of its stderr (and of its stdout) are kept.
 
 Templates: ``{dataset}`` and ``{out}`` are the only fields; literal braces are written ``{{`` and ``}}``. The
 template is split like a shell command line (``shlex``) and run without a shell.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import shlex
 import shutil
@@ -142,11 +144,14 @@ class ExternalCommand:
     def _supervise(self, argv: list, env: dict, cwd: Path):
         """Run ``argv`` in a new session -> its exit code, or None on timeout. The group is ended on timeout,
         on any exception here (KeyboardInterrupt included), and after the program exits."""
+        if shutil.which("setpriv"):                 # util-linux: the program is killed if we die (even SIGKILL)
+            argv = ["setpriv", "--pdeathsig", "KILL", "--"] + list(argv)
         proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                 env=env, cwd=cwd, start_new_session=True)
         tails = [_Tail(proc.stdout), _Tail(proc.stderr)]
         try:
-            rc = proc.wait(timeout=self.timeout_s)
+            with _sigterm_as_exit():
+                rc = proc.wait(timeout=self.timeout_s)
         except subprocess.TimeoutExpired:
             rc = None
         finally:
@@ -182,6 +187,23 @@ class _Tail(threading.Thread):
         body = bytes(self.buf[-TAIL_BYTES:]).decode("utf-8", errors="replace")
         return ("[... earlier output cut; the last 64 KiB follow]\n" + body) if self.cut or len(self.buf) > TAIL_BYTES \
             else body
+
+
+@contextlib.contextmanager
+def _sigterm_as_exit():
+    """While the program runs, SIGTERM (a cancelled CI job) exits with 143 through ``finally`` blocks, so the
+    program's group is ended as on Ctrl-C (the main thread only: Python's signal handlers live there)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def exit_143(signum, frame):
+        raise SystemExit(128 + signum)
+    old = signal.signal(signal.SIGTERM, exit_143)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
 
 
 def _end_group(proc: subprocess.Popen) -> None:
