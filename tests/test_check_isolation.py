@@ -327,7 +327,14 @@ def test_own_files_are_shown_and_the_cache_inside_them_is_covered(tmp_path):
     (proj / ".cache" / "vo-testbed").mkdir(parents=True)
     (proj / "my_vo.py").write_text("")
     own = own_paths([str(exe), "my_vo.py", "--fast", "{dataset}"], proj)
-    assert set(own) == {venv.resolve(), base.resolve(), proj.resolve()}
+    assert set(own) == {venv, base, proj}
     assert hidden_within(own, (proj / ".cache" / "vo-testbed",)) == ((proj / ".cache" / "vo-testbed").resolve(),)
     with pytest.raises(EstimatorError, match="lie inside"):
         hidden_within(own, (proj,))
+    link = tmp_path / "link"                                     # the project reached through a symbolic link
+    link.symlink_to(proj)
+    own = own_paths([str(exe), str(link / "my_vo.py")], tmp_path)
+    assert {link, proj.resolve()} <= set(own)
+    cache = proj / ".cache" / "vo-testbed"
+    assert {link / ".cache" / "vo-testbed", cache.resolve()} <= set(hidden_within(own, (cache,)))
+    assert hidden_within((), ("/etc/ssl",)) == (Path("/etc/ssl"),)   # a cache under a system folder is covered

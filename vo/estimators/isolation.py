@@ -117,11 +117,12 @@ def _probe_plan(tmp: Path) -> Plan:
 def own_paths(argv: list, cwd: Path) -> tuple:
     """Folders a program needs besides the system's: the installation of its executable (the parent of its
     ``bin/``, or of a version manager's ``shims/``; a virtual environment and its base Python), and the folder
-    of every existing path among its arguments."""
+    of every existing path among its arguments. Each as named (absolute) and, when a symbolic link leads
+    elsewhere, also where it leads."""
     out = []
     exe = shutil.which(argv[0]) if argv else None
     if exe:
-        for p in {Path(exe).absolute(), Path(os.path.realpath(exe))}:
+        for p in {Path(os.path.abspath(exe)), Path(os.path.realpath(exe))}:
             prefix = p.parent.parent if p.parent.name in ("bin", "shims") else p.parent   # shims: pyenv, asdf
             out.append(prefix)
             home = _venv_home(prefix)
@@ -131,7 +132,9 @@ def own_paths(argv: list, cwd: Path) -> tuple:
         p = Path(a) if os.path.isabs(a) else cwd / a
         if a and p.exists():
             out.append(p if p.is_dir() else p.parent)
-    return tuple(dict.fromkeys(p.resolve() for p in out if not _is_system(p.resolve())))
+    named = [Path(os.path.abspath(p)) for p in out]
+    both = [q for p in named for q in (p, Path(os.path.realpath(p)))]
+    return tuple(dict.fromkeys(p for p in both if not _is_system(Path(os.path.realpath(p)))))
 
 
 def _venv_home(prefix: Path):
@@ -153,17 +156,21 @@ def _inside(p: Path, folder: Path) -> bool:
     return p == folder or folder in p.parents
 
 
-def hidden_within(plan_own: tuple, protect: tuple) -> tuple:
-    """The folders of ``protect`` that lie inside one of ``plan_own`` (to be covered); a protected folder that
-    contains one of ``plan_own`` is refused: the program would run from inside the dataset or the cache."""
+def hidden_within(own: tuple, protect: tuple) -> tuple:
+    """Where to cover the folders of ``protect`` (the dataset, the cache) with an empty tmpfs: every place they
+    appear inside one of ``own`` or of the system folders (as each is bound, so also through a symbolic link).
+    A protected folder that contains one of ``own`` is refused: the program would run from inside the dataset
+    or the cache."""
+    system = [Path(d) for d, kind, _ in _system_entries() if kind == "dir"]
     hidden = []
-    for p in (Path(x).resolve() for x in protect):
-        for own in plan_own:
-            if _inside(own, p):
-                raise EstimatorError(f"{own}: the program's files lie inside {p} (the dataset or the scenario "
+    for p in (Path(os.path.realpath(x)) for x in protect):
+        for folder in list(own) + system:
+            real = Path(os.path.realpath(folder))
+            if folder in own and _inside(real, p):
+                raise EstimatorError(f"{folder}: the program's files lie inside {p} (the dataset or the scenario "
                                      f"cache); move them elsewhere")
-            if _inside(p, own):
-                hidden.append(p)
+            if _inside(p, real):
+                hidden.append(Path(folder) / p.relative_to(real))
     return tuple(dict.fromkeys(hidden))
 
 
