@@ -7,7 +7,6 @@ namespace tool works the namespace part is skipped, saying why.
 """
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
