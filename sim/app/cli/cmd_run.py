@@ -31,7 +31,7 @@ def run(dataset_dir, estimator, frontend, max_frames, out_dir, estimator_opts, a
     from vo.eval.evaluate import status_text
     from vo.pipeline import run_dataset
     result, evaluated = run_dataset(dataset_dir, estimator, out_dir, parse_opts(estimator_opts, frontend),
-                                    progress=not (no_progress or as_json), max_frames=max_frames, seed=seed)
+                                    progress=not no_progress, max_frames=max_frames, seed=seed)
     summary = dict(result.summary(), out=str(out_dir))
     if evaluated is not None:
         summary["metrics"] = evaluated.evaluation.to_dict()
