@@ -123,10 +123,10 @@ def renderer_versions() -> dict:
     return {"vo-testbed": __version__, "mujoco": mujoco_version, "opencv": cv2.__version__}
 
 
-def cache_key(config: GenerateConfig) -> str:
+def cache_key(config: GenerateConfig, versions: dict = None) -> str:
     """Folder name of ``config``'s cache entry: scene, rig, and a hash of the configuration together with
-    :func:`renderer_versions` (a MuJoCo or OpenCV upgrade gets a new entry)."""
-    blob = json.dumps({"config": config.config_hash(), **renderer_versions()}, sort_keys=True)
+    ``versions`` (default :func:`renderer_versions`: a MuJoCo or OpenCV upgrade gets a new entry)."""
+    blob = json.dumps({"config": config.config_hash(), **(versions or renderer_versions())}, sort_keys=True)
     return f"{config.scene.name}-{config.rig.name}-{hashlib.sha256(blob.encode()).hexdigest()[:16]}"
 
 
