@@ -218,5 +218,4 @@ def test_generate_into_a_path_below_a_file_exits_2(tmp_path, capsys):
     (tmp_path / "afile").write_text("x")
     code, _, err = vo_testbed(capsys, "generate", *SMOKE_1S, "--no-images", "--out", tmp_path / "afile" / "sub")
     assert code == 2
-    assert one_error_line(err) == (f"error: {tmp_path / 'afile' / 'sub'}: cannot create the output folder: "
-                                   f"Not a directory ({tmp_path / 'afile'})") or "Not a directory" in err
+    assert one_error_line(err) == f"error: {tmp_path / 'afile' / 'sub'}: cannot create the output folder: Not a directory"

@@ -86,7 +86,7 @@ def describe_non_traverse(root: Path, meta: dict) -> str:
                                  else None)
     if fmt is None:
         return "a folder whose metadata.yaml names no dataset kind"
-    scene = (meta.get("config") or {}).get("scene") if isinstance(meta.get("config"), dict) else None
+    scene = meta.get("scene")
     scene = scene.get("name") if isinstance(scene, dict) else scene
     n = meta.get("n_frames")
     return (f"a {fmt.upper() if fmt == 'kitti' else 'EuRoC'} stereo sequence" + (f" of {n} frames" if n else "")
