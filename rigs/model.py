@@ -182,6 +182,16 @@ class Rig:
         object.__setattr__(self, "camera_rate_hz", _positive(self.camera_rate_hz, f"rig {self.name!r}.camera_rate_hz"))
         if not isinstance(self.imu, Imu):
             raise RigError(f"rig {self.name!r}.imu: expected an Imu")
+
+    @property
+    def is_stereo(self) -> bool:
+        return len(self.cameras) >= 2
+
+    def check_stereo(self) -> "Rig":
+        """``self``; a RigError when two cameras sit at one position (closer than :data:`MIN_BASELINE_M`):
+        such a pair has no stereo geometry. Checked where a rig is read or data are generated (a test's
+        stand-in rig built in code may put two cameras anywhere)."""
+        cams = self.cameras
         for i in range(len(cams)):
             for j in range(i + 1, len(cams)):
                 d = float(np.linalg.norm(cams[i].T_b_c_array[:3, 3] - cams[j].T_b_c_array[:3, 3]))
@@ -189,10 +199,7 @@ class Rig:
                     raise RigError(f"rig {self.name!r}.cameras: {cams[i].name} and {cams[j].name} sit at the same "
                                    f"position (baseline {d:g} m); a stereo rig needs a baseline of at least "
                                    f"{MIN_BASELINE_M:g} m")
-
-    @property
-    def is_stereo(self) -> bool:
-        return len(self.cameras) >= 2
+        return self
 
     def T_c0_c(self, k: int) -> np.ndarray:
         """(4,4) pose of camera ``k`` in the reference camera frame."""

@@ -110,7 +110,7 @@ def rig_from_dict(d, source: str = "<dict>") -> Rig:
         cameras = tuple(camera_from_dict(c, source, f"cameras[{i}]") for i, c in enumerate(cams))
         return Rig(name=name, cameras=cameras, imu=imu_from_dict(d["imu"], source),
                    camera_rate_hz=field_number(d["camera_rate_hz"], source, "camera_rate_hz", positive=True),
-                   wheels=wheels, mount=field_str(d["mount"], source, "mount"))
+                   wheels=wheels, mount=field_str(d["mount"], source, "mount")).check_stereo()
     except RigError as exc:
         msg = str(exc)
         raise RigError(msg if msg.startswith(f"{source}: ") else f"{source}: {msg}") from None
