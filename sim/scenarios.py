@@ -110,17 +110,21 @@ def cache_root() -> Path:
 
 
 def renderer_versions() -> dict:
-    """Versions of what the bytes of a dataset depend on besides its configuration: ours (the dataset
-    version), MuJoCo's (rendering, physics) and OpenCV's (noise, rectification, PNG encoding)."""
+    """Versions of what the bytes of a dataset depend on besides its configuration: ours (the package, and
+    the dataset version), MuJoCo's (rendering, physics) and OpenCV's (noise, rectification, PNG encoding)."""
     from importlib.metadata import PackageNotFoundError, version
     import cv2
     from sim import __version__
+    try:
+        package = version("vo-testbed")
+    except PackageNotFoundError:
+        package = "not installed"
     try:
         mujoco_version = version("mujoco")
     except PackageNotFoundError:
         import mujoco
         mujoco_version = mujoco.__version__
-    return {"vo-testbed": __version__, "mujoco": mujoco_version, "opencv": cv2.__version__}
+    return {"vo-testbed": package, "dataset": __version__, "mujoco": mujoco_version, "opencv": cv2.__version__}
 
 
 def cache_key(config: GenerateConfig, versions: dict = None) -> str:
@@ -141,7 +145,7 @@ def cached_dataset(config: GenerateConfig, progress: bool = True) -> Path:
     (a CI matrix sharing the cache) waits for the first and then reuses its result. A complete entry is
     verified against its manifest (:mod:`sim.dataset.manifest`); a damaged one is regenerated with a
     warning on stderr."""
-    from sim.dataset.common import MARKER, METADATA
+    from sim.dataset.common import MARKER, METADATA, OWNER
     from sim.dataset.locking import FolderLock
     from sim.dataset.manifest import verify_manifest
     from sim.generate import generate
@@ -160,6 +164,9 @@ def cached_dataset(config: GenerateConfig, progress: bool = True) -> Path:
                 return out
             _say(f"warning: cache entry {out} is damaged ({problems[0]}"
                  f"{f'; {len(problems) - 1} more problem(s)' if len(problems) > 1 else ''}); regenerating it")
+            shutil.rmtree(out)
+        elif out.is_dir() and any(out.iterdir()) and not (out / OWNER).is_file():   # not made by generate
+            _say(f"warning: cache entry {out} was not written by vo-testbed generate; regenerating it")
             shutil.rmtree(out)
         generate(config, out, progress=progress, overwrite=False)
     return out

@@ -154,13 +154,24 @@ def test_damaged_cache_entry_is_regenerated_with_a_warning(tmp_path, monkeypatch
     assert imu.read_bytes() == original and verify_manifest(entry) == []
     (entry / "topdown.png").unlink()                                          # a missing file
     assert verify_manifest(entry) == ["topdown.png is missing"]
+    assert cached_dataset(cfg, progress=False) == entry and verify_manifest(entry) == []
+    assert "damaged (topdown.png is missing)" in capsys.readouterr().err
+    (entry / OWNER).unlink()                                                  # a folder generate did not make
+    (entry / MARKER).write_text("config=0 frames=3\n")
+    assert cached_dataset(cfg, progress=False) == entry and verify_manifest(entry) == []
+    assert f"warning: cache entry {entry} was not written by vo-testbed generate; regenerating it" \
+        in capsys.readouterr().err
+    assert imu.read_bytes() == original
 
 
 def test_cache_key_follows_the_renderer_versions():
     from sim.scenarios import cache_key, get_scenario, renderer_versions
     cfg = get_scenario("smoke")
     v = renderer_versions()
-    assert set(v) == {"vo-testbed", "mujoco", "opencv"}
+    assert set(v) == {"vo-testbed", "dataset", "mujoco", "opencv"}
+    import cv2
+    import mujoco
+    assert v["mujoco"] == mujoco.__version__ and v["opencv"] == cv2.__version__
     assert cache_key(cfg) == cache_key(cfg, v)
     for name in v:
         assert cache_key(cfg, dict(v, **{name: v[name] + ".1"})) != cache_key(cfg)
