@@ -133,6 +133,7 @@ def test_two_processes_share_one_cache_entry(tmp_path):
     assert verify_manifest(entry) == [] and not (entry / MARKER).exists()
 
 
+@pytest.mark.slow
 def test_damaged_cache_entry_is_regenerated_with_a_warning(tmp_path, monkeypatch, capsys):
     """A cache entry whose IMU file was edited in place (same size) is found by its manifest, regenerated
     with a warning, and comes back byte for byte."""
@@ -204,6 +205,7 @@ def test_sigint_during_the_bag_step_leaves_a_folder_that_resumes(tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------- --overwrite
+@pytest.mark.slow
 def test_overwrite_deletes_only_a_folder_of_ours(tmp_path, capsys):
     """A ROS 2 bag folder (it holds a metadata.yaml) is not ours: --overwrite refuses it and leaves it as
     it was; our own dataset carries the marker and is replaced."""
