@@ -77,6 +77,9 @@ class FolderLock:
                 if on_wait is not None:
                     on_wait(pid)
                 fcntl.flock(fd, fcntl.LOCK_EX)
+            except OSError as e:              # a file system without locks (some network mounts)
+                raise SimError(f"{self.what}: cannot lock {self.path} ({e.strerror or e}); this file system "
+                               f"does not support advisory locks, choose a local folder") from None
             os.ftruncate(fd, 0)
             os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
         except BaseException:
