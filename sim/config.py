@@ -191,6 +191,7 @@ class GenerateConfig:
         except SceneError as e:
             raise SceneError(f"scene.name: {e}") from None
         vehicle_class(self.vehicle)
+        self.rig.check_stereo()                   # two cameras at one position: no stereo geometry
         if not self.images and self.format in ("kitti", "both"):
             raise SimError(f"images: false (--no-images) with format {self.format!r}: KITTI odometry holds "
                            f"images only, nothing written; use format euroc for IMU and ground truth alone")

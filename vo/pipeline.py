@@ -47,6 +47,17 @@ def prepare_out_dir(path) -> Path:
     return out
 
 
+def refuse_dataset_as_out(ds, dataset_dir, out_dir) -> None:
+    """A one-line VoError when ``out_dir`` is one of the dataset's own folders (its root, ``mav0``, a KITTI
+    sequence): the run's files (``topdown.png``, ``trajectory_*.txt``, ...) would overwrite the dataset's."""
+    out = Path(out_dir).expanduser().resolve()
+    own = {Path(p).resolve() for p in (dataset_dir, ds.path, getattr(ds, "root", ds.path), getattr(ds, "mav0", ds.path),
+                                       getattr(ds, "seq", ds.path))}
+    if out in own:
+        raise VoError(f"--out {out_dir}: is the dataset's own folder ({dataset_dir}); the run's files (topdown.png, "
+                      f"trajectory_tum.txt, ...) would overwrite the dataset's; choose another folder")
+
+
 def run_dataset(dataset_dir, estimator: str, out_dir, options: Optional[dict] = None, progress: bool = True,
                 max_frames=None, seed: int = 0):
     """``vo-testbed run``: open ``dataset_dir`` once, run (OpenCV's RNG seeded with ``seed``), save to
@@ -57,8 +68,9 @@ def run_dataset(dataset_dir, estimator: str, out_dir, options: Optional[dict] = 
     from vo.estimators.runner import run_estimator
 
     check_spec(estimator)
-    out = prepare_out_dir(out_dir)
     ds = open_dataset(dataset_dir)
+    refuse_dataset_as_out(ds, dataset_dir, out_dir)
+    out = prepare_out_dir(out_dir)
     run = run_estimator(estimator, ds, options=options or {}, progress=progress, max_frames=max_frames, seed=seed)
     run.save(out)                      # kept even when the evaluation then fails
     if ds.groundtruth is None or len(run.estimated()) < 2:

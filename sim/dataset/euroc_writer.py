@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from rigs.atomic_io import atomic_write_npy
-from sim.dataset.common import (CsvStream, config_hash, finalize_folder, fmt_float, prepare_folder,
+from sim.dataset.common import (CsvStream, commit_folder, config_hash, final_metadata, fmt_float, prepare_folder,
                                 write_marker, write_png)
 from sim.errors import SimError
 
@@ -243,8 +243,10 @@ class EurocWriter:
         self._gcps.extend(gcps)
 
     # ------------------------------------------------------------------ finish
-    def finalize(self) -> Path:
-        """Write gcps.csv, groundtruth_tum.txt and metadata.yaml, then remove INCOMPLETE."""
+    def finalize(self, commit: bool = True) -> Path:
+        """Write gcps.csv and groundtruth_tum.txt; with ``commit`` also :meth:`commit` (metadata.yaml,
+        manifest, INCOMPLETE removed). A caller that writes more files into the folder first passes
+        ``commit=False`` and calls :meth:`commit` after them."""
         for s in (*self._cams, self._imu, self._gt, self._c0):
             s.close()
         gcp_note = write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
@@ -254,9 +256,15 @@ class EurocWriter:
         meta = dict(self.metadata, format="euroc", gcps=gcp_note, calibration=calibration_note(self.rig))
         if self.depth:
             meta["depth_format"] = self.depth_format
-        finalize_folder(self.out_dir, meta, counts, self.rig)
-        self.finalized = True
+        self.final_meta = final_metadata(meta, counts, self.rig)
+        if commit:
+            self.commit()
         return self.out_dir
+
+    def commit(self) -> None:
+        """The last step: metadata.yaml (``status: complete``), manifest.json, then INCOMPLETE removed."""
+        commit_folder(self.out_dir, self.final_meta)
+        self.finalized = True
 
     def _write_tum(self) -> None:
         """groundtruth_tum.txt from the streamed cam0 truth (T_w_c0), then drop the helper csv."""

@@ -33,10 +33,19 @@ DR_RATE_HZ = 20.0
 def generate_traverse(config, tcfg, out_dir, progress: bool = True, overwrite: bool = False) -> dict:
     """Plan, simulate and write the traverse of ``config`` (GenerateConfig) with ``tcfg``
     (:class:`sim.traverse.TraverseConfig`) into ``out_dir``; returns a summary dict."""
-    from sim.traverse import plan
+    from sim.dataset.common import claim_folder
     out = Path(out_dir)
-    if (out / "metadata.yaml").exists() and not overwrite:
-        raise SimError(f"--out {out}: a dataset is already there; pass --overwrite to replace it")
+    with claim_folder(out, overwrite):        # locked; --overwrite deletes only a folder of ours
+        if (out / "metadata.yaml").exists():
+            raise SimError(f"--out {out}: a dataset is already there; pass --overwrite to replace it")
+        return _generate_traverse(config, tcfg, out, progress)
+
+
+def _generate_traverse(config, tcfg, out: Path, progress: bool) -> dict:
+    """:func:`generate_traverse` in a claimed folder; ``metadata.yaml`` is written last (atomically), so a
+    folder without it is incomplete and a rerun writes it again."""
+    from rigs.atomic_io import atomic_write_text
+    from sim.traverse import plan
     (out / "sites").mkdir(parents=True, exist_ok=True)
     (out / "drive").mkdir(parents=True, exist_ok=True)
     tp = plan(config, tcfg)
@@ -47,7 +56,7 @@ def generate_traverse(config, tcfg, out_dir, progress: bool = True, overwrite: b
     _write_tum(out / "sites" / "dead_reckoning_tum.txt", tp.site_t_ns, T_dr)
     write_map(out / "map.png", tp, T_dr)
     meta = _metadata(config, tcfg, tp)
-    (out / "metadata.yaml").write_text(yaml.safe_dump(_plain(meta), sort_keys=False))
+    atomic_write_text(out / "metadata.yaml", yaml.safe_dump(_plain(meta), sort_keys=False))
     return {"out_dir": str(out), "n_sites": len(tp.site_t_ns), "n_pairs": len(tp.captures),
             "path_length_m": float(tp.site_s_m[-1]), "duration_s": (tp.trajectory.t1_ns - tp.trajectory.t0_ns) * 1e-9,
             "map_png": str(out / "map.png")}

@@ -55,6 +55,8 @@ def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, overri
         return _traverse(ctx, scenario, config_file, out_dir, overwrite, no_progress, overrides, as_json, flags)
     cfg = build_config(ctx, scenario, config_file, flags, overrides)
     res = run(cfg, out_dir, progress=not no_progress and not as_json, overwrite=overwrite)
+    for note in res.notes:
+        click.echo(f"warning: {note}", err=True)
     if as_json:
         echo_json(res.to_dict())
     else:
