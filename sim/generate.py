@@ -103,7 +103,7 @@ def imu_streams(setup: Setup):
 
 def truth_records(setup: Setup, biases):
     """IMU-frame ground truth at IMU times, cam0 poses at frame times, and the GCPs."""
-    from vo.dataset.types import Gcp
+    from rigs.records import Gcp
 
     rig, traj = setup.rig, setup.trajectory
     T_b_i = rig.imu.T_b_i_array
@@ -291,7 +291,7 @@ def write_topdown(setup: Setup, truth: dict, path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from scenes.plot import plot_topdown
-    from vo.eval.plots import save_figure
+    from rigs.figures import save_figure
 
     fig, ax = plt.subplots(figsize=(8, 7))
     xy = truth["T_w_c0"][:, :2, 3]

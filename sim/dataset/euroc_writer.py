@@ -203,7 +203,7 @@ class EurocWriter:
 
     def add_imu(self, t_ns, gyro=None, accel=None) -> None:
         """Append IMU samples: ``t_ns`` (N,), ``gyro``/``accel`` (N,3) in the IMU frame; or one
-        object with ``.t_ns, .gyro, .accel`` (ImuSamples/ImuData). Chunks may follow each other."""
+        object with ``.t_ns, .gyro, .accel`` (rigs.records.ImuSamples). Chunks may follow each other."""
         if gyro is None and hasattr(t_ns, "gyro"):
             t_ns, gyro, accel = t_ns.t_ns, t_ns.gyro, t_ns.accel
         t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
@@ -268,8 +268,8 @@ class EurocWriter:
 
     def _write_tum(self) -> None:
         """groundtruth_tum.txt from the streamed cam0 truth (T_w_c0), then drop the helper csv."""
-        from vo.trajfile import write_tum
-        from vo.trajectory import Trajectory
+        from rigs.trajfile import write_tum
+        from rigs.trajectory import Trajectory
         rows = [ln.split(",") for ln in self._c0.path.read_text().splitlines()[1:] if ln.strip()]
         if rows:
             t = np.array([int(r[0]) for r in rows], dtype=np.int64)

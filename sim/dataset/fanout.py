@@ -27,8 +27,8 @@ def output_paths(out_dir, fmt: str) -> list:
 
 
 def write_tum_groundtruth(path, traj) -> None:
-    """Write a ``vo.trajectory.Trajectory`` as a TUM file (seconds, x y z, qx qy qz qw)."""
-    from vo.trajfile import write_tum
+    """Write a ``rigs.trajectory.Trajectory`` as a TUM file (seconds, x y z, qx qy qz qw)."""
+    from rigs.trajfile import write_tum
     write_tum(Path(path), traj)
 
 

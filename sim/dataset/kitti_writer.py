@@ -24,7 +24,7 @@ import numpy as np
 from sim.dataset.common import (CsvStream, commit_folder, config_hash, final_metadata, fmt_float, prepare_folder,
                                 write_marker, write_png)
 from sim.errors import SimError
-from vo.frontend.image import to_gray
+from rigs.image import to_gray
 
 FRAMES_HEADER = "#timestamp [ns],index"
 TRUTH_HEADER = "#timestamp [ns],T_w_c0 row-major 3x4 (12 numbers)"
@@ -141,8 +141,8 @@ class KittiWriter:
     def _write_poses(self, t_frames: np.ndarray) -> int:
         """poses/NN.txt with one pose per frame (all frames need a cam0 truth at the same time)."""
         from rigs.geometry import inv_T, make_T
-        from vo.trajfile import write_kitti
-        from vo.trajectory import Trajectory
+        from rigs.trajfile import write_kitti
+        from rigs.trajectory import Trajectory
         rows = [ln.split(",") for ln in self._truth.path.read_text().splitlines()[1:] if ln.strip()]
         if not rows:
             return 0

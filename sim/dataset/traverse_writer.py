@@ -113,7 +113,7 @@ def _dead_reckoning(tp, tcfg, config, imu):
     the random part of the slip model (``traverse.slip_random_std``); the mean slip is not corrected
     (an on-board filter does not know it) but is in its covariance: a slip-bias state of prior std
     ``traverse.slip`` (at least 0.02); the gyro and accelerometer bias random walks are the rig IMU's."""
-    from sim.sensors.imu import ImuSamples
+    from rigs.records import ImuSamples
     from vo.deadreckoning import DeadReckoningConfig, dead_reckon
     n = max(1, int(round(config.rig.imu.rate_hz / DR_RATE_HZ)))
     m = (len(imu.t_ns) - 1) // n * n + 1
@@ -136,7 +136,7 @@ def _write_sites(out: Path, tp, config, T_dr, C_dr, progress: bool) -> None:
     from sim.render import StereoRenderer
     from sim.sensors.camera import add_noise
     from sim.world import build_world
-    from vo.frontend.image import to_gray
+    from rigs.image import to_gray
     from sim.vehicles.rover import MastHead
     head = MastHead.from_rig(config.rig)
     sigma = 0.0 if config.ideal else config.noise.image_sigma
@@ -170,8 +170,8 @@ def _write_sites(out: Path, tp, config, T_dr, C_dr, progress: bool) -> None:
 
 
 def _write_tum(path: Path, t_ns, T) -> None:
-    from vo.trajectory import Trajectory
-    from vo.trajfile import write_tum
+    from rigs.trajectory import Trajectory
+    from rigs.trajfile import write_tum
     write_tum(path, Trajectory(np.asarray(t_ns, np.int64), np.asarray(T), ref="w", frame="b"))
 
 
@@ -181,7 +181,7 @@ def write_map(path: Path, tp, T_dr=None, extra: dict = None) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from vo.eval.plots import save_figure
+    from rigs.figures import save_figure
     sc = tp.scene
     xmin, xmax, ymin, ymax = sc.extent_xy()
     gy, gx = np.gradient(sc.z, getattr(sc, "res_m", 0.25))

@@ -12,7 +12,7 @@ from typing import Optional
 import numpy as np
 
 from rigs.model import Rig
-from vo.dataset.types import ImuData, StereoFrame
+from rigs.records import ImuSamples, StereoFrame
 
 STATUSES = ("init", "ok", "keyframe", "few_features", "lost", "reinit")
 # What a frame's pose is worth, whatever the estimator's own status word:
@@ -65,7 +65,7 @@ class Estimator(abc.ABC):
         self.rig = rig
         self.options = options
 
-    def set_imu(self, imu: Optional[ImuData]) -> None:
+    def set_imu(self, imu: Optional[ImuSamples]) -> None:
         """Give the whole IMU stream up front (VINS estimators use it; VO ignores it)."""
 
     @classmethod

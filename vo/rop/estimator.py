@@ -52,13 +52,14 @@ from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.config import RopConfig
 from vo.rop.consensus import predicted_rops, rotation_consensus, solve_rops
+from vo.rop.cov_models import make_uncertainty
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops
 from vo.rop.moving import TrackFilter, filter_tracks
 from vo.rop.ropset import PAIRS
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
-from vo.rop.uncertainty import Step, UncertaintyModel, make_uncertainty
+from vo.rop.uncertainty import Step, UncertaintyModel
 
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MIN_COAST_PNP_INLIERS = 20  # PnP inliers of the track filter's motion for it to give a failed frame's pose
