@@ -21,6 +21,7 @@ import hashlib
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal, Optional, get_args
 
 from rigs.errors import TestbedError
@@ -137,16 +138,20 @@ def check_supersample(value) -> int:
 
 def rig_of(value) -> Rig:
     """The ``rig`` field from a preset name or ``.yaml`` path, a mapping of Rig field names (as
-    ``metadata.yaml`` records it) or ``{preset: NAME, set: [key=value, ...]}``."""
+    ``metadata.yaml`` records it), ``{preset: NAME, set: [key=value, ...]}`` or Kalibr files
+    ``{kalibr: camchain-imucam.yaml, imu: imu.yaml}`` (``imu`` optional)."""
     from rigs.presets import get_rig
     from rigs.rig_yaml import rig_from_dict
     if isinstance(value, str):
         return get_rig(value)
     if isinstance(value, Mapping) and "preset" in value and set(value) <= {"preset", "set"}:
         return get_rig(value["preset"], value.get("set") or ())
+    if isinstance(value, Mapping) and "kalibr" in value and set(value) <= {"kalibr", "imu"}:
+        from rigs.calib_io import read_kalibr
+        return read_kalibr(value["kalibr"], value.get("imu"), name=Path(str(value["kalibr"])).stem)
     if isinstance(value, Mapping):
         return rig_from_dict(dict(value), source="rig")
-    raise SimError(f"rig: expected a preset name, a rig mapping or {{preset, set}}, got {value!r}")
+    raise SimError(f"rig: expected a preset name, a rig mapping, {{preset, set}} or {{kalibr, imu}}, got {value!r}")
 
 
 def scene_of(value) -> SceneConfig:

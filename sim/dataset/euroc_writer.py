@@ -7,7 +7,7 @@ Layout (as the real EuRoC MAV recordings, body ``B`` = IMU frame ``S``)::
       metadata.yaml  rig.yaml  groundtruth_tum.txt (T_w_c0 at frame times)
       gcps.csv                         # only when a check point was reached (never an empty file)
       mav0/cam0/data.csv  data/<t_ns>.png  sensor.yaml (T_BS = T_i_c0; 4 radtan coefficients)
-           camchain.yaml                              # Kalibr camchain, only when a camera has k3 != 0
+           camchain-imucam.yaml  imu.yaml             # Kalibr calibration (see below)
            cam0/depth/<t_ns>.npy                      # float32 metres along the optical axis, inf = sky
            cam0/depth/<t_ns>.png                      # or (depth_format png16) uint16 mm, 0 = sky / > 65.535 m
            cam0/segmentation/<t_ns>.png               # uint16, object id + 1 (0 = background, id -1)
@@ -18,9 +18,11 @@ Layout (as the real EuRoC MAV recordings, body ``B`` = IMU frame ``S``)::
 Floats are written with Python ``repr`` (shortest exact round trip of float64).
 
 Calibration: ``rig.yaml`` is exact and complete. ``sensor.yaml`` lists the 4 radtan coefficients
-``k1, k2, p1, p2`` as real EuRoC does, so it drops ``k3``; when a camera has ``k3 != 0``,
-``mav0/camchain.yaml`` (Kalibr, 5 coefficients) is written and is the exact file for tools that
-do not read ``rig.yaml``.
+``k1, k2, p1, p2`` as real EuRoC does, so it drops ``k3``. ``mav0/camchain-imucam.yaml`` and
+``mav0/imu.yaml`` are Kalibr's files (``T_cam_imu``, ``T_cn_cnm1``, ``timeshift_cam_imu`` = the
+simulated IMU clock offset ``td`` in seconds, noise densities and random walks, ``T_i_b``); Kalibr's
+radtan also has 4 coefficients, so for a rig with ``k3 != 0`` (cart27) both files say in a comment
+that they are not exact. ``--rig mav0/camchain-imucam.yaml --imu mav0/imu.yaml`` reads them back.
 """
 from __future__ import annotations
 
@@ -147,8 +149,8 @@ class EurocWriter:
                 (d / "segmentation").mkdir(exist_ok=True)
             cio.write_euroc_camera_yaml(d / "sensor.yaml", four_coefficients(self.rig.cameras[k]),
                                         T_i_c(self.rig, k), self.rig.camera_rate_hz)
-        if has_k3(self.rig):
-            cio.write_kalibr(self.rig, self.mav0 / "camchain.yaml")
+        cio.write_kalibr(self.rig, self.mav0 / cio.KALIBR_CAMCHAIN, self.mav0 / cio.KALIBR_IMU,
+                         timeshift_s=timeshift_s(self.metadata))
         (self.mav0 / "imu0").mkdir(parents=True, exist_ok=True)
         cio.write_euroc_imu_yaml(self.mav0 / "imu0" / "sensor.yaml", self.rig.imu, np.eye(4))
         atomic_write_text(self.mav0 / "state_groundtruth_estimate0" / "sensor.yaml", GT_SENSOR_YAML)
@@ -277,6 +279,13 @@ def four_coefficients(cam):
     return dataclasses.replace(cam, dist=tuple(cam.dist[:4]) + (0.0,))
 
 
+def timeshift_s(metadata: dict) -> float:
+    """Kalibr ``timeshift_cam_imu`` [s] of the written data: the configuration's ``imu_clock.time_offset_ms``
+    as the integer ns the IMU stamps were shifted by (``t_imu = t_cam + td``), 0 when none is simulated."""
+    clock = (metadata.get("config") or {}).get("imu_clock") or {}
+    return int(round(float(clock.get("time_offset_ms", 0.0)) * 1e6)) / 1e9
+
+
 def has_k3(rig) -> bool:
     return any(float(c.dist[4]) != 0.0 for c in rig.cameras)
 
@@ -284,9 +293,10 @@ def has_k3(rig) -> bool:
 def calibration_note(rig) -> str:
     """metadata.yaml ``calibration``: which calibration file is exact."""
     if has_k3(rig):
-        return ("rig.yaml and mav0/camchain.yaml are exact; mav0/camK/sensor.yaml lists 4 radtan coefficients "
-                "and omits k3 (non-zero for this rig)")
-    return "rig.yaml and mav0/camK/sensor.yaml are exact (k3 = 0 for every camera)"
+        return ("rig.yaml is exact; mav0/camK/sensor.yaml and the Kalibr mav0/camchain-imucam.yaml list 4 radtan "
+                "coefficients and omit k3 (non-zero for this rig)")
+    return ("rig.yaml, mav0/camK/sensor.yaml and the Kalibr mav0/camchain-imucam.yaml + mav0/imu.yaml are exact "
+            "(k3 = 0 for every camera)")
 
 
 def write_gcps_csv(path: Path, gcps) -> str:

@@ -2,8 +2,8 @@
 
 Real EuRoC: the body frame ``B`` is the IMU frame (``imu0/sensor.yaml`` has ``T_BS = I``), so
 the rig is built with ``T_b_c = T_BS`` of each camera's sensor.yaml and ``T_b_i = T_BS`` of imu0.
-sensor.yaml lists 4 radtan coefficients; when ``mav0/camchain.yaml`` (Kalibr, written by our
-generator for rigs with ``k3 != 0``) is present, the distortion comes from it (the exact file).
+sensor.yaml lists 4 radtan coefficients; when a ``mav0/camchain.yaml`` (Kalibr layout, which may carry
+a fifth coefficient ``k3``) is present, the distortion comes from it.
 Our own datasets are read from ``rig.yaml``, which is exact and complete.
 """
 from __future__ import annotations

@@ -19,7 +19,10 @@ FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "s
 
 @click.command("generate")
 @click.option("--scene", default="campus", show_default=True, help="Scene name (see `vo-testbed list`).")
-@click.option("--rig", default="cart27", show_default=True, help="Rig preset or rig .yaml (see `vo-testbed list`).")
+@click.option("--rig", default="cart27", show_default=True,
+              help="Rig preset, rig .yaml, or a Kalibr camchain-imucam.yaml (see `vo-testbed list`).")
+@click.option("--imu", "imu_yaml", type=click.Path(dir_okay=False), default=None,
+              help="Kalibr imu.yaml for a --rig camchain-imucam.yaml (noise densities, random walks, rate, T_i_b).")
 @click.option("--scenario", default=None, help="Start from a named scenario (flags and --set then change it).")
 @click.option("--vehicle", default="cart", show_default=True, help="Vehicle: cart, car or rover.")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False), default=None,
@@ -78,6 +81,10 @@ def build_config(ctx, scenario, config_file, flags: dict, overrides):
         get_scenario(scenario) if scenario else GenerateConfig()
     given = [n for n in FLAG_FIELDS
              if ctx.get_parameter_source(n) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)]
+    if flags.get("imu_yaml"):                                    # Kalibr camchain + imu.yaml
+        if "rig" not in given:
+            raise click.UsageError("--imu imu.yaml goes with --rig camchain-imucam.yaml (a Kalibr camchain)")
+        flags = dict(flags, rig={"kalibr": flags["rig"], "imu": flags["imu_yaml"]})
     plain = [n for n in given if "." not in FLAG_FIELDS[n] and n != "rig"]
     for name in (n for n in given if n not in plain):            # --scene, --rig
         cfg = _labelled([name], cfg.with_value, FLAG_FIELDS[name], flags[name])
