@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from rigs.atomic_io import atomic_write_text
@@ -88,9 +89,28 @@ def int_if_integral(x) -> float | int:
     return int(x) if x.is_integer() else x
 
 
+def k3_corner_error_px(cam: Camera) -> float:
+    """Largest pixel error over the 4 image corners when ``cam`` is modelled without its ``k3``: each
+    corner is undistorted with the full model and re-distorted with ``(k1, k2, p1, p2)`` alone."""
+    corners = np.array([[0, 0], [cam.width - 1, 0], [0, cam.height - 1], [cam.width - 1, cam.height - 1]],
+                       dtype=float).reshape(-1, 1, 2)
+    xy = cv2.undistortPoints(corners, cam.K, cam.dist_coeffs).reshape(-1, 2)
+    rays = np.column_stack([xy, np.ones(len(xy))])
+    four = np.array(tuple(cam.dist[:4]) + (0.0,))
+    back, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), cam.K, four)
+    return float(np.max(np.linalg.norm(back.reshape(-1, 2) - corners.reshape(-1, 2), axis=1)))
+
+
+def dropped_k3_note(cam: Camera, label: str) -> str:
+    """``"cam0: k3 = 0.0507 dropped (up to 8.0 px in the image corners)"``, or "" when ``k3 = 0``."""
+    if cam.dist[4] == 0.0:
+        return ""
+    return f"{label}: k3 = {cam.dist[4]!r} dropped (up to {k3_corner_error_px(cam):.1f} px in the image corners)"
+
+
 def kalibr_dropped_k3(rig: Rig) -> list[str]:
     """One line per camera whose ``k3 != 0``, which Kalibr's 4-coefficient radtan cannot hold."""
-    return [f"cam{k} ({c.name}): k3 = {c.dist[4]!r} dropped" for k, c in enumerate(rig.cameras) if c.dist[4] != 0.0]
+    return [dropped_k3_note(c, f"cam{k} ({c.name})") for k, c in enumerate(rig.cameras) if c.dist[4] != 0.0]
 
 
 def kalibr_camchain_dict(rig: Rig, timeshift_s: float = 0.0) -> dict:
@@ -137,7 +157,6 @@ def _kalibr_header(rig: Rig, what: str) -> str:
     if dropped:
         lines += ["NOT EXACT: this rig cannot be expressed in Kalibr's models. Kalibr's radtan has 4 coefficients",
                   "[k1, k2, r1, r2]; the rig's radial k3 is dropped here: " + "; ".join(dropped) + ".",
-                  "Undistorting with these 4 coefficients errs by up to several pixels in the corners;",
                   "rig.yaml holds the exact calibration (OpenCV k1 k2 p1 p2 k3)."]
     return "\n".join(lines)
 
@@ -257,19 +276,27 @@ def _T_BS_dict(T_B_S) -> dict:
     return {"cols": 4, "rows": 4, "data": [float(x) for x in np.asarray(T_B_S, dtype=float).reshape(16)]}
 
 
-def write_euroc_camera_yaml(path, camera: Camera, T_B_S, rate_hz: float) -> None:
-    """EuRoC ``camK/sensor.yaml`` with ``T_BS`` = ``T_B_S`` (camera into body/IMU frame)."""
+def write_euroc_camera_yaml(path, camera: Camera, T_B_S, rate_hz: float, four: bool = False) -> None:
+    """EuRoC ``camK/sensor.yaml`` with ``T_BS`` = ``T_B_S`` (camera into body/IMU frame); an integral
+    rate is written as an integer (``rate_hz: 20``, as real EuRoC). ``four``: list ``k1, k2, p1, p2``
+    only, as real EuRoC does; a non-zero ``k3`` is then named in a comment at the top of the file
+    (with the pixel error of leaving it out), else written as a fifth coefficient."""
+    dist = list(camera.dist[:4]) if four else _file_dist(camera.dist)
     d = {"sensor_type": "camera", "comment": f"simulated {camera.name}", "T_BS": _T_BS_dict(T_B_S),
-         "rate_hz": float(rate_hz), "resolution": [camera.width, camera.height], "camera_model": "pinhole",
+         "rate_hz": int_if_integral(rate_hz), "resolution": [camera.width, camera.height], "camera_model": "pinhole",
          "intrinsics": [camera.fx, camera.fy, camera.cx, camera.cy],
-         "distortion_model": "radial-tangential", "distortion_coefficients": _file_dist(camera.dist)}
-    atomic_write_text(path, "%YAML:1.0\n" + dump_yaml(d, header="General sensor definitions (EuRoC layout)."))
+         "distortion_model": "radial-tangential", "distortion_coefficients": [float(x) for x in dist]}
+    header = "General sensor definitions (EuRoC layout)."
+    if four and camera.dist[4] != 0.0:
+        header += ("\nNOT EXACT: EuRoC's radial-tangential has 4 coefficients; " + dropped_k3_note(camera, camera.name)
+                   + ".\nrig.yaml at the dataset root holds the exact calibration (OpenCV k1 k2 p1 p2 k3).")
+    atomic_write_text(path, "%YAML:1.0\n" + dump_yaml(d, header=header))
 
 
 def write_euroc_imu_yaml(path, imu: Imu, T_B_S) -> None:
     """EuRoC ``imu0/sensor.yaml`` (Kalibr densities) with ``T_BS`` = ``T_B_S``."""
     d = {"sensor_type": "imu", "comment": f"simulated IMU ({imu.name})", "T_BS": _T_BS_dict(T_B_S),
-         "rate_hz": float(imu.rate_hz), "gyroscope_noise_density": imu.gyro_noise_density,
+         "rate_hz": int_if_integral(imu.rate_hz), "gyroscope_noise_density": imu.gyro_noise_density,
          "gyroscope_random_walk": imu.gyro_random_walk, "accelerometer_noise_density": imu.accel_noise_density,
          "accelerometer_random_walk": imu.accel_random_walk}
     atomic_write_text(path, "%YAML:1.0\n" + dump_yaml(d, header="Default imu sensor yaml file (EuRoC layout)."))

@@ -143,6 +143,10 @@ def test_sensor_yaml_and_kalibr_have_four_coefficients_and_say_k3_is_dropped(tmp
         assert coeffs == list(rig.cameras[k].dist[:4])
         assert read_euroc_camera_yaml(tmp_path / f"k3/mav0/cam{k}/sensor.yaml")[0].dist[4] == 0.0
         assert chain[f"cam{k}"]["distortion_coeffs"] == list(rig.cameras[k].dist[:4])
+    sensor = (tmp_path / "k3/mav0/cam0/sensor.yaml").read_text()    # the k3 said inside sensor.yaml itself
+    assert f"# NOT EXACT: EuRoC's radial-tangential has 4 coefficients; cam0: k3 = {rig.cameras[0].dist[4]!r} " \
+           f"dropped (up to " in sensor and "rig.yaml at the dataset root holds the exact calibration" in sensor
+    assert "NOT EXACT" not in (tmp_path / "k3/mav0/imu0/sensor.yaml").read_text()
     text = (tmp_path / "k3/mav0/camchain-imucam.yaml").read_text()
     assert "# NOT EXACT" in text and f"cam1 (cam1): k3 = {rig.cameras[1].dist[4]!r} dropped" in text
     assert "sensor.yaml and the Kalibr mav0/camchain-imucam.yaml list 4 radtan coefficients and omit k3" in \
@@ -151,6 +155,7 @@ def test_sensor_yaml_and_kalibr_have_four_coefficients_and_say_k3_is_dropped(tmp
     assert [c.dist for c in back.cameras] == [tuple(c.dist[:4]) + (0.0,) for c in rig.cameras]
     s.write(EurocWriter(tmp_path / "no_k3", s.rig, s.metadata))  # k3 = 0: every calibration file is exact
     assert "NOT EXACT" not in (tmp_path / "no_k3/mav0/camchain-imucam.yaml").read_text()
+    assert "NOT EXACT" not in (tmp_path / "no_k3/mav0/cam0/sensor.yaml").read_text()
     assert "are exact" in read_yaml_file(tmp_path / "no_k3/metadata.yaml")["calibration"]
 
 

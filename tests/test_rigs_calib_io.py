@@ -76,6 +76,43 @@ def test_euroc_round_trip(tmp_path, name):
         (rig.imu.gyro_noise_density, rig.imu.accel_random_walk, rig.imu.rate_hz)
 
 
+def test_integral_rates_are_written_as_integers(tmp_path):
+    # Real EuRoC writes `rate_hz: 20`; ORB-SLAM3 aborts on a non-integer camera rate copied from it.
+    rig = get_rig("cart27")
+    write_euroc_camera_yaml(tmp_path / "c.yaml", rig.cameras[0], np.eye(4), 10.0)
+    write_euroc_camera_yaml(tmp_path / "d.yaml", rig.cameras[0], np.eye(4), 12.5)
+    write_euroc_imu_yaml(tmp_path / "i.yaml", rig.imu, np.eye(4))
+    assert "\nrate_hz: 10\n" in (tmp_path / "c.yaml").read_text()
+    assert "\nrate_hz: 12.5\n" in (tmp_path / "d.yaml").read_text()
+    assert "\nrate_hz: 200\n" in (tmp_path / "i.yaml").read_text()
+    assert read_euroc_camera_yaml(tmp_path / "c.yaml")[1] == 10.0
+
+
+def test_k3_corner_error_matches_an_independent_undistortion():
+    # cart27 without k3: the corner pixel, undistorted exactly (scipy root of the full model) and
+    # re-distorted with k1 k2 p1 p2 alone, moves by the figure the sensor.yaml comment prints (~8 px).
+    from scipy.optimize import fsolve
+    from rigs.calib_io import k3_corner_error_px
+    cam = get_rig("cart27").cameras[0]
+
+    def distort(xy, d):
+        k1, k2, p1, p2, k3 = d
+        x, y = xy
+        r2 = x * x + y * y
+        rad = 1 + k1 * r2 + k2 * r2 ** 2 + k3 * r2 ** 3
+        return np.array([x * rad + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+                         y * rad + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y])
+
+    worst = 0.0
+    for u, v in ((0, 0), (cam.width - 1, 0), (0, cam.height - 1), (cam.width - 1, cam.height - 1)):
+        m = np.array([(u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy])
+        xy = fsolve(lambda q: distort(q, cam.dist) - m, m, xtol=1e-14)
+        q = distort(xy, tuple(cam.dist[:4]) + (0.0,))
+        worst = max(worst, float(np.hypot(cam.fx * q[0] + cam.cx - u, cam.fy * q[1] + cam.cy - v)))
+    assert 7.0 < worst < 9.0
+    assert k3_corner_error_px(cam) == pytest.approx(worst, abs=1e-3)
+
+
 def test_euroc_k3_written_only_if_nonzero(tmp_path):
     c0 = get_rig("cart27").cameras[0]
     write_euroc_camera_yaml(tmp_path / "a.yaml", c0, np.eye(4), 10)

@@ -6,7 +6,7 @@ Layout (as the real EuRoC MAV recordings, body ``B`` = IMU frame ``S``)::
       INCOMPLETE                       # only while writing
       metadata.yaml  rig.yaml  groundtruth_tum.txt (T_w_c0 at frame times)
       gcps.csv                         # only when a check point was reached (never an empty file)
-      mav0/cam0/data.csv  data/<t_ns>.png  sensor.yaml (T_BS = T_i_c0; 4 radtan coefficients)
+      mav0/cam0/data.csv  data/<t_ns>.png  sensor.yaml (T_BS = T_i_c0; 4 radtan coefficients, k3 in a comment)
            camchain-imucam.yaml  imu.yaml             # Kalibr calibration (see below)
            cam0/depth/<t_ns>.npy                      # float32 metres along the optical axis, inf = sky
            cam0/depth/<t_ns>.png                      # or (depth_format png16) uint16 mm, 0 = sky / > 65.535 m
@@ -147,8 +147,8 @@ class EurocWriter:
                 (d / "depth").mkdir(exist_ok=True)
             if self.segmentation:
                 (d / "segmentation").mkdir(exist_ok=True)
-            cio.write_euroc_camera_yaml(d / "sensor.yaml", four_coefficients(self.rig.cameras[k]),
-                                        T_i_c(self.rig, k), self.rig.camera_rate_hz)
+            cio.write_euroc_camera_yaml(d / "sensor.yaml", self.rig.cameras[k], T_i_c(self.rig, k),
+                                        self.rig.camera_rate_hz, four=True)
         cio.write_kalibr(self.rig, self.mav0 / cio.KALIBR_CAMCHAIN, self.mav0 / cio.KALIBR_IMU,
                          timeshift_s=timeshift_s(self.metadata))
         (self.mav0 / "imu0").mkdir(parents=True, exist_ok=True)
@@ -271,12 +271,6 @@ class EurocWriter:
             T[:, :3, :4] = np.array([[float(x) for x in r[1:]] for r in rows]).reshape(-1, 3, 4)
             write_tum(self.out_dir / "groundtruth_tum.txt", Trajectory(t, T, "w", "c0"))
         self._c0.path.unlink()
-
-
-def four_coefficients(cam):
-    """The camera with ``k3`` set to 0, so EuRoC's sensor.yaml lists 4 coefficients as the real files do."""
-    import dataclasses
-    return dataclasses.replace(cam, dist=tuple(cam.dist[:4]) + (0.0,))
 
 
 def timeshift_s(metadata: dict) -> float:
