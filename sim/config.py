@@ -35,7 +35,7 @@ from sim.motion import MotionConfig
 
 MAX_SUPERSAMPLE = 7
 Format = Literal["euroc", "kitti", "both", "rosbag1", "rosbag2"]
-DepthFormat = Literal["npy", "png16"]
+DepthFormat = Literal["npy", "png16-mm", "tum", "png16"]   # png16: alias of png16-mm
 FORMATS = get_args(Format)
 DEPTH_FORMATS = get_args(DepthFormat)
 ALIASES = {"image_noise": "noise.image_sigma", "imu.time_offset_ms": "imu_clock.time_offset_ms"}

@@ -177,21 +177,25 @@ def test_real_layout_with_five_coefficient_camchain_takes_exact_distortion(tmp_p
     assert [c.dist for c in ds.rig.cameras] == [c.dist for c in rig.cameras]
 
 
-def test_depth_png16_millimetres_and_sky(tmp_path):
-    # png16 (TUM RGB-D style): uint16 mm, 0 = sky or beyond 65.535 m; read back as metres, inf there.
+@pytest.mark.parametrize("fmt, per_m", [("png16-mm", 1000.0), ("png16", 1000.0), ("tum", 5000.0)])
+def test_depth_png_scale_and_sky(tmp_path, fmt, per_m):
+    # uint16 PNG depth: png16-mm (and its alias png16) in millimetres, tum at TUM RGB-D's 5000 per metre;
+    # 0 = sky or beyond 65535 counts; read back as metres, inf there, within half a count of rounding.
     import cv2
     s = Synth(n_frames=2)
     depth = s.depth[1].copy()
     depth[0, :5] = np.inf
-    depth[1, 0] = 70.0                                            # beyond the 16-bit mm range
+    depth[1, 0] = 70.0                                            # beyond the 16-bit range of both scales
+    depth[1, 1] = 12.0                                            # 60000 counts at 5000/m: in range for tum
     s.depth[1] = depth
-    s.write(EurocWriter(tmp_path / "p", s.rig, s.metadata, depth=True, depth_format="png16"), with_depth=True)
+    s.write(EurocWriter(tmp_path / "p", s.rig, s.metadata, depth=True, depth_format=fmt), with_depth=True)
     raw = cv2.imread(str(tmp_path / f"p/mav0/cam0/depth/{s.t_frames[1]}.png"), cv2.IMREAD_UNCHANGED)
     assert raw.dtype == np.uint16 and raw[0, 0] == 0 and raw[1, 0] == 0
+    assert raw[1, 1] == round(12.0 * per_m)                       # a TUM loader (png / 5000) reads 12 m
     got = open_dataset(tmp_path / "p").depth(1)
-    finite = np.isfinite(depth) & (depth < 65.535)
+    finite = np.isfinite(depth) & (depth * per_m <= 65535)
     assert np.all(np.isinf(got[~finite]))
-    assert np.max(np.abs(got[finite] - depth[finite])) <= 0.0005 + 1e-6     # half a millimetre of rounding
+    assert np.max(np.abs(got[finite] - depth[finite])) <= 0.5 / per_m + 1e-6    # half a count of rounding
     with pytest.raises(Exception, match="depth_format: unknown"):
         EurocWriter(tmp_path / "q", s.rig, s.metadata, depth=True, depth_format="exr")
 

@@ -9,7 +9,8 @@ Layout (as the real EuRoC MAV recordings, body ``B`` = IMU frame ``S``)::
       mav0/cam0/data.csv  data/<t_ns>.png  sensor.yaml (T_BS = T_i_c0; 4 radtan coefficients, k3 in a comment)
            camchain-imucam.yaml  imu.yaml             # Kalibr calibration (see below)
            cam0/depth/<t_ns>.npy                      # float32 metres along the optical axis, inf = sky
-           cam0/depth/<t_ns>.png                      # or (depth_format png16) uint16 mm, 0 = sky / > 65.535 m
+           cam0/depth/<t_ns>.png                      # or uint16: png16-mm (alias png16) mm, 0 = sky / > 65.535 m;
+                                                      #   tum: 5000 per metre (TUM RGB-D), 0 = sky / > 13.107 m
            cam0/segmentation/<t_ns>.png               # uint16, object id + 1 (0 = background, id -1)
            cam0/segmentation/<t_ns>_dynamic.png       # uint8 0/1 mask (only when seg has 2 channels)
            cam1/...  imu0/data.csv  imu0/sensor.yaml (T_BS = I)
@@ -43,8 +44,10 @@ GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q
              "b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], "
              "b_a_RS_S_z [m s^-2]")
 CAM0_TRUTH_HEADER = "#timestamp [ns],T_w_c0 row-major 3x4 (12 numbers)"
-DEPTH_FORMATS = ("npy", "png16")
-DEPTH_PNG_MAX_MM = 65535
+DEPTH_FORMATS = ("npy", "png16-mm", "tum", "png16")
+# uint16 PNG depth: counts per metre of each PNG format (png16 is the alias of png16-mm)
+DEPTH_PNG_SCALE = {"png16-mm": 1000.0, "png16": 1000.0, "tum": 5000.0}
+DEPTH_PNG_MAX = 65535
 GCP_HEADER = "#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z"
 GT_SENSOR_YAML = """# Additional sensor information
 sensor_type: visual-inertial
@@ -185,14 +188,14 @@ class EurocWriter:
         write_marker(self.out_dir, self._hash, f"frames={self._cams[0].rows}")
 
     def _write_depth(self, folder: Path, t_ns: int, depth_m: np.ndarray) -> None:
-        """``npy``: float32 m (inf = nothing drawn); ``png16``: uint16 mm as TUM RGB-D, 0 = no depth
-        (sky, or farther than 65.535 m)."""
+        """``npy``: float32 m (inf = nothing drawn); ``png16-mm`` (alias ``png16``): uint16 mm; ``tum``: uint16
+        at TUM RGB-D's 5000 per metre. PNG: 0 = no depth (sky, or beyond 65535 counts)."""
         if self.depth_format == "npy":
             atomic_write_npy(folder / f"{t_ns}.npy", depth_m)
             return
-        mm = np.round(depth_m.astype(np.float64) * 1000.0)
-        ok = np.isfinite(mm) & (mm <= DEPTH_PNG_MAX_MM) & (mm >= 0)
-        write_png(folder / f"{t_ns}.png", np.where(ok, mm, 0).astype(np.uint16), rgb=False)
+        counts = np.round(depth_m.astype(np.float64) * DEPTH_PNG_SCALE[self.depth_format])
+        ok = np.isfinite(counts) & (counts <= DEPTH_PNG_MAX) & (counts >= 0)
+        write_png(folder / f"{t_ns}.png", np.where(ok, counts, 0).astype(np.uint16), rgb=False)
 
     def _write_seg(self, k: int, t_ns: int, seg: np.ndarray) -> None:
         folder = self.mav0 / f"cam{k}" / "segmentation"

@@ -37,8 +37,9 @@ FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "s
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--depth/--no-depth", default=False,
               help="Also write per-frame depth along the optical axis (see --depth-format).")
-@click.option("--depth-format", type=click.Choice(["npy", "png16"]), default="npy", show_default=True,
-              help="npy: exact float32 m, inf = sky; png16: uint16 mm as TUM RGB-D, 0 = sky (26x smaller).")
+@click.option("--depth-format", type=click.Choice(["npy", "png16-mm", "tum", "png16"]), default="npy", show_default=True,
+              help="npy: exact float32 m, inf = sky; png16-mm: uint16 millimetres, 0 = sky (26x smaller); tum: uint16 "
+                   "at TUM RGB-D's 5000 per metre (0.2 mm steps, up to 13.1 m), 0 = sky; png16: alias of png16-mm.")
 @click.option("--segmentation/--no-segmentation", default=False,
               help="Also write per-frame segmentation (object id, dynamic flag).")
 @click.option("--ideal/--no-ideal", default=False, help="Turn every noise source off (IMU, image noise).")
