@@ -79,6 +79,8 @@ def test_bag_calibration_and_static_tf(euroc_dir, tmp_path):
     root, s = euroc_dir
     export_rosbag(root, tmp_path / "c.bag", kind="rosbag1")
     msgs, _ = read_bag(tmp_path / "c.bag")
+    for k in (0, 1):                      # each camera's own info (frame id, P of the rectified pair aside)
+        assert {m.header.frame_id for _, m in msgs[f"/cam{k}/camera_info"]} == {f"cam{k}"}
     info = msgs["/cam1/camera_info"][0][1]
     cam = s.rig.cameras[1]
     assert info.distortion_model == "plumb_bob" and list(info.D) == list(cam.dist)

@@ -135,10 +135,8 @@ def dataset_streams(ds, msgs, truth: bool = True) -> dict:
     body = {"imu0": rig.imu.T_b_i_array, "cam0": rig.cameras[0].T_b_c_array, "cam1": rig.cameras[1].T_b_c_array}
     out["/tf_static"] = ("tf2_msgs/msg/TFMessage", iter([(t_first, lambda: msgs.tf_static(t_first, "body", body))]))
     for k in (0, 1):
-        P = projection(rig, k, ds.images_are_rectified)
-        out[f"/cam{k}/camera_info"] = ("sensor_msgs/msg/CameraInfo",
-                                       ((t, _bind(msgs.camera_info, t, f"cam{k}", rig.cameras[k], P))
-                                        for t in t_frames))
+        out[f"/cam{k}/camera_info"] = ("sensor_msgs/msg/CameraInfo", _info_items(t_frames, k, rig, msgs,
+                                                                               ds.images_are_rectified))
     for k in (0, 1):
         out[f"/cam{k}/image_raw"] = ("sensor_msgs/msg/Image", _image_items(ds, k, msgs))
     if ds.imu is not None and len(ds.imu.t_ns):
@@ -162,6 +160,13 @@ def dataset_streams(ds, msgs, truth: bool = True) -> dict:
                           ((t, _bind(msgs.joint_state, t, "body", ["left_wheel", "right_wheel"], row * rad_per_tick))
                            for t, row in zip(wheels.t_ns, ticks)))
     return out
+
+
+def _info_items(t_frames, k: int, rig, msgs, rectified: bool):
+    """Camera ``k``'s CameraInfo at every frame time (its own function: a generator expression in the
+    loop over cameras would see the last camera's ``k`` when it is consumed)."""
+    P = projection(rig, k, rectified)
+    return ((t, _bind(msgs.camera_info, t, f"cam{k}", rig.cameras[k], P)) for t in t_frames)
 
 
 def _bind(fn, *args):
