@@ -3,8 +3,9 @@
 - TUM: ``timestamp tx ty tz qx qy qz qw`` (seconds; quaternion order x, y, z, w). A file whose
   timestamps are integer nanoseconds (a common slip) is recognised and read as such, with a warning
   on the ``vo.trajfile`` logger: see :func:`tum_times_ns`.
-- KITTI: 12 numbers per line, the row-major top 3x4 of ``T``; no timestamps (a
-  separate ``times.txt`` in seconds gives them).
+- KITTI: 12 numbers per line, the row-major top 3x4 of ``T``; no timestamps: a separate ``times.txt``
+  in seconds gives them (:func:`kitti_times_path` finds it; no rate is ever assumed when reading a
+  trajectory with :func:`read_trajectory`).
 - EuRoC ground truth: ``#timestamp [ns], p_x, p_y, p_z, q_w, q_x, q_y, q_z, ...`` (Hamilton w, x, y, z).
 
 Every problem (missing or empty file, a malformed line, NaN, a zero quaternion, repeated times)
@@ -85,11 +86,14 @@ def _check_quats(q: np.ndarray, numbers: list, path) -> None:
                            f"not a rotation")
 
 
-def _sorted_unique(t_ns: np.ndarray, T: np.ndarray, path) -> tuple:
+def _sorted_unique(t_ns: np.ndarray, T: np.ndarray, path, n_cols: int = 8) -> tuple:
+    """Sort by time; repeated times -> DatasetError (naming the column count when it is not the format's 8)."""
     order = np.argsort(t_ns, kind="stable")
     t_ns, T = t_ns[order], T[order]
     if np.any(np.diff(t_ns) <= 0):
-        raise DatasetError(f"{path}: duplicate timestamps")
+        hint = "" if n_cols == 8 else (f" ({n_cols} values per line where the format has 8"
+                                       + ("; KITTI poses have 12: give --format kitti)" if n_cols == 12 else ")"))
+        raise DatasetError(f"{path}: duplicate timestamps{hint}")
     return t_ns, T
 
 
@@ -140,16 +144,52 @@ def read_tum(path, ref: str = "w", frame: str = "b") -> Trajectory:
     T = np.tile(np.eye(4), (len(values), 1, 1))
     T[:, :3, :3] = R_from_quat_xyzw(values[:, 4:8])
     T[:, :3, 3] = values[:, 1:4]
-    t_ns, T = _sorted_unique(t_ns, T, path)
+    t_ns, T = _sorted_unique(t_ns, T, path, values.shape[1])
     return Trajectory(t_ns, T, ref, frame)
 
 
+def _seconds_text(t_ns: int) -> str:
+    """Exact seconds with 9 decimals: 1403636579763555584 -> ``1403636579.763555584``."""
+    sign, a = ("-" if t_ns < 0 else ""), abs(int(t_ns))
+    return f"{sign}{a // 1_000_000_000}.{a % 1_000_000_000:09d}"
+
+
 def write_kitti(path, traj: Trajectory, times_path=None) -> None:
-    """Write KITTI poses (row-major 3x4), and optionally ``times.txt`` in seconds."""
+    """Write KITTI poses (row-major 3x4), and optionally ``times.txt``: the poses' own timestamps in
+    seconds, exact to the nanosecond (the clock of the data, not rebased to zero), so that a reader pairs
+    them with the ground truth they were estimated against."""
     lines = [" ".join(f"{v:.9e}" for v in T[:3, :4].reshape(-1)) for T in traj.T]
     _atomic_write(path, "\n".join(lines) + "\n")
     if times_path is not None:
-        _atomic_write(times_path, "\n".join(f"{t * 1e-9:.9e}" for t in traj.t_ns - traj.t_ns[0]) + "\n")
+        _atomic_write(times_path, "\n".join(_seconds_text(t) for t in traj.t_ns) + "\n")
+
+
+def kitti_times_path(path, times_path=None) -> Path:
+    """The times file of the KITTI poses ``path``: ``times_path`` when given, else ``times.txt`` beside
+    it, else the KITTI layout's ``sequences/NN/times.txt`` for ``poses/NN.txt``. None found ->
+    DatasetError (KITTI poses hold no timestamps, and no rate is assumed)."""
+    path = Path(path)
+    if times_path is not None:
+        if not Path(times_path).is_file():
+            raise DatasetError(f"{times_path}: times file not found")
+        return Path(times_path)
+    for cand in (path.parent / "times.txt", path.parent.parent / "sequences" / path.stem / "times.txt"):
+        if cand.is_file():
+            return cand
+    raise DatasetError(f"{path}: KITTI poses hold no timestamps and there is no times.txt beside them; "
+                       f"give the times (seconds, one line per pose) with --times FILE")
+
+
+def read_kitti_times(times_path) -> np.ndarray:
+    """A ``times.txt`` (seconds, one per line; a ``#`` line is a comment) -> exact int64 ns."""
+    numbers, rows, _ = _load_table(times_path, 1, exact=True)
+    values = []
+    for n, row in zip(numbers, rows):
+        try:
+            values.append(int((Decimal(row[0]) * 1_000_000_000).to_integral_value()))
+        except InvalidOperation:
+            raise DatasetError(f"{times_path}: line {n}: time is not a number") from None
+    return np.array(values, dtype=np.int64)
 
 
 def read_kitti(path, times_path=None, ref: str = "c0_0", frame: str = "c0", rate_hz: float = 10.0) -> Trajectory:
@@ -158,9 +198,12 @@ def read_kitti(path, times_path=None, ref: str = "c0_0", frame: str = "c0", rate
     T = np.tile(np.eye(4), (rows.shape[0], 1, 1))
     T[:, :3, :4] = rows.reshape(-1, 3, 4)
     if times_path is not None:
-        t_ns = np.round(_load_table(times_path, 1)[2][:, 0] * 1e9).astype(np.int64)
+        t_ns = read_kitti_times(times_path)
         if t_ns.shape[0] != T.shape[0]:
             raise DatasetError(f"{times_path}: {t_ns.shape[0]} times for {T.shape[0]} poses in {path}")
+        if np.any(np.diff(t_ns) <= 0):
+            k = int(np.argmax(np.diff(t_ns) <= 0))
+            raise DatasetError(f"{times_path}: time {k + 2} is not after time {k + 1}")
     else:
         t_ns = np.round(np.arange(T.shape[0]) / rate_hz * 1e9).astype(np.int64)
     return Trajectory(t_ns, T, ref, frame)
@@ -182,13 +225,34 @@ def read_euroc_groundtruth(path, ref: str = "w", frame: str = "i") -> Trajectory
     return Trajectory(t_ns, T, ref, frame)
 
 
-def read_trajectory(path, fmt: str = "auto", **kw) -> Trajectory:
-    """Read a trajectory in ``tum``, ``kitti`` or ``euroc`` format (``auto`` guesses from the content)."""
+def detect_format(path) -> str:
+    """``euroc`` (commas), ``kitti`` (12 numbers per line) or ``tum`` (8); any other column count ->
+    DatasetError naming it (a guess would misread the columns, e.g. rotation entries as timestamps)."""
+    _, rows = _data_rows(path)
+    if "," in " ".join(rows[0]):
+        return "euroc"
+    n = len(rows[0])
+    if n in AUTO_COLUMNS:
+        return AUTO_COLUMNS[n]
+    raise DatasetError(f"{path}: {n} values per line; a trajectory has 8 (TUM: t tx ty tz qx qy qz qw) or 12 "
+                       f"(KITTI: the 3x4 pose, row-major); give --format for another layout")
+
+
+AUTO_COLUMNS = {8: "tum", 12: "kitti"}
+
+
+def read_trajectory(path, fmt: str = "auto", times_path=None, **kw) -> Trajectory:
+    """Read a trajectory in ``tum``, ``kitti`` or ``euroc`` format (``auto``: :func:`detect_format`).
+    KITTI poses take their timestamps from ``times_path`` or the ``times.txt`` :func:`kitti_times_path`
+    finds; ``times_path`` with another format -> DatasetError."""
     fmts = ("tum", "kitti", "euroc")
     if fmt == "auto":
-        _, rows = _data_rows(path)
-        first = " ".join(rows[0])
-        fmt = "euroc" if "," in first else ("kitti" if len(rows[0]) == 12 else "tum")
+        fmt = detect_format(path)
     if fmt not in fmts:
         raise DatasetError(f"unknown trajectory format {fmt!r}; valid: {', '.join(fmts)}")
-    return {"tum": read_tum, "kitti": read_kitti, "euroc": read_euroc_groundtruth}[fmt](path, **kw)
+    if fmt == "kitti":
+        return read_kitti(path, kitti_times_path(path, times_path), **kw)
+    if times_path is not None:
+        raise DatasetError(f"{path}: a times file applies to KITTI poses only; this file is {fmt.upper()}, "
+                           f"which carries its own timestamps")
+    return {"tum": read_tum, "euroc": read_euroc_groundtruth}[fmt](path, **kw)

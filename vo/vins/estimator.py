@@ -223,11 +223,13 @@ class VinsEstimator(Estimator):
             w.optimize()
         except RuntimeError as e:                      # gtsam: indeterminant system, cheirality, ...
             self._reset()
-            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit", message=f"optimizer failed: {e}")
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit",
+                               message=f"optimizer failed: {e}", pose_class="lost")      # the last pose held
         T = self.T_o_w @ w.T_w_c(w.states[-1])
         if not np.all(np.isfinite(T)):
             self._reset()
-            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit", message="non-finite estimate")
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit",
+                               message="non-finite estimate", pose_class="lost")
         return FrameResult(frame.t_ns, T, "keyframe" if is_kf else "ok", n_inliers=len(w.lm))
 
     def _triangulate_new(self) -> None:

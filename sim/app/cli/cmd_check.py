@@ -11,7 +11,9 @@ from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, 
 
 def _bound(ctx, param, value):
     if value is not None and not value >= 0:          # negative or NaN
-        raise click.BadParameter(f"must be a number >= 0, got {value}")
+        raise click.BadParameter(f"must be a finite number >= 0, got {value}")
+    if value is not None and math.isinf(value):
+        raise click.BadParameter(f"{value} is a bound that can never fail; give a finite number >= 0")
     return value
 
 
@@ -47,8 +49,12 @@ def check(estimator, scenario, max_drift, max_ate, max_rpe, min_coverage, fronte
           no_progress, estimator_opts, overrides, as_json):
     """Generate (or reuse, cached by configuration hash) SCENARIO, run ESTIMATOR, print the metrics.
 
-    Exit codes: 0 every bound met, 1 a bound exceeded or coverage below --min-coverage, 2 bad input
-    (no bound, a negative bound, an unknown estimator, a program that failed), 3 internal error."""
+    Only poses the estimator produced count: frames by status ok (measured) and coasting (predicted
+    without a measurement) are covered and scored; init and lost (placeholders) are not.
+
+    Exit codes: 0 every bound met, 1 a bound exceeded, coverage below --min-coverage or an estimator that
+    never initialised, 2 bad input (no bound, a negative, infinite or NaN bound, an unknown estimator, a
+    program that failed), 3 internal error."""
     from sim.app.check import check as run_check
     from vo.estimators.registry import ExternalCommandError
     if max_drift is None and max_ate is None and max_rpe is None:

@@ -23,28 +23,34 @@ def save_results(results: dict, save_path: str, gt_path: str, est_paths: list) -
             for r, out, est in zip(results.values(), results_paths(save_path, list(results)), est_paths)]
 
 
-def compare_estimates(gt_path, est_paths, fmt, align, gcps_path, max_diff_ms, rpe_delta_m, plot_dir, as_json,
-                      save_path, finite_or_none) -> None:
-    """Evaluate every estimate against the same ground truth; print one table (or JSON) and write one
-    comparison plot, and evo result files when ``save_path`` is given."""
+def compare_estimates(gt_path, est_paths, fmt, align, gcps_path, times_path, t_offset_s, frames_path, max_diff_ms,
+                      rpe_delta_m, plot_dir, as_json, save_path, finite_or_none) -> None:
+    """Evaluate every estimate against the same ground truth (each with its own times.txt / frames.csv
+    beside it, the same --t-offset); print one table (or JSON), write one comparison plot, and evo result
+    files when ``save_path`` is given."""
     from vo.eval import evaluate
     from vo.eval.compare import compare_table, compare_to_dict, estimate_names
-    from vo.pipeline import load_gcps, load_groundtruth, prepare_out_dir
-    from vo.trajfile import read_trajectory
+    from vo.pipeline import load_estimate, load_gcps, load_groundtruth, prepare_out_dir
+    if times_path or frames_path:
+        raise click.UsageError("--times and --frames name one estimate's files; with several --est each "
+                               "estimate's own times.txt and frames.csv beside it are read")
     gt, gcps, note = load_groundtruth(gt_path, fmt)
     gcps = load_gcps(gcps_path) if gcps_path else (gcps or None)
     out = prepare_out_dir(plot_dir) if plot_dir else None
-    results = {}
+    results, notes = {}, [note] if note else []
     for name, est_path in zip(estimate_names(est_paths), est_paths):
-        results[name] = evaluate(gt, read_trajectory(est_path, fmt), gcps=gcps, align=align,
-                                 max_diff_ns=int(round(max_diff_ms * 1e6)), rpe_delta_m=rpe_delta_m)
+        est, classes, est_notes = load_estimate(est_path, fmt, None, None)
+        notes += est_notes
+        results[name] = evaluate(gt, est, gcps=gcps, align=align, max_diff_ns=int(round(max_diff_ms * 1e6)),
+                                 rpe_delta_m=rpe_delta_m, pose_classes=classes,
+                                 t_offset_ns=int(round(t_offset_s * 1e9)), offset_check=True)
     plots = []
     if out:
         from vo.eval.plots import plot_comparison     # matplotlib only when plotting
         plots = [plot_comparison(results, gt, out / "comparison.png")]
     saved = save_results(results, save_path, gt_path, est_paths) if save_path else []
-    if note:
-        click.echo(note, err=True)
+    for line in notes:
+        click.echo(line, err=True)
     if as_json:
         d = finite_or_none(compare_to_dict(results, align))
         d["plots"], d["results"] = [str(p) for p in plots], [str(p) for p in saved]
