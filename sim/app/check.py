@@ -7,8 +7,11 @@ Only poses the estimator produced count (frame classes ok and coasting,
 lost: the last pose held) is not covered and is not scored by drift, ATE or RPE. Bad input (no
 bound, a negative, infinite or NaN bound, an unknown estimator, a program that crashes or writes
 garbage) raises a :class:`TestbedError` instead (exit code 2), so a crash never reads as an accuracy
-failure. External programs run on a
-sensor-only view of the dataset (:mod:`vo.estimators.sensor_view`).
+failure. External programs run on a sensor-only view of the dataset (:mod:`vo.estimators.sensor_view`),
+with a clean environment, isolated by namespaces where the machine allows it (:mod:`vo.estimators.isolation`),
+and are ended after a timeout (:mod:`vo.estimators.external`). In-process estimators get a sensor-only
+dataset; an estimator that declares that it reads ground truth (an oracle: ``vins-oracle``, ``--opt
+init=truth``) is refused.
 """
 from __future__ import annotations
 
@@ -41,6 +44,7 @@ class CheckResult:
     n_lost: int = 0
     program_stderr: str = ""
     frames_by_status: dict = field(default_factory=dict)
+    isolation: str = "in process"      # an external program's: "namespace" or "view only"
 
     @property
     def passed(self) -> bool:
@@ -52,7 +56,7 @@ class CheckResult:
                 "bounds": self.bounds, "coverage": self.coverage, "min_coverage": self.min_coverage,
                 "failures": self.failures, "n_lost": self.n_lost, "frames_by_status": self.frames_by_status,
                 "passed": self.passed,
-                "program_stderr": self.program_stderr}
+                "program_stderr": self.program_stderr, "isolation": self.isolation}
 
     def text(self, verbose: bool = False) -> str:
         c = self.coverage
@@ -68,6 +72,7 @@ class CheckResult:
             limit = "" if bound is None else f"  (bound {bound:g})"
             lines.append(f"  {label:<38} {self.figures[key]:10.4f}{limit}{verdict}")
         lines.append(f"  {'frames by status':<38} {status_text(self.frames_by_status)}")
+        lines.append(f"  {'isolation':<38} {self.isolation}")
         if self.program_stderr.strip() and (verbose or not self.passed):
             lines += ["  program stderr:"] + [f"    {line}" for line in self.program_stderr.rstrip().splitlines()]
         lines.append("PASSED" if self.passed else "FAILED: " + "; ".join(f["message"] for f in self.failures))
@@ -107,28 +112,42 @@ def scenario_dataset(scenario: str, overrides=(), seed: Optional[int] = None, pr
 
 def check(estimator: str, scenario: str, bounds: dict, overrides=(), seed: Optional[int] = None,
           out_dir=None, options: Optional[dict] = None, progress: bool = True,
-          min_coverage: float = DEFAULT_MIN_COVERAGE) -> CheckResult:
+          min_coverage: float = DEFAULT_MIN_COVERAGE, timeout_s: Optional[float] = None,
+          isolation: str = "auto") -> CheckResult:
     """Run ``estimator`` on the cached dataset of ``scenario``; a figure above its bound, fewer than
-    ``min_coverage`` of the frames matched by a produced pose, or no produced pose at all, is a failure."""
+    ``min_coverage`` of the frames matched by a produced pose, or no produced pose at all, is a failure.
+    ``timeout_s`` (None: 20 x the sequence's duration + 60 s) and ``isolation`` ("auto", "required",
+    "view-only") apply to a ``cmd:`` program; "required" refuses to run without namespace isolation."""
     from vo.dataset import open_dataset
-    from vo.estimators.registry import check_spec
+    from vo.estimators.external import ExternalCommand
+    from vo.estimators.isolation import Isolation
+    from vo.estimators.registry import check_spec, is_external, is_oracle
     from vo.estimators.runner import run_estimator
     from vo.pipeline import prepare_out_dir, reference_truth
 
     bounds = validate_bounds(bounds, min_coverage)
     check_spec(estimator)
+    if is_external(estimator):
+        ExternalCommand(estimator, timeout_s).check_program()
+        Isolation(isolation)                        # "required" where none works: refused before any work
+        if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s > 0):
+            raise SimError(f"--timeout: must be a number of seconds > 0, got {timeout_s!r}")
+    elif is_oracle(estimator, options):
+        raise SimError(f"{estimator}: reads ground truth (an oracle for studies, like vins-oracle or --opt "
+                       f"init=truth); a gate cannot judge it")
     if out_dir is not None:
         prepare_out_dir(out_dir)
     path = scenario_dataset(scenario, overrides, seed, progress)
     ds = open_dataset(path)
-    run = run_estimator(estimator, ds, options=options or {}, progress=progress)
+    run = run_estimator(estimator, ds, options=options or {}, progress=progress, timeout_s=timeout_s,
+                        isolation=isolation)
     gt = reference_truth(ds, run)
     cov, ev = _evaluate(ds, run, estimator, gt, out_dir)
     figures = {key: float(fn(ev.evaluation)) if ev else math.nan for key, (_, fn) in BOUND_KEYS.items()}
     counts = run.class_counts()
     failures = _failures(cov, figures if ev is not None else None, bounds, min_coverage, counts, run.name)
     return CheckResult(scenario, estimator, str(path), figures, bounds, cov.to_dict(), min_coverage, failures,
-                       run.n_lost, run.stderr, counts)
+                       run.n_lost, run.stderr, counts, run.isolation or "in process")
 
 
 def _failures(cov, figures, bounds: dict, min_coverage: float, counts: dict, name: str) -> list:

@@ -68,9 +68,16 @@ class Estimator(abc.ABC):
     def set_imu(self, imu: Optional[ImuData]) -> None:
         """Give the whole IMU stream up front (VINS estimators use it; VO ignores it)."""
 
+    @classmethod
+    def is_oracle(cls, options: dict) -> bool:
+        """True when this estimator, with ``options``, reads ground truth (an oracle, for studies): only then
+        does :meth:`set_dataset` get the whole dataset, and ``check`` refuses it. Default: False."""
+        return False
+
     def set_dataset(self, dataset) -> None:
-        """The whole dataset, before the first frame, for estimators that read more than frames and IMU
-        (e.g. ``vins-oracle`` reads the true segmentation); default: nothing."""
+        """The dataset, before the first frame, for estimators that read more than frames and IMU. The runner
+        hands a sensor-only :class:`vo.estimators.sensor_dataset.SensorDataset` unless :meth:`is_oracle` (e.g.
+        ``vins-oracle`` reads the true segmentation); default: nothing."""
 
     @abc.abstractmethod
     def process(self, frame: StereoFrame) -> FrameResult:

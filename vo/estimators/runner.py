@@ -1,7 +1,6 @@
 """Run an estimator over a dataset (reader API) and save its trajectory, per-frame log and summary."""
 from __future__ import annotations
 
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -14,9 +13,11 @@ from vo.errors import EstimatorError, VoError
 from vo.estimators.base import FRAME_CLASSES, PRODUCED_CLASSES, STATUSES, FrameResult, frame_class
 from vo.estimators.framelog import LOG_NAME, frames_csv
 from vo.estimators.progress import progress_iter
-from vo.estimators.registry import ExternalCommand, ExternalCommandError, is_external, make_estimator
+from vo.estimators.external import run_external
+from vo.estimators.registry import is_external, make_estimator
+from vo.estimators.sensor_dataset import SensorDataset
 from vo.trajectory import Trajectory
-from vo.trajfile import read_tum, write_kitti, write_tum
+from vo.trajfile import write_kitti, write_tum
 
 LOST_STATUSES = ("few_features", "lost")
 
@@ -34,7 +35,8 @@ class RunResult:
     timings_ms: dict = field(default_factory=dict)
     n_lost: int = 0
     wall_time_s: float = 0.0
-    stderr: str = ""             # what an external program printed on stderr
+    stderr: str = ""             # what an external program printed on stderr (its tail)
+    isolation: str = ""          # an external program's: "namespace" or "view only"
 
     def pose_classes(self) -> np.ndarray:
         """(N,) class of each trajectory pose; every pose of an external program (no frame log) is ok."""
@@ -73,20 +75,24 @@ class RunResult:
 
 
 def run_estimator(spec: str, dataset, options: dict | None = None, progress: bool = True,
-                  max_frames: int | None = None, seed: int = 0) -> RunResult:
+                  max_frames: int | None = None, seed: int = 0, timeout_s: float | None = None,
+                  isolation: str = "auto") -> RunResult:
     """Run ``spec`` (name, ``module:Class`` or ``cmd:...``) on ``dataset`` -> :class:`RunResult`.
+    ``timeout_s`` and ``isolation`` apply to external programs (:func:`vo.estimators.external.run_external`).
 
     OpenCV's global RNG is seeded with ``seed`` before the estimator is made, so a run does not depend on
     what ran before it in the process. Progress: a bar on a terminal, a line per 10 % otherwise."""
     if max_frames is not None and max_frames < 1:
         raise EstimatorError(f"max_frames: must be >= 1, got {max_frames!r}")
     if is_external(spec):
-        return _run_external(spec, dataset)
+        ext = run_external(spec, dataset, timeout_s, isolation)
+        return RunResult(ext.name, ext.trajectory, [], {"total": ext.wall_time_s * 1e3 / max(len(ext.trajectory), 1)},
+                         0, ext.wall_time_s, stderr=ext.stderr, isolation=ext.isolation)
     t0 = time.perf_counter()
     cv2.setRNGSeed(int(seed))
     est = make_estimator(spec, dataset.rig, **(options or {}))
     est.set_imu(getattr(dataset, "imu", None))
-    est.set_dataset(dataset)
+    est.set_dataset(dataset if est.is_oracle(est.options) else SensorDataset(dataset))   # truth for oracles only
     n = len(dataset) if max_frames is None else min(len(dataset), max_frames)
     frames = []
     for frame in progress_iter(dataset.frames(), n, progress, est.name or spec):
@@ -121,27 +127,3 @@ def _checked(est, frame, last: FrameResult | None) -> FrameResult:
     if res.pose_class and res.pose_class not in FRAME_CLASSES:
         raise EstimatorError(f"{est.name}: pose_class {res.pose_class!r} unknown; valid: {', '.join(FRAME_CLASSES)}")
     return res
-
-
-def _run_external(spec: str, dataset) -> RunResult:
-    """Run ``cmd:...`` on a sensor-only view of ``dataset`` (an opened Dataset or a folder to open):
-    the program never sees ground truth, and cannot change the dataset (:mod:`vo.estimators.sensor_view`)."""
-    from vo.dataset import open_dataset
-    from vo.estimators.sensor_view import SensorView
-    ds = open_dataset(dataset) if isinstance(dataset, (str, Path)) else dataset
-    if getattr(ds, "path", None) is None:
-        raise EstimatorError(f"{spec}: external commands need a dataset folder (dataset.path)")
-    cmd = ExternalCommand(spec)
-    t0 = time.perf_counter()
-    sensors = SensorView(ds)
-    with sensors as view, tempfile.TemporaryDirectory(prefix="vo_ext_") as tmp:
-        try:
-            out = cmd.run(view, Path(tmp) / "trajectory_tum.txt")
-        finally:
-            sensors.check_untouched(cmd.name)      # also after a crash: a written dataset file is worse
-        try:
-            traj = read_tum(out, ref="o", frame="c0")
-        except VoError as e:
-            raise ExternalCommandError(f"{cmd.name}: unreadable TUM output ({e})", cmd.stderr) from None
-    wall = time.perf_counter() - t0
-    return RunResult(cmd.name, traj, [], {"total": wall * 1e3 / max(len(traj), 1)}, 0, wall, stderr=cmd.stderr)
