@@ -21,6 +21,7 @@ import hashlib
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal, Optional, get_args
 
 from rigs.errors import TestbedError
@@ -35,7 +36,7 @@ from sim.motion import MotionConfig
 
 MAX_SUPERSAMPLE = 7
 Format = Literal["euroc", "kitti", "both", "rosbag1", "rosbag2"]
-DepthFormat = Literal["npy", "png16"]
+DepthFormat = Literal["npy", "png16-mm", "tum", "png16"]   # png16: alias of png16-mm
 FORMATS = get_args(Format)
 DEPTH_FORMATS = get_args(DepthFormat)
 ALIASES = {"image_noise": "noise.image_sigma", "imu.time_offset_ms": "imu_clock.time_offset_ms"}
@@ -138,16 +139,20 @@ def check_supersample(value) -> int:
 
 def rig_of(value) -> Rig:
     """The ``rig`` field from a preset name or ``.yaml`` path, a mapping of Rig field names (as
-    ``metadata.yaml`` records it) or ``{preset: NAME, set: [key=value, ...]}``."""
+    ``metadata.yaml`` records it), ``{preset: NAME, set: [key=value, ...]}`` or Kalibr files
+    ``{kalibr: camchain-imucam.yaml, imu: imu.yaml}`` (``imu`` optional)."""
     from rigs.presets import get_rig
     from rigs.rig_yaml import rig_from_dict
     if isinstance(value, str):
         return get_rig(value)
     if isinstance(value, Mapping) and "preset" in value and set(value) <= {"preset", "set"}:
         return get_rig(value["preset"], value.get("set") or ())
+    if isinstance(value, Mapping) and "kalibr" in value and set(value) <= {"kalibr", "imu"}:
+        from rigs.calib_io import read_kalibr
+        return read_kalibr(value["kalibr"], value.get("imu"), name=Path(str(value["kalibr"])).stem)
     if isinstance(value, Mapping):
         return rig_from_dict(dict(value), source="rig")
-    raise SimError(f"rig: expected a preset name, a rig mapping or {{preset, set}}, got {value!r}")
+    raise SimError(f"rig: expected a preset name, a rig mapping, {{preset, set}} or {{kalibr, imu}}, got {value!r}")
 
 
 def scene_of(value) -> SceneConfig:

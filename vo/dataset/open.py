@@ -3,6 +3,7 @@
 Recognised: our EuRoC folder (``mav0/`` + ``rig.yaml``/``metadata.yaml``), a real EuRoC recording
 (a folder holding ``mav0/``, or ``mav0`` itself), our KITTI folder (``sequences/NN`` + ``poses/``),
 and a real KITTI ``sequences/NN`` folder. The root of ``generate --format both`` opens its ``euroc/``.
+A ROS 1 ``.bag`` file or a ROS 2 bag folder opens as :class:`vo.dataset.bag_reader.BagDataset`.
 A folder marked ``INCOMPLETE`` is refused.
 """
 from __future__ import annotations
@@ -59,6 +60,9 @@ def open_dataset(path, allow_incomplete: bool = False):
     """Open a dataset folder -> ``EurocDataset`` or ``KittiDataset`` (both :class:`Dataset`).
     ``allow_incomplete``: read a folder still marked ``INCOMPLETE`` (the generator's own bag step only)."""
     path = Path(path).expanduser()
+    from vo.dataset.bag_reader import BagDataset, is_bag
+    if is_bag(path):
+        return BagDataset(path)
     if not path.is_dir():
         raise DatasetError(f"{path}: dataset folder not found" if not path.exists() else
                            f"{path}: not a folder (give the dataset folder)")

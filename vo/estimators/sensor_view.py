@@ -5,7 +5,8 @@ same layout holding only images, IMU, wheel ticks and calibration. Left out: gro
 (``state_groundtruth_estimate0/``, ``groundtruth_tum.txt``, KITTI ``poses/``), depth, segmentation,
 ``gcps.csv``, ``metadata.yaml`` (it records the route), the sensor-effect truth (``rig_true.yaml``, the
 calibration the images were rendered with when the written one is perturbed; ``sensor_effects.yaml``;
-``frame_effects.csv``) and plots. The view is an allow-list (``EUROC_*``, ``KITTI_*`` below): a file not
+``frame_effects.csv``), the Kalibr ``camchain-imucam.yaml`` (its ``timeshift_cam_imu`` is the true
+IMU clock offset; Kalibr's ``imu.yaml`` is shown) and plots. The view is an allow-list (``EUROC_*``, ``KITTI_*`` below): a file not
 listed there is never shown. Every file is a read-only copy (never a hard link: a program running as root
 could write through one into the dataset), so the dataset and the scenario cache cannot be changed through
 the view. The SHA-256 of every file is taken while copying; :meth:`SensorView.check_untouched` hashes the
@@ -23,7 +24,7 @@ from pathlib import Path
 from vo.errors import EstimatorError
 
 EUROC_ROOT_FILES = ("rig.yaml", "wheels.csv")
-EUROC_MAV0_FILES = ("camchain.yaml", "body.yaml", "imu0/data.csv", "imu0/sensor.yaml",
+EUROC_MAV0_FILES = ("camchain.yaml", "imu.yaml", "body.yaml", "imu0/data.csv", "imu0/sensor.yaml",
                     "cam0/data.csv", "cam0/sensor.yaml", "cam1/data.csv", "cam1/sensor.yaml")
 EUROC_MAV0_DIRS = ("cam0/data", "cam1/data")
 KITTI_SEQ_FILES = ("calib.txt", "times.txt", "times_ns.txt")

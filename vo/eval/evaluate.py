@@ -8,7 +8,7 @@ import numpy as np
 
 from vo.dataset.types import Gcp
 from vo.errors import VoError
-from vo.eval.align import AlignInfo, align as align_traj
+from vo.eval.align import AlignInfo, align as align_traj, alignment_header
 from vo.eval.associate import DEFAULT_MAX_DIFF_NS, associate
 from vo.eval.coverage import Coverage, coverage
 from vo.eval.frames import frame_warning
@@ -68,6 +68,7 @@ class EvalResult:
         if self.gcps is not None:
             lines += ["", self.gcps.text()]
         lines += [f"warning: {w}" for w in self.warnings]
+        lines.insert(0, f"alignment           {alignment_header(self.alignment.method, self.alignment.s)}")
         return "\n".join(lines)
 
 

@@ -7,8 +7,9 @@ from sim.app.cli.options import echo_json, opt_option, parse_opts
 
 
 @click.command("run")
-@click.option("--dataset", "dataset_dir", required=True, type=click.Path(exists=True, file_okay=False),
-              help="Dataset folder (ours EuRoC/KITTI, real EuRoC mav0 parent, KITTI sequences/NN).")
+@click.option("--dataset", "dataset_dir", required=True, type=click.Path(exists=True),
+              help="Dataset folder (ours EuRoC/KITTI, real EuRoC mav0 parent, KITTI sequences/NN), or a ROS bag "
+                   "(a ROS 1 .bag file, a ROS 2 bag folder: images, camera_info, IMU, tf_static).")
 @click.option("--estimator", required=True,
               help="Registered name (see `vo-testbed list`), 'package.module:Class', or "
                    "'cmd:prog --data {dataset} --traj {out}' (the program sees the sensor data only).")
