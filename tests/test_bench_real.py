@@ -40,17 +40,23 @@ def test_ground_axes_pick_the_plane_of_travel():
 
 @pytest.mark.slow
 def test_bench_real_on_the_kitti_excerpt(tmp_path):
+    """The real 98-degree turn (docs/estimators.md, "Real recordings"). ``rop`` measured 1.65 % (5.51 % while its
+    moving-object step cross-check failed frames on which the track filter had seen one rigid motion only:
+    this bound catches that); ``klt-pnp`` 12.81 %, set by the excerpt's calibration (a 1.4 px disparity
+    offset; 0.45 % with it corrected): its bound only says the run works at all (a broken reader or frame
+    order gives ~100 %)."""
     seq = REAL / "kitti_turn"
     if not seq.is_dir():
         pytest.skip(f"{seq}: real KITTI excerpt not present")
-    rows = bench_real([seq], ("klt-pnp",), out_dir=tmp_path, progress=False)
-    (r,) = rows
-    assert r.n_frames == 51 and sum(r.status_counts.values()) == 51
-    assert r.path_length_m == pytest.approx(51.76, abs=0.01)          # summed steps of poses/00.txt
-    assert r.kitti_segments == 0                                       # 52 m: shorter than the devkit's 100 m
-    # a stereo VO that works at all stays within a fifth of the path (a broken reader or frame gives ~100 %)
-    assert 0.0 < r.drift_pct < 20.0 and np.isfinite(r.ate_rmse_m) and r.ms_per_frame > 0
-    assert Path(r.plot).is_file()
+    rows = bench_real([seq], ("rop", "klt-pnp"), out_dir=tmp_path, progress=False)
+    for r in rows:
+        assert r.n_frames == 51 and sum(r.status_counts.values()) == 51
+        assert r.path_length_m == pytest.approx(51.76, abs=0.01)          # summed steps of poses/00.txt
+        assert r.kitti_segments == 0                                       # 52 m: shorter than the devkit's 100 m
+        assert np.isfinite(r.ate_rmse_m) and r.ms_per_frame > 0 and Path(r.plot).is_file()
+    rop, klt = rows
+    assert rop.drift_pct < 2.5 and rop.status_counts.get("lost", 0) <= 5
+    assert 0.0 < klt.drift_pct < 20.0
 
 
 @pytest.mark.slow
