@@ -123,13 +123,17 @@ class CalibError:
     dist_rel: float = knob(0.0, ge=0.0, le=1.0, doc="relative error of each distortion coefficient")
     extrinsic_rot_deg: float = knob(0.0, ge=0.0, le=10.0, doc="per-axis rotation error of each T_b_c")
     extrinsic_trans_mm: float = knob(0.0, ge=0.0, le=100.0, doc="per-axis translation error of each T_b_c")
+    stereo_disparity_px: float = knob(0.0, ge=-20.0, le=20.0,
+                                      doc="disparity offset of the written stereo calibration (px, not drawn): "
+                                          "the last camera's cx written this much lower, so a positive offset "
+                                          "makes every stereo depth too long (fb / (d - offset))")
 
     def __post_init__(self):
         check_fields(self, SimError, "calib_error.")
 
     @property
     def active(self) -> bool:
-        return any(getattr(self, f.name) > 0 for f in dataclasses.fields(self))
+        return any(getattr(self, f.name) != 0 for f in dataclasses.fields(self))
 
 
 def check_supersample(value) -> int:

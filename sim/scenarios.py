@@ -6,6 +6,7 @@ the configuration (or the package version) changes.
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -13,7 +14,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from sim.config import GenerateConfig
+from sim.config import CalibError, GenerateConfig
 from sim.errors import SimError
 
 URBAN_DYNAMIC_DENSITY = 1.0      # all actors move: 25.5 % of tracked features on them (docs/dataset_layout.md)
@@ -53,6 +54,15 @@ SCENARIOS.update({
     "urban-dynamic": _urban("paper002", URBAN_DYNAMIC_DENSITY, "dusk"),   # Urban Canyon 2: traffic, evening
     "urban-kitti": _urban("kitti-like", 0.0),                  # KITTI geometry at car speed (~1 m per frame)
 })
+# The real KITTI turn's failure (docs/estimators.md, "The simulator's prediction"): its calibration's disparity
+# is 1.4 px off the images' (landmarks at a median 10.9 px disparity there); urban-kitti through the stop and
+# the 90-degree turn (78 s, 521 m) with a 3.0 px offset written, at which the unfixed estimators drift within a
+# factor of 2 of the real turn (urban-kitti's landmarks are nearer: median 16.8 px; 1.4 px gives rop 0.93 %,
+# klt-pnp 4.28 %, 2.2 px rop 1.13 %).
+KITTI_TURN_DISPARITY_PX = 3.0
+SCENARIOS["urban-kitti-calib"] = dataclasses.replace(
+    _urban("kitti-like", 0.0, duration_s=78.0),
+    calib_error=CalibError(stereo_disparity_px=KITTI_TURN_DISPARITY_PX))
 
 
 

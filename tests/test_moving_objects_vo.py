@@ -247,3 +247,23 @@ def test_rop_prior_from_the_filter_pnp_survives_a_rop_step_pulled_onto_the_car(s
         res = est._fail(SimpleNamespace(t_ns=1), img, img, "few_features", 12, "12 four-view features", {}, 0.0)
         assert np.linalg.norm(res.T_o_c0[:3, 3] - T_o_c3[:3, 3]) < 1e-6 and "PnP" in res.message
     assert len(kept["velocity"]) < len(view) and np.isin(kept["velocity"].p1[:, 0], view.p1[is_car, 0]).all()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_rop_step_cross_check_needs_competing_motions(seed):
+    """The ROP step cross-check guards against a step pulled by a moving object's tracks, which the track
+    filter sees as a second rigid motion. On the static tracks alone (one motion, ``keep`` None) a ROP step
+    0.36 m off the filter's PnP pose stands (ROP and PnP then fit the same motion and differ only where stereo
+    depth and four-view geometry disagree in scale, e.g. under a calibration error); with the car's tracks
+    present the same step fails the frame."""
+    from vo.rop.estimator import RopEstimator
+    rig, view, T_o_c3, is_car = _rop_exact_view(seed)
+    off = T_o_c3 @ make_T(np.eye(3), np.array([0.0, 0.0, 0.36]))
+    for v, competing in ((view.subset(~is_car), False), (view, True)):
+        est = RopEstimator(rig)
+        est._kf_imgs, est._n_solved = (None, None), 1
+        est._pnp_motion = _prior(T_o_c3)
+        est._static_tracks(v, dict.fromkeys(("track",), 0.0))
+        assert (est._filter.keep is not None) == competing
+        assert np.linalg.norm(est._filter.T_kf_c[:3, 3] - T_o_c3[:3, 3]) < 1e-6
+        assert bool(est._step_miss(off)) == competing and not est._step_miss(T_o_c3)

@@ -6,7 +6,9 @@ magnitudes: ``fx, fy`` times ``1 + focal_ppm 1e-6 z``; ``cx, cy`` plus ``princip
 ``k1 k2 p1 p2 k3`` times ``1 + dist_rel z`` (zero coefficients stay zero); and ``T_b_c`` right-multiplied
 by ``[R(extrinsic_rot_deg z_3) | extrinsic_trans_mm 1e-3 z_3]`` (a rotation vector in degrees and a
 translation in the camera's own frame). Errors of ``T_b_c0`` are camera-IMU extrinsic errors; the
-stereo extrinsic error is the combination of both cameras'.
+stereo extrinsic error is the combination of both cameras'. ``stereo_disparity_px`` (not drawn) lowers the
+last camera's written ``cx`` by that many pixels: a constant disparity offset, every stereo depth
+``f b / (d - offset)`` (the error measured on the real KITTI excerpt, docs/estimators.md).
 """
 from __future__ import annotations
 
@@ -42,5 +44,7 @@ def perturb_rig(rig, err, rng: np.random.Generator):
     if not err.active:
         return rig, np.zeros((len(rig.cameras), N_DRAWS))
     z = draw_errors(len(rig.cameras), rng)
-    cams = tuple(perturb_camera(c, zk, err) for c, zk in zip(rig.cameras, z))
-    return dataclasses.replace(rig, cameras=cams), z
+    cams = [perturb_camera(c, zk, err) for c, zk in zip(rig.cameras, z)]
+    if err.stereo_disparity_px and len(cams) > 1:
+        cams[-1] = dataclasses.replace(cams[-1], cx=cams[-1].cx - err.stereo_disparity_px)
+    return dataclasses.replace(rig, cameras=tuple(cams)), z

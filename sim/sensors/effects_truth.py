@@ -43,6 +43,8 @@ def write_calibration_truth(out_dir, rig_true, draws: np.ndarray, config) -> Non
                 "dist_rel": [float(err.dist_rel * v) for v in z[4:9]],
                 "rot_deg": [float(err.extrinsic_rot_deg * v) for v in z[9:12]],
                 "trans_mm": [float(err.extrinsic_trans_mm * v) for v in z[12:15]]}
+        if err.stereo_disparity_px and len(rig_true.cameras) > 1:
+            doc["calib_error"][rig_true.cameras[-1].name]["cx_px"] -= float(err.stereo_disparity_px)
     atomic_write_text(out / "sensor_effects.yaml", yaml.safe_dump(doc, sort_keys=True))
 
 

@@ -51,6 +51,28 @@ def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, estimator_
     echo_json([r.to_dict() for r in rows]) if as_json else click.echo(format_rows(rows))
 
 
+@bench.command("real")
+@click.option("--dataset", "datasets", multiple=True, required=True, type=click.Path(),
+              help="A recording (repeatable): a KITTI odometry sequences/NN folder (poses/NN.txt two levels up), "
+                   "a EuRoC folder holding mav0/, or one of ours.")
+@click.option("--estimator", "estimators", multiple=True, help="Estimator(s); default: rop, klt-pnp.")
+@click.option("--out", "out_dir", type=click.Path(), default="bench-real", show_default=True,
+              help="Folder for one <recording>_trajectory.png per recording.")
+@click.option("--all-cores", is_flag=True, help="Let OpenCV use every core (default: one thread).")
+@click.option("--max-frames", type=click.IntRange(min=2), default=None, help="Only the first N frames of each.")
+@click.option("--no-progress", is_flag=True)
+@opt_option
+@json_option
+def real_cmd(datasets, estimators, out_dir, all_cores, max_frames, no_progress, estimator_opts, as_json):
+    """Drift, ATE, RPE, KITTI segment errors, ms per frame and frames by status of each estimator on each
+    recorded dataset (real KITTI odometry / EuRoC), with a trajectory plot per recording."""
+    from sim.app.bench_real import DEFAULT_ESTIMATORS, bench_real, format_rows
+    rows = bench_real(datasets, tuple(estimators) or DEFAULT_ESTIMATORS, out_dir=out_dir, one_core=not all_cores,
+                      progress=not (no_progress or as_json), max_frames=max_frames,
+                      options=parse_opts(estimator_opts))
+    echo_json([r.to_dict() for r in rows]) if as_json else click.echo(format_rows(rows))
+
+
 @bench.command("localize")
 @click.option("--dataset", required=True, type=click.Path(), help="Traverse dataset folder.")
 @click.option("--mode", type=click.Choice(["ff", "fb"]), default="ff", show_default=True)
