@@ -70,7 +70,13 @@ class VinsConfig:
     ``init_keyframes`` (after a failure the oldest is dropped if the SfM failed, else the inner keyframe of
     the shortest merged interval; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,
     ``init_max_scale_std`` (largest accepted relative standard deviation of the aligned scale, and largest
-    relative difference between the forward and reverse alignment regressions).
+    relative difference between the forward and reverse alignment regressions), ``init_min_excitation``
+    (m/s^2: the standard deviation over the window's keyframe intervals of the mean specific force, below which
+    the window is not tried; VINS-Mono's 0.25, :func:`vo.vins.initial.imu_excitation`).
+    Divergence (after initialisation, :class:`vo.vins.divergence.DivergenceCheck`): ``fail_max_acc_bias``,
+    ``fail_max_gyr_bias``, ``fail_max_step_m``, ``fail_max_dz_m`` (VINS-Mono's ``failureDetection``),
+    ``fail_max_velocity_jump_mps`` (newest velocity against its IMU prediction), ``fail_max_scale_jump``
+    (relative change of the window's path length in one frame); the estimator then reinitialises.
     ``init`` "vi" (monocular visual-inertial, VINS-Mono) or "truth" (window started from the true keyframe
     states of a simulated dataset: :mod:`vo.vins.truth_init`, for comparing back-ends where "vi" cannot start).
     Output: ``covariance`` "frame" (gtsam marginal of the newest state every frame, ``FrameResult.cov``) or "off".
@@ -108,6 +114,13 @@ class VinsConfig:
     init_min_keyframes: int = knob(11, ge=3)
     init_min_parallax_px: float = knob(30.0, gt=0)
     init_max_scale_std: float = knob(0.05, gt=0)
+    init_min_excitation: float = knob(0.25, ge=0)
+    fail_max_acc_bias: float = knob(2.5, gt=0)
+    fail_max_gyr_bias: float = knob(1.0, gt=0)
+    fail_max_step_m: float = knob(5.0, gt=0)
+    fail_max_dz_m: float = knob(1.0, gt=0)
+    fail_max_velocity_jump_mps: float = knob(2.0, gt=0)
+    fail_max_scale_jump: float = knob(0.25, gt=0)
     covariance: Literal[COVARIANCE] = "frame"
     init: Literal[INIT] = "vi"
 
