@@ -72,7 +72,10 @@ class VinsConfig:
     ``init_max_scale_std`` (largest accepted relative standard deviation of the aligned scale, and largest
     relative difference between the forward and reverse alignment regressions), ``init_min_excitation``
     (m/s^2: the standard deviation over the window's keyframe intervals of the mean specific force, below which
-    the window is not tried; VINS-Mono's 0.25, :func:`vo.vins.initial.imu_excitation`).
+    the window is not tried; VINS-Mono's 0.25, :func:`vo.vins.initial.imu_excitation`),
+    ``init_provisional_scale_std``: an alignment whose scale is known only to this (relative standard
+    deviation) starts the window provisionally: no pose is emitted (status ``init``) until the window's own
+    speed is known to ``init_max_scale_std``, or it is dropped after ``init_confirm_s`` seconds.
     Divergence (after initialisation, :class:`vo.vins.divergence.DivergenceCheck`): ``fail_max_acc_bias``,
     ``fail_max_gyr_bias``, ``fail_max_step_m``, ``fail_max_dz_m`` (VINS-Mono's ``failureDetection``),
     ``fail_max_velocity_jump_mps`` (newest velocity against its IMU prediction), ``fail_max_scale_jump``
@@ -115,6 +118,8 @@ class VinsConfig:
     init_min_parallax_px: float = knob(30.0, gt=0)
     init_max_scale_std: float = knob(0.05, gt=0)
     init_min_excitation: float = knob(0.25, ge=0)
+    init_provisional_scale_std: float = knob(0.15, gt=0)
+    init_confirm_s: float = knob(10.0, gt=0)
     fail_max_acc_bias: float = knob(2.5, gt=0)
     fail_max_gyr_bias: float = knob(1.0, gt=0)
     fail_max_step_m: float = knob(5.0, gt=0)

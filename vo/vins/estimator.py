@@ -59,6 +59,8 @@ class VinsEstimator(Estimator):
         self.stream = None
         self.first_frame = None
         self.reinitialising = False     # after a divergence, until the start succeeds again
+        self.emitted = False            # a pose was produced (status ok / keyframe) at least once
+        self.provisional_since = None   # t_ns of a provisional start the window has not confirmed yet
         self.diagnostics: list = []
         self._reset()
         self.T_o_w = None
@@ -82,13 +84,14 @@ class VinsEstimator(Estimator):
         """Forget the window and the initialisation keyframes (VINS-Mono's ``clearState``): start again."""
         self.window = None
         self.init_frames: list = []
+        self.provisional_since = None
 
     def _diverged(self, frame, feats, message: str) -> FrameResult:
         """The window failed: reset and start a new initialisation from this frame on. Every frame until it
         succeeds is ``reinit`` (not ``init``: a pose was produced before) with the last emitted pose held."""
         self._reset()
-        self.reinitialising = True
-        return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit", message=message)
+        self.reinitialising = self.emitted
+        return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(), message=message)
 
     # ------------------------------------------------------------------ per frame
     def process(self, frame) -> FrameResult:
@@ -119,6 +122,7 @@ class VinsEstimator(Estimator):
         self._diagnose(feats, res, dynamic)
         if res.status != "init":
             self.last_T_o_c = res.T_o_c0
+        self.emitted = self.emitted or res.status in ("ok", "keyframe")
         return res
 
     def _set_covariance(self, res) -> None:
@@ -184,6 +188,10 @@ class VinsEstimator(Estimator):
 
     def _initialised(self, frame, result) -> FrameResult:
         self._start_window(result)
+        if result.provisional:
+            self.provisional_since = frame.t_ns
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),
+                               message=f"provisional start (alignment scale std {100 * result.scale_rel_std:.1f} %)")
         self.reinitialising = False
         T_w_c = self.window.T_w_c(self.window.states[-1])
         return FrameResult(frame.t_ns, self.T_o_w @ T_w_c, "keyframe", message="initialised")
@@ -211,7 +219,7 @@ class VinsEstimator(Estimator):
         w.optimize()
         if self.T_o_w is None and self.truth is not None:
             self.T_o_w = np.linalg.inv(self.truth.T_w_c[self.first_frame.t_ns])
-        elif self.T_o_w is None:
+        elif self.T_o_w is None or not self.emitted:
             self.T_o_w = np.linalg.inv(self._first_camera_pose())
         else:              # re-initialisation: the first new keyframe continues from the last emitted pose
             self.T_o_w = self.last_T_o_c @ np.linalg.inv(w.T_w_c(w.states[0]))
@@ -253,7 +261,41 @@ class VinsEstimator(Estimator):
         why = self.divergence(before, v_pred, self._snapshot(), new.k)
         if why is not None:
             return self._diverged(frame, feats, why)
+        if self.provisional_since is not None:
+            return self._confirm(frame, T, is_kf)
         return FrameResult(frame.t_ns, T, "keyframe" if is_kf else "ok", n_inliers=len(w.lm))
+
+    def speed_rel_std(self) -> float:
+        """Relative standard deviation of the newest state's speed (:meth:`Window.velocity_covariance` along
+        the velocity): the window's scale uncertainty once the vehicle moves (inf below 1 m/s)."""
+        w = self.window
+        st = w.states[-1]
+        v = w.values.atVector(V(st.k))
+        speed = float(np.linalg.norm(v))
+        if speed < 1.0:
+            return float("inf")
+        u = v / speed
+        try:
+            return float(np.sqrt(max(u @ w.velocity_covariance(st) @ u, 0.0)) / speed)
+        except (RuntimeError, np.linalg.LinAlgError):
+            return float("inf")
+
+    def _confirm(self, frame, T, is_kf) -> FrameResult:
+        """Provisional start: emit the first pose once the window knows its speed (hence its scale) to
+        ``init_max_scale_std``; drop the start after ``init_confirm_s`` without it."""
+        cfg = self.config
+        rel = self.speed_rel_std()
+        if rel <= cfg.init_max_scale_std:
+            self.provisional_since = None
+            self.reinitialising = False
+            return FrameResult(frame.t_ns, T, "keyframe" if is_kf else "ok", n_inliers=len(self.window.lm),
+                               message="initialised")
+        if (frame.t_ns - self.provisional_since) * 1e-9 > cfg.init_confirm_s:
+            self._reset()
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),
+                               message=f"provisional start not confirmed in {cfg.init_confirm_s:g} s: start again")
+        return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),
+                           message=f"provisional start: speed std {100 * rel:.1f} % > {100 * cfg.init_max_scale_std:g} %")
 
     def _snapshot(self) -> Snapshot:
         """The window's state positions and its newest velocity and biases (:mod:`vo.vins.divergence`)."""

@@ -47,6 +47,8 @@ class InitResult:
     scale: float
     g_v: np.ndarray           # gravity (pointing down) in v, |g| = 9.81
     v_v: np.ndarray           # (n,3) IMU velocities in v, metric
+    scale_rel_std: float = float("nan")   # the alignment's relative standard deviation of s
+    provisional: bool = False             # accepted only as a provisional start (the window must confirm it)
 
 
 def _common(a, b):
@@ -347,11 +349,13 @@ def imu_excitation(stream, params, frames) -> float:
 def initialize(stream, params, frames, T_i_c, config):
     """Run SfM + alignment on keyframes ``frames`` (FeatureFrames); -> InitResult or None (with reason).
 
-    Tried only when the window's :func:`imu_excitation` reaches ``config.init_min_excitation``: without changes of the acceleration the scale is not
-    observable and the alignment's statistics can pass on noise. Accepted when the alignment's gravity
-    magnitude is within 1 m/s^2 of 9.81 and s > 0 (VINS-Mono's ``LinearAlignment`` test), the scale's
-    relative standard deviation is below ``init_max_scale_std`` and the forward and reverse regressions
-    agree within it (the conditioning of the scale in the alignment's linear system)."""
+    Tried only when the window's :func:`imu_excitation` reaches ``config.init_min_excitation``: without
+    changes of the acceleration the scale is not observable and the alignment's statistics can pass on noise.
+    Needs the alignment's gravity magnitude within 1 m/s^2 of 9.81 and s > 0 (VINS-Mono's
+    ``LinearAlignment`` test). Accepted when the scale's relative standard deviation (noise model of
+    :func:`align`) is below ``init_max_scale_std`` and the forward and reverse regressions agree within it;
+    accepted as ``provisional`` (the estimator then emits no pose until its window confirms the scale) when
+    the standard deviation is below ``init_provisional_scale_std``."""
     exc = imu_excitation(stream, params, frames)
     if exc < config.init_min_excitation:
         return None, (f"IMU excitation not enough ({exc:.3f} < {config.init_min_excitation} m/s^2 above the "
@@ -367,13 +371,16 @@ def initialize(stream, params, frames, T_i_c, config):
     v_v, g_v, s, g_norm, rel_std, s_reverse, tau = align(stream, params, frames, R_v_c, p_v_c, T_i_c, bg)
     if not (s > 0 and abs(g_norm - GRAVITY) < 1.0 and np.all(np.isfinite(v_v))):
         return None, f"alignment failed (scale {s:.3g}, |g| {g_norm:.3g} m/s^2)"
+    agree = abs(s / s_reverse - 1.0) <= config.init_max_scale_std
+    if rel_std <= config.init_max_scale_std and agree:
+        return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v, rel_std), "ok"
+    if rel_std <= config.init_provisional_scale_std:
+        return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v, rel_std, True), "provisional"
     if rel_std > config.init_max_scale_std:
-        return None, (f"scale not observable yet (relative std {rel_std:.3f} > {config.init_max_scale_std}, "
+        return None, (f"scale not observable yet (relative std {rel_std:.3f} > {config.init_provisional_scale_std}, "
                       f"SfM noise {100 * tau:.1f} cm)")
-    if not abs(s / s_reverse - 1.0) <= config.init_max_scale_std:
-        return None, (f"scale not observable yet (forward {s:.4g} and reverse {s_reverse:.4g} regressions "
-                      f"differ by more than {config.init_max_scale_std})")
-    return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v), "ok"
+    return None, (f"scale not observable yet (forward {s:.4g} and reverse {s_reverse:.4g} regressions "
+                  f"differ by more than {config.init_max_scale_std})")
 
 
 def report(dataset_path, n_frames: int = 300, **options) -> str:
