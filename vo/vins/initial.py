@@ -329,9 +329,9 @@ def imu_excitation(stream, params, frames) -> float:
     accelerometer's white noise alone gives it: each interval mean carries ``3 acc_sigma^2 / dt_k`` of noise
     variance (``acc_sigma`` the continuous density in ``params``, m/s^2/sqrt(Hz)), subtracted from the variance.
     VINS-Mono computes this with a 0.25 m/s^2 threshold but only logs it ("IMU excitation not enough!");
-    here it gates the attempt (``init_min_excitation``): on seed 002's Table 1 IMU (0.1 m/s^2/sqrt(Hz))
-    and 0.2-s keyframe intervals the noise alone contributes about 0.39 m/s^2 and would pass VINS-Mono's raw
-    threshold at constant speed, where the scale is not observable."""
+    here it gates the attempt when ``init_min_excitation`` > 0 (default 0, as VINS-Mono) and is reported in
+    the refusal messages. Without the noise term, seed 002's Table 1 IMU (0.1 m/s^2/sqrt(Hz)) on 0.2-s
+    keyframe intervals would show about 0.39 m/s^2 at constant speed, where the scale is not observable."""
     acc_sigma = float(np.sqrt(params.getAccelerometerCovariance()[0, 0]))
     a, noise = [], []
     for f0, f1 in zip(frames[:-1], frames[1:]):
@@ -349,15 +349,14 @@ def imu_excitation(stream, params, frames) -> float:
 def initialize(stream, params, frames, T_i_c, config):
     """Run SfM + alignment on keyframes ``frames`` (FeatureFrames); -> InitResult or None (with reason).
 
-    Tried only when the window's :func:`imu_excitation` reaches ``config.init_min_excitation``: without
-    changes of the acceleration the scale is not observable and the alignment's statistics can pass on noise.
+    With ``config.init_min_excitation`` > 0, tried only when the window's :func:`imu_excitation` reaches it.
     Needs the alignment's gravity magnitude within 1 m/s^2 of 9.81 and s > 0 (VINS-Mono's
     ``LinearAlignment`` test). Accepted when the scale's relative standard deviation (noise model of
     :func:`align`) is below ``init_max_scale_std`` and the forward and reverse regressions agree within it;
     accepted as ``provisional`` (the estimator then emits no pose until its window confirms the scale) when
     the standard deviation is below ``init_provisional_scale_std``."""
     exc = imu_excitation(stream, params, frames)
-    if exc < config.init_min_excitation:
+    if config.init_min_excitation > 0 and exc < config.init_min_excitation:
         return None, (f"IMU excitation not enough ({exc:.3f} < {config.init_min_excitation} m/s^2 above the "
                       f"noise): scale not observable")
     got = sfm(frames, config.init_min_parallax_px, config.virtual_focal)
@@ -378,7 +377,7 @@ def initialize(stream, params, frames, T_i_c, config):
         return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v, rel_std, True), "provisional"
     if rel_std > config.init_max_scale_std:
         return None, (f"scale not observable yet (relative std {rel_std:.3f} > {config.init_provisional_scale_std}, "
-                      f"SfM noise {100 * tau:.1f} cm)")
+                      f"SfM noise {100 * tau:.1f} cm, IMU excitation {exc:.2f} m/s^2)")
     return None, (f"scale not observable yet (forward {s:.4g} and reverse {s_reverse:.4g} regressions "
                   f"differ by more than {config.init_max_scale_std})")
 
