@@ -4,9 +4,12 @@ Frame conventions at this boundary (``T_a_b`` maps points of b into a):
 
 - Kalibr: ``T_cam_imu`` = ``T_c_i`` (OpenVINS' ``T_imu_cam`` = ``T_i_c`` is read too);
   ``T_cn_cnm1`` = ``T_c1_c0`` (camera n from camera n-1).
-  Distortion ``radtan`` ``[k1, k2, r1, r2]`` = OpenCV ``(k1, k2, p1, p2)``; a non-zero ``k3`` is
-  written as a fifth value (Kalibr itself only has four; our reader accepts 4 or 5).
-  Read back, the body frame is the IMU frame (``T_b_c = inv(T_cam_imu)``, ``T_b_i = I``).
+  Distortion ``radtan`` ``[k1, k2, r1, r2]`` = OpenCV ``(k1, k2, p1, p2)``. Kalibr has no ``k3``: a
+  rig with ``k3 != 0`` cannot be expressed, the writer drops it and says so in a comment at the top
+  of the file (our reader still accepts a fifth value, as older files of ours carry it).
+  ``imu.yaml``'s ``T_i_b`` maps the vehicle body into the IMU frame (``inv(T_b_i)``); read back, the
+  body frame is that frame (``T_b_c = inv(T_i_b) @ inv(T_cam_imu)``), the IMU frame without ``T_i_b``.
+  ``timeshift_cam_imu`` [s]: ``t_imu = t_cam + shift`` (the convention of our ``imu_clock.time_offset_ms``).
 - EuRoC ``sensor.yaml``: ``T_BS`` = ``T_B_S`` (sensor S into body B; in EuRoC B is the IMU frame).
   Real files start with OpenCV's ``%YAML:1.0`` line, which the reader skips.
 - KITTI odometry ``calib.txt``: rectified ``P_k = K [I | t_k]`` (3x4, row-major), camera 0 the
@@ -17,8 +20,10 @@ the file and the field.
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from rigs.atomic_io import atomic_write_text
@@ -74,35 +79,95 @@ def _matrix_field(value, source, path) -> tuple:
 
 
 # ----------------------------------------------------------------------------- Kalibr
-def kalibr_camchain_dict(rig: Rig) -> dict:
-    """Rig -> Kalibr camchain dict (``camK`` entries, ``T_cam_imu`` = ``T_c_i``)."""
+KALIBR_CAMCHAIN = "camchain-imucam.yaml"
+KALIBR_IMU = "imu.yaml"
+
+
+def int_if_integral(x) -> float | int:
+    """``10.0`` -> ``10`` (real EuRoC and Kalibr files write integral rates as integers), else the float."""
+    x = float(x)
+    return int(x) if x.is_integer() else x
+
+
+def k3_corner_error_px(cam: Camera) -> float:
+    """Largest pixel error over the 4 image corners when ``cam`` is modelled without its ``k3``: each
+    corner is undistorted with the full model and re-distorted with ``(k1, k2, p1, p2)`` alone."""
+    corners = np.array([[0, 0], [cam.width - 1, 0], [0, cam.height - 1], [cam.width - 1, cam.height - 1]],
+                       dtype=float).reshape(-1, 1, 2)
+    xy = cv2.undistortPoints(corners, cam.K, cam.dist_coeffs).reshape(-1, 2)
+    rays = np.column_stack([xy, np.ones(len(xy))])
+    four = np.array(tuple(cam.dist[:4]) + (0.0,))
+    back, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), cam.K, four)
+    return float(np.max(np.linalg.norm(back.reshape(-1, 2) - corners.reshape(-1, 2), axis=1)))
+
+
+def dropped_k3_note(cam: Camera, label: str) -> str:
+    """``"cam0: k3 = 0.0507 dropped (up to 8.0 px in the image corners)"``, or "" when ``k3 = 0``."""
+    if cam.dist[4] == 0.0:
+        return ""
+    return f"{label}: k3 = {cam.dist[4]!r} dropped (up to {k3_corner_error_px(cam):.1f} px in the image corners)"
+
+
+def kalibr_dropped_k3(rig: Rig) -> list[str]:
+    """One line per camera whose ``k3 != 0``, which Kalibr's 4-coefficient radtan cannot hold."""
+    return [dropped_k3_note(c, f"cam{k} ({c.name})") for k, c in enumerate(rig.cameras) if c.dist[4] != 0.0]
+
+
+def kalibr_camchain_dict(rig: Rig, timeshift_s: float = 0.0) -> dict:
+    """Rig -> Kalibr ``camchain-imucam`` dict: per ``camK`` the pinhole intrinsics ``[fu, fv, pu, pv]``,
+    ``radtan`` ``[k1, k2, r1, r2]`` (4 values, as Kalibr defines it: a non-zero ``k3`` is dropped, see
+    :func:`kalibr_dropped_k3`), ``resolution``, ``T_cam_imu`` = ``T_c_i``, ``T_cn_cnm1`` =
+    ``T_cK_cK-1`` (K > 0), ``timeshift_cam_imu`` [s] (``t_imu = t_cam + shift``) and ``rostopic``."""
     T_b_i = rig.imu.T_b_i_array
     out = {}
     for k, cam in enumerate(rig.cameras):
         T_c_b = inv_T(cam.T_b_c_array)
         entry = {"camera_model": "pinhole", "intrinsics": [cam.fx, cam.fy, cam.cx, cam.cy],
-                 "distortion_model": "radtan", "distortion_coeffs": _file_dist(cam.dist),
+                 "distortion_model": "radtan", "distortion_coeffs": [float(x) for x in cam.dist[:4]],
                  "resolution": [cam.width, cam.height], "T_cam_imu": _rows(T_c_b @ T_b_i)}
         if k > 0:
             entry["T_cn_cnm1"] = _rows(T_c_b @ rig.cameras[k - 1].T_b_c_array)
-        entry.update({"timeshift_cam_imu": 0.0, "rostopic": f"/cam{k}/image_raw"})
+            entry["cam_overlaps"] = [k - 1]
+        elif len(rig.cameras) > 1:
+            entry["cam_overlaps"] = [1]
+        entry.update({"timeshift_cam_imu": float(timeshift_s), "rostopic": f"/cam{k}/image_raw"})
         out[f"cam{k}"] = entry
     return out
 
 
 def kalibr_imu_dict(imu: Imu) -> dict:
-    return {"imu0": {"accelerometer_noise_density": imu.accel_noise_density,
+    """Imu -> Kalibr ``imu.yaml`` dict (``imu0``); ``T_i_b`` = inv(``T_b_i``) maps the vehicle body
+    frame into the IMU frame (identity where the body is the IMU, as Kalibr's single-IMU files)."""
+    return {"imu0": {"T_i_b": _rows(inv_T(imu.T_b_i_array)),
+                     "accelerometer_noise_density": imu.accel_noise_density,
                      "accelerometer_random_walk": imu.accel_random_walk,
                      "gyroscope_noise_density": imu.gyro_noise_density,
                      "gyroscope_random_walk": imu.gyro_random_walk,
-                     "model": "calibrated", "rostopic": "/imu0", "update_rate": imu.rate_hz}}
+                     "model": "calibrated", "rostopic": "/imu0", "time_offset": 0.0,
+                     "update_rate": int_if_integral(imu.rate_hz)}}
 
 
-def write_kalibr(rig: Rig, camchain_path, imu_path=None) -> None:
-    """Write Kalibr ``camchain.yaml`` (and ``imu.yaml`` if ``imu_path``), atomically."""
-    atomic_write_text(camchain_path, dump_yaml(kalibr_camchain_dict(rig), header=f"Kalibr camchain of rig {rig.name}"))
+def _kalibr_header(rig: Rig, what: str) -> str:
+    lines = [f"Kalibr {what} of rig {rig.name} (https://github.com/ethz-asl/kalibr/wiki/yaml-formats)."]
+    if what == "imu":
+        return lines[0] + "\nT_i_b maps the vehicle body frame into the IMU frame (inv(T_b_i) of rig.yaml)."
+    lines.append(f"Camera rate {int_if_integral(rig.camera_rate_hz)} Hz (Kalibr has no field for it; reading this "
+                 f"file, give it with --set camera_rate_hz=...).")
+    dropped = kalibr_dropped_k3(rig)
+    if dropped:
+        lines += ["NOT EXACT: this rig cannot be expressed in Kalibr's models. Kalibr's radtan has 4 coefficients",
+                  "[k1, k2, r1, r2]; the rig's radial k3 is dropped here: " + "; ".join(dropped) + ".",
+                  "rig.yaml holds the exact calibration (OpenCV k1 k2 p1 p2 k3)."]
+    return "\n".join(lines)
+
+
+def write_kalibr(rig: Rig, camchain_path, imu_path=None, timeshift_s: float = 0.0) -> None:
+    """Write Kalibr ``camchain-imucam.yaml`` (and ``imu.yaml`` if ``imu_path``), atomically. A rig with
+    ``k3 != 0`` gets a comment saying that Kalibr's 4-coefficient radtan drops it."""
+    atomic_write_text(camchain_path, dump_yaml(kalibr_camchain_dict(rig, timeshift_s),
+                                               header=_kalibr_header(rig, "camchain-imucam")))
     if imu_path is not None:
-        atomic_write_text(imu_path, dump_yaml(kalibr_imu_dict(rig.imu), header=f"Kalibr imu of rig {rig.name}"))
+        atomic_write_text(imu_path, dump_yaml(kalibr_imu_dict(rig.imu), header=_kalibr_header(rig, "imu")))
 
 
 _KALIBR_CAM_REQ = ("camera_model", "intrinsics", "distortion_model", "distortion_coeffs", "resolution")
@@ -134,7 +199,8 @@ def _kalibr_camera(d, k, T_c_prev_b, source) -> Camera:
 
 
 def read_kalibr_imu(imu_path) -> Imu:
-    """Kalibr ``imu.yaml`` (``imu0:`` section, or the fields at top level) -> Imu with ``T_b_i = I``."""
+    """Kalibr ``imu.yaml`` (``imu0:`` section, or the fields at top level) -> Imu with
+    ``T_b_i = inv(T_i_b)`` (identity without ``T_i_b``)."""
     source = str(imu_path)
     d = read_yaml_file(imu_path)
     if isinstance(d, dict) and "imu0" in d:
@@ -145,18 +211,34 @@ def read_kalibr_imu(imu_path) -> Imu:
             "gyroscope_random_walk", "update_rate")
     check_keys(d, keys, ("rostopic", "model", "T_i_b", "time_offset"), source, p)
     v = {k: field_number(d[k], source, f"{p}.{k}" if p else k, nonneg=True) for k in keys}
+    T_b_i = np.eye(4)
+    if "T_i_b" in d:
+        T_b_i = inv_T(np.asarray(_matrix_field(d["T_i_b"], source, f"{p}.T_i_b" if p else "T_i_b")))
     try:
-        return Imu(name="kalibr", rate_hz=v["update_rate"], accel_noise_density=v["accelerometer_noise_density"],
+        return Imu(name="kalibr", rate_hz=v["update_rate"], T_b_i=T_b_i, accel_noise_density=v["accelerometer_noise_density"],
                    gyro_noise_density=v["gyroscope_noise_density"], accel_random_walk=v["accelerometer_random_walk"],
                    gyro_random_walk=v["gyroscope_random_walk"])
     except RigError as exc:
         raise RigError(f"{source}: {exc}") from None
 
 
-def read_kalibr(camchain_path, imu_path=None, name: str = "kalibr", camera_rate_hz: float = 20.0) -> Rig:
-    """Kalibr camchain (+ optional imu.yaml) -> Rig whose body frame is the IMU frame.
+def is_kalibr_camchain(path) -> bool:
+    """True when the YAML file at ``path`` is a Kalibr camchain (a top-level ``cam0:`` mapping)."""
+    try:
+        d = read_yaml_file(path)
+    except RigError:
+        return False
+    return isinstance(d, dict) and isinstance(d.get("cam0"), dict)
 
-    Without ``imu_path`` the IMU is the ``ideal`` model at the body origin.
+
+def read_kalibr(camchain_path, imu_path=None, name: str = "kalibr", camera_rate_hz: float = 20.0,
+                mount: str = "kalibr") -> Rig:
+    """Kalibr camchain (+ optional imu.yaml) -> Rig.
+
+    The body frame is the IMU frame, or, when ``imu.yaml`` has ``T_i_b`` (as ours do), the frame
+    ``T_i_b`` maps from: cameras get ``T_b_c = inv(T_i_b) @ inv(T_cam_imu)``. Without ``imu_path`` the
+    IMU is the ``ideal`` model at the body origin. Kalibr has no camera rate: ``camera_rate_hz``.
+    ``timeshift_cam_imu`` is a property of the recording, not of the rig: see :func:`read_kalibr_timeshift`.
     """
     source = str(camchain_path)
     d = read_yaml_file(camchain_path)
@@ -170,7 +252,23 @@ def read_kalibr(camchain_path, imu_path=None, name: str = "kalibr", camera_rate_
         cams.append(_kalibr_camera(d[f"cam{k}"], k, T_c_prev_b, source))
         T_c_prev_b = inv_T(cams[-1].T_b_c_array)
     imu = get_imu_model("ideal") if imu_path is None else read_kalibr_imu(imu_path)
-    return Rig(name=name, cameras=tuple(cams), imu=imu, camera_rate_hz=camera_rate_hz, mount="kalibr")
+    T_b_i = imu.T_b_i_array
+    if not np.array_equal(T_b_i, np.eye(4)):      # cameras were read in the IMU frame
+        cams = [dataclasses.replace(c, T_b_c=T_b_i @ c.T_b_c_array) for c in cams]
+    try:
+        return Rig(name=name, cameras=tuple(cams), imu=imu, camera_rate_hz=camera_rate_hz, mount=mount)
+    except RigError as exc:
+        raise RigError(f"{source}: {exc}") from None
+
+
+def read_kalibr_timeshift(camchain_path) -> float:
+    """``timeshift_cam_imu`` of cam0 in seconds (``t_imu = t_cam + shift``; 0 when absent)."""
+    source = str(camchain_path)
+    d = read_yaml_file(camchain_path)
+    if not isinstance(d, dict) or not isinstance(d.get("cam0"), dict):
+        raise field_error(source, "cam0", "missing field (expected cam0:, cam1:, ... sections)")
+    v = d["cam0"].get("timeshift_cam_imu", 0.0)
+    return field_number(v, source, "cam0.timeshift_cam_imu")
 
 
 # ----------------------------------------------------------------------------- EuRoC sensor.yaml
@@ -178,19 +276,27 @@ def _T_BS_dict(T_B_S) -> dict:
     return {"cols": 4, "rows": 4, "data": [float(x) for x in np.asarray(T_B_S, dtype=float).reshape(16)]}
 
 
-def write_euroc_camera_yaml(path, camera: Camera, T_B_S, rate_hz: float) -> None:
-    """EuRoC ``camK/sensor.yaml`` with ``T_BS`` = ``T_B_S`` (camera into body/IMU frame)."""
+def write_euroc_camera_yaml(path, camera: Camera, T_B_S, rate_hz: float, four: bool = False) -> None:
+    """EuRoC ``camK/sensor.yaml`` with ``T_BS`` = ``T_B_S`` (camera into body/IMU frame); an integral
+    rate is written as an integer (``rate_hz: 20``, as real EuRoC). ``four``: list ``k1, k2, p1, p2``
+    only, as real EuRoC does; a non-zero ``k3`` is then named in a comment at the top of the file
+    (with the pixel error of leaving it out), else written as a fifth coefficient."""
+    dist = list(camera.dist[:4]) if four else _file_dist(camera.dist)
     d = {"sensor_type": "camera", "comment": f"simulated {camera.name}", "T_BS": _T_BS_dict(T_B_S),
-         "rate_hz": float(rate_hz), "resolution": [camera.width, camera.height], "camera_model": "pinhole",
+         "rate_hz": int_if_integral(rate_hz), "resolution": [camera.width, camera.height], "camera_model": "pinhole",
          "intrinsics": [camera.fx, camera.fy, camera.cx, camera.cy],
-         "distortion_model": "radial-tangential", "distortion_coefficients": _file_dist(camera.dist)}
-    atomic_write_text(path, "%YAML:1.0\n" + dump_yaml(d, header="General sensor definitions (EuRoC layout)."))
+         "distortion_model": "radial-tangential", "distortion_coefficients": [float(x) for x in dist]}
+    header = "General sensor definitions (EuRoC layout)."
+    if four and camera.dist[4] != 0.0:
+        header += ("\nNOT EXACT: EuRoC's radial-tangential has 4 coefficients; " + dropped_k3_note(camera, camera.name)
+                   + ".\nrig.yaml at the dataset root holds the exact calibration (OpenCV k1 k2 p1 p2 k3).")
+    atomic_write_text(path, "%YAML:1.0\n" + dump_yaml(d, header=header))
 
 
 def write_euroc_imu_yaml(path, imu: Imu, T_B_S) -> None:
     """EuRoC ``imu0/sensor.yaml`` (Kalibr densities) with ``T_BS`` = ``T_B_S``."""
     d = {"sensor_type": "imu", "comment": f"simulated IMU ({imu.name})", "T_BS": _T_BS_dict(T_B_S),
-         "rate_hz": float(imu.rate_hz), "gyroscope_noise_density": imu.gyro_noise_density,
+         "rate_hz": int_if_integral(imu.rate_hz), "gyroscope_noise_density": imu.gyro_noise_density,
          "gyroscope_random_walk": imu.gyro_random_walk, "accelerometer_noise_density": imu.accel_noise_density,
          "accelerometer_random_walk": imu.accel_random_walk}
     atomic_write_text(path, "%YAML:1.0\n" + dump_yaml(d, header="Default imu sensor yaml file (EuRoC layout)."))
@@ -300,6 +406,7 @@ def read_kitti_calib(path, rate_hz: float = 10.0, width: int = 1241, height: int
         raise RigError(f"{path}: {exc}") from None
 
 
-__all__ = ["write_kalibr", "read_kalibr", "read_kalibr_imu", "write_euroc_camera_yaml", "write_euroc_imu_yaml",
+__all__ = ["write_kalibr", "read_kalibr", "read_kalibr_imu", "read_kalibr_timeshift", "is_kalibr_camchain",
+           "kalibr_dropped_k3", "int_if_integral", "KALIBR_CAMCHAIN", "KALIBR_IMU", "write_euroc_camera_yaml", "write_euroc_imu_yaml",
            "read_euroc_camera_yaml", "read_euroc_imu_yaml", "write_kitti_calib", "read_kitti_calib",
            "parse_kitti_calib", "kalibr_camchain_dict", "kalibr_imu_dict"]

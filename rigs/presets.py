@@ -8,7 +8,9 @@ right camera follows from the calibration, ``T_b_c1 = T_b_c0 @ T_c0_c1`` (near `
 mast ``IMU_BELOW_CAMERAS_M`` below the cameras with axes aligned with ``b``.
 
 The code is the source of truth; ``rigs/presets/<name>.yaml`` are written from it by
-:func:`write_preset_yamls` (``python -m rigs.presets``) and a test checks they agree.
+:func:`write_preset_yamls` (after changing a preset: ``python -c "from rigs.presets import
+write_preset_yamls; write_preset_yamls()"``), and ``tests/test_rigs_presets_files.py`` checks that the files
+are what it writes, byte for byte.
 """
 from __future__ import annotations
 
@@ -162,14 +164,16 @@ def rig_names() -> list[str]:
 
 
 def get_rig(name: str, overrides=()) -> Rig:
-    """Preset ``name`` (or a path to a rig ``.yaml`` file), with ``key=value`` overrides applied."""
+    """Preset ``name`` (or a path to a rig ``.yaml`` file, ours or a Kalibr ``camchain-imucam.yaml``, see
+    :func:`rigs.calib_io.read_kalibr`), with ``key=value`` overrides applied."""
     from rigs.rig_yaml import load_rig
     from rigs.overrides import apply_overrides
 
     if name in _BUILDERS:
         rig = _BUILDERS[name]()
     elif isinstance(name, (str, Path)) and str(name).endswith((".yaml", ".yml")):
-        rig = load_rig(name)
+        from rigs.calib_io import is_kalibr_camchain, read_kalibr
+        rig = read_kalibr(name, name=Path(name).stem) if is_kalibr_camchain(name) else load_rig(name)
     else:
         raise RigError(f"rig {name!r}: unknown preset; valid names: {', '.join(rig_names())} "
                        f"(or a path to a .yaml file)")
@@ -186,8 +190,3 @@ def write_preset_yamls(folder=PRESET_DIR) -> list[Path]:
         save_rig(_BUILDERS[name](), path, header=_HEADERS[name])
         paths.append(path)
     return paths
-
-
-if __name__ == "__main__":
-    for p in write_preset_yamls():
-        print(p)

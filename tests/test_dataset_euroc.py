@@ -129,43 +129,73 @@ def _rig_with_k3(rig, k3=0.0507):
     return dataclasses.replace(rig, cameras=cams)
 
 
-def test_sensor_yaml_has_four_coefficients_and_camchain_is_exact(tmp_path):
-    # As real EuRoC: 4 radtan coefficients in sensor.yaml. A rig with k3 != 0 also gets the Kalibr
-    # camchain (5 coefficients); without rig.yaml the reader takes the exact distortion from it.
-    from rigs.calib_io import read_euroc_camera_yaml
+def test_sensor_yaml_and_kalibr_have_four_coefficients_and_say_k3_is_dropped(tmp_path):
+    # As real EuRoC and Kalibr: 4 radtan coefficients in sensor.yaml and camchain-imucam.yaml. A rig with
+    # k3 != 0 cannot be expressed there: the Kalibr files say so in a comment, rig.yaml stays exact.
+    from rigs.calib_io import read_euroc_camera_yaml, read_kalibr
     from rigs.config_io import read_yaml_file
     s = Synth(n_frames=2)
     rig = _rig_with_k3(s.rig)
     s.write(EurocWriter(tmp_path / "k3", rig, s.metadata))
+    chain = read_yaml_file(tmp_path / "k3/mav0/camchain-imucam.yaml")
     for k in (0, 1):
         coeffs = read_yaml_file(tmp_path / f"k3/mav0/cam{k}/sensor.yaml")["distortion_coefficients"]
         assert coeffs == list(rig.cameras[k].dist[:4])
         assert read_euroc_camera_yaml(tmp_path / f"k3/mav0/cam{k}/sensor.yaml")[0].dist[4] == 0.0
-    assert (tmp_path / "k3/mav0/camchain.yaml").is_file()
-    assert "camchain.yaml are exact" in read_yaml_file(tmp_path / "k3/metadata.yaml")["calibration"]
+        assert chain[f"cam{k}"]["distortion_coeffs"] == list(rig.cameras[k].dist[:4])
+    sensor = (tmp_path / "k3/mav0/cam0/sensor.yaml").read_text()    # the k3 said inside sensor.yaml itself
+    assert f"# NOT EXACT: EuRoC's radial-tangential has 4 coefficients; cam0: k3 = {rig.cameras[0].dist[4]!r} " \
+           f"dropped (up to " in sensor and "rig.yaml at the dataset root holds the exact calibration" in sensor
+    assert "NOT EXACT" not in (tmp_path / "k3/mav0/imu0/sensor.yaml").read_text()
+    text = (tmp_path / "k3/mav0/camchain-imucam.yaml").read_text()
+    assert "# NOT EXACT" in text and f"cam1 (cam1): k3 = {rig.cameras[1].dist[4]!r} dropped" in text
+    assert "sensor.yaml and the Kalibr mav0/camchain-imucam.yaml list 4 radtan coefficients and omit k3" in \
+        read_yaml_file(tmp_path / "k3/metadata.yaml")["calibration"]
+    back = read_kalibr(tmp_path / "k3/mav0/camchain-imucam.yaml")
+    assert [c.dist for c in back.cameras] == [tuple(c.dist[:4]) + (0.0,) for c in rig.cameras]
+    s.write(EurocWriter(tmp_path / "no_k3", s.rig, s.metadata))  # k3 = 0: every calibration file is exact
+    assert "NOT EXACT" not in (tmp_path / "no_k3/mav0/camchain-imucam.yaml").read_text()
+    assert "NOT EXACT" not in (tmp_path / "no_k3/mav0/cam0/sensor.yaml").read_text()
+    assert "are exact" in read_yaml_file(tmp_path / "no_k3/metadata.yaml")["calibration"]
+
+
+def test_real_layout_with_five_coefficient_camchain_takes_exact_distortion(tmp_path):
+    # A folder without rig.yaml read as real EuRoC: a mav0/camchain.yaml with a fifth coefficient
+    # (a Kalibr-like file some tools write) gives the exact distortion.
+    import yaml
+    from rigs.calib_io import kalibr_camchain_dict
+    s = Synth(n_frames=2)
+    rig = _rig_with_k3(s.rig)
+    s.write(EurocWriter(tmp_path / "k3", rig, s.metadata))
+    d = kalibr_camchain_dict(rig)
+    for k in (0, 1):
+        d[f"cam{k}"]["distortion_coeffs"] = list(rig.cameras[k].dist)
+    (tmp_path / "k3/mav0/camchain.yaml").write_text(yaml.safe_dump(d))
     (tmp_path / "k3/rig.yaml").unlink()
     (tmp_path / "k3/metadata.yaml").unlink()                     # now read as a real EuRoC folder
     ds = open_dataset(tmp_path / "k3")
     assert [c.dist for c in ds.rig.cameras] == [c.dist for c in rig.cameras]
-    s.write(EurocWriter(tmp_path / "no_k3", s.rig, s.metadata))  # k3 = 0: sensor.yaml is exact, no camchain
-    assert not (tmp_path / "no_k3/mav0/camchain.yaml").exists()
 
 
-def test_depth_png16_millimetres_and_sky(tmp_path):
-    # png16 (TUM RGB-D style): uint16 mm, 0 = sky or beyond 65.535 m; read back as metres, inf there.
+@pytest.mark.parametrize("fmt, per_m", [("png16-mm", 1000.0), ("png16", 1000.0), ("tum", 5000.0)])
+def test_depth_png_scale_and_sky(tmp_path, fmt, per_m):
+    # uint16 PNG depth: png16-mm (and its alias png16) in millimetres, tum at TUM RGB-D's 5000 per metre;
+    # 0 = sky or beyond 65535 counts; read back as metres, inf there, within half a count of rounding.
     import cv2
     s = Synth(n_frames=2)
     depth = s.depth[1].copy()
     depth[0, :5] = np.inf
-    depth[1, 0] = 70.0                                            # beyond the 16-bit mm range
+    depth[1, 0] = 70.0                                            # beyond the 16-bit range of both scales
+    depth[1, 1] = 12.0                                            # 60000 counts at 5000/m: in range for tum
     s.depth[1] = depth
-    s.write(EurocWriter(tmp_path / "p", s.rig, s.metadata, depth=True, depth_format="png16"), with_depth=True)
+    s.write(EurocWriter(tmp_path / "p", s.rig, s.metadata, depth=True, depth_format=fmt), with_depth=True)
     raw = cv2.imread(str(tmp_path / f"p/mav0/cam0/depth/{s.t_frames[1]}.png"), cv2.IMREAD_UNCHANGED)
     assert raw.dtype == np.uint16 and raw[0, 0] == 0 and raw[1, 0] == 0
+    assert raw[1, 1] == round(12.0 * per_m)                       # a TUM loader (png / 5000) reads 12 m
     got = open_dataset(tmp_path / "p").depth(1)
-    finite = np.isfinite(depth) & (depth < 65.535)
+    finite = np.isfinite(depth) & (depth * per_m <= 65535)
     assert np.all(np.isinf(got[~finite]))
-    assert np.max(np.abs(got[finite] - depth[finite])) <= 0.0005 + 1e-6     # half a millimetre of rounding
+    assert np.max(np.abs(got[finite] - depth[finite])) <= 0.5 / per_m + 1e-6    # half a count of rounding
     with pytest.raises(Exception, match="depth_format: unknown"):
         EurocWriter(tmp_path / "q", s.rig, s.metadata, depth=True, depth_format="exr")
 

@@ -154,3 +154,23 @@ def test_dead_reckoning_output_at_times_and_bad_input(traj):
         dr.at([dr.t_ns[-1] + 10**9])
     with pytest.raises(VoError, match="slip_std"):
         DeadReckoningConfig(0.1, 100, slip_std=-1)
+
+
+def test_filterpy_predict_moves_the_state_by_the_motion_model_and_P_by_F_and_Q():
+    # MotionEKF is filterpy's EKF with the nonlinear motion model as predict_x: predict(u) gives
+    # x = f(x, u) and filterpy's own P = F P F^T + Q (and saves the prior); F x alone is not the motion.
+    from vo.deadreckoning.ekf import N_X, MotionEKF, _f, _num_jac
+    rng = np.random.default_rng(7)
+    ekf = MotionEKF(dim_x=N_X, dim_z=2)
+    ekf.x = np.r_[1.0, -2.0, 0.3, 0.02, -0.01, 1.2, 0.05, 1e-3, -2e-3, 5e-4, 0.0, 0.0]
+    A = rng.normal(size=(N_X, N_X))
+    ekf.P = A @ A.T * 1e-3
+    u = (np.array([0.01, -0.02, 0.3]), 0.01, 0.005)
+    x0, P0 = ekf.x.copy(), ekf.P.copy()
+    ekf.F = _num_jac(lambda xx: _f(xx, *u), x0)
+    ekf.Q = np.eye(N_X) * 1e-6
+    ekf.predict(u=u)
+    np.testing.assert_array_equal(ekf.x, _f(x0, *u))
+    np.testing.assert_allclose(ekf.P, ekf.F @ P0 @ ekf.F.T + ekf.Q, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(ekf.x_prior, ekf.x)
+    assert np.abs(ekf.F @ x0 - ekf.x).max() > 1e-3      # the linear F x misses the motion (7 mm in this step)

@@ -59,6 +59,8 @@ def test_written_calibration_is_perturbed_and_images_are_true(pair):
     assert load_rig(out["bad"] / "rig_true.yaml") == load_rig(out["true"] / "rig.yaml")
     sensor = [(out[k] / "mav0/cam1/sensor.yaml").read_text() for k in ("true", "bad")]
     assert sensor[0] != sensor[1]                                   # the EuRoC calibration files too
+    chain = [(out[k] / "mav0/camchain-imucam.yaml").read_text() for k in ("true", "bad")]
+    assert chain[0] != chain[1]                                     # and the Kalibr camchain
     pngs = sorted((out["true"] / "mav0/cam0/data").glob("*.png")) + sorted((out["true"] / "mav0/cam1/data").glob("*.png"))
     assert len(pngs) >= 8
     for p in pngs:
@@ -75,3 +77,4 @@ def test_sensor_view_hides_the_true_calibration(pair):
     with SensorView(open_dataset(out["bad"])) as view:
         names = {p.name for p in view.rglob("*")}
     assert "rig.yaml" in names and not names & {"rig_true.yaml", "sensor_effects.yaml", "frame_effects.csv"}
+    assert "imu.yaml" in names and "camchain-imucam.yaml" not in names    # its timeshift_cam_imu is truth

@@ -7,6 +7,7 @@ import yaml
 
 from rigs import RigError
 from rigs.calib_io import (kalibr_camchain_dict, read_euroc_camera_yaml, read_euroc_imu_yaml, read_kalibr,
+                           read_kalibr_timeshift,
                            read_kitti_calib, write_euroc_camera_yaml, write_euroc_imu_yaml, write_kalibr,
                            write_kitti_calib)
 from rigs.presets import get_rig
@@ -75,6 +76,43 @@ def test_euroc_round_trip(tmp_path, name):
         (rig.imu.gyro_noise_density, rig.imu.accel_random_walk, rig.imu.rate_hz)
 
 
+def test_integral_rates_are_written_as_integers(tmp_path):
+    # Real EuRoC writes `rate_hz: 20`; ORB-SLAM3 aborts on a non-integer camera rate copied from it.
+    rig = get_rig("cart27")
+    write_euroc_camera_yaml(tmp_path / "c.yaml", rig.cameras[0], np.eye(4), 10.0)
+    write_euroc_camera_yaml(tmp_path / "d.yaml", rig.cameras[0], np.eye(4), 12.5)
+    write_euroc_imu_yaml(tmp_path / "i.yaml", rig.imu, np.eye(4))
+    assert "\nrate_hz: 10\n" in (tmp_path / "c.yaml").read_text()
+    assert "\nrate_hz: 12.5\n" in (tmp_path / "d.yaml").read_text()
+    assert "\nrate_hz: 200\n" in (tmp_path / "i.yaml").read_text()
+    assert read_euroc_camera_yaml(tmp_path / "c.yaml")[1] == 10.0
+
+
+def test_k3_corner_error_matches_an_independent_undistortion():
+    # cart27 without k3: the corner pixel, undistorted exactly (scipy root of the full model) and
+    # re-distorted with k1 k2 p1 p2 alone, moves by the figure the sensor.yaml comment prints (~8 px).
+    from scipy.optimize import fsolve
+    from rigs.calib_io import k3_corner_error_px
+    cam = get_rig("cart27").cameras[0]
+
+    def distort(xy, d):
+        k1, k2, p1, p2, k3 = d
+        x, y = xy
+        r2 = x * x + y * y
+        rad = 1 + k1 * r2 + k2 * r2 ** 2 + k3 * r2 ** 3
+        return np.array([x * rad + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+                         y * rad + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y])
+
+    worst = 0.0
+    for u, v in ((0, 0), (cam.width - 1, 0), (0, cam.height - 1), (cam.width - 1, cam.height - 1)):
+        m = np.array([(u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy])
+        xy = fsolve(lambda q: distort(q, cam.dist) - m, m, xtol=1e-14)
+        q = distort(xy, tuple(cam.dist[:4]) + (0.0,))
+        worst = max(worst, float(np.hypot(cam.fx * q[0] + cam.cx - u, cam.fy * q[1] + cam.cy - v)))
+    assert 7.0 < worst < 9.0
+    assert k3_corner_error_px(cam) == pytest.approx(worst, abs=1e-3)
+
+
 def test_euroc_k3_written_only_if_nonzero(tmp_path):
     c0 = get_rig("cart27").cameras[0]
     write_euroc_camera_yaml(tmp_path / "a.yaml", c0, np.eye(4), 10)
@@ -84,22 +122,62 @@ def test_euroc_k3_written_only_if_nonzero(tmp_path):
     assert "distortion_coefficients: [0.0, 0.0, 0.0, 0.0]\n" in (tmp_path / "b.yaml").read_text()
 
 
-@pytest.mark.parametrize("name", ["cart27", "yutu-navcam"])
+def _assert_same_rig(a, b, tol=1e-12):
+    """Every number of two rigs within ``tol`` (names of rig, cameras, IMU and the mount aside)."""
+    assert len(a.cameras) == len(b.cameras)
+    for ca, cb in zip(a.cameras, b.cameras):
+        assert (ca.width, ca.height) == (cb.width, cb.height)
+        np.testing.assert_allclose([cb.fx, cb.fy, cb.cx, cb.cy, *cb.dist], [ca.fx, ca.fy, ca.cx, ca.cy, *ca.dist],
+                                   rtol=0, atol=tol)
+        np.testing.assert_allclose(cb.T_b_c_array, ca.T_b_c_array, rtol=0, atol=tol)
+    ia, ib = a.imu, b.imu
+    assert (ib.rate_hz, ib.accel_noise_density, ib.gyro_noise_density, ib.accel_random_walk, ib.gyro_random_walk) == \
+        (ia.rate_hz, ia.accel_noise_density, ia.gyro_noise_density, ia.accel_random_walk, ia.gyro_random_walk)
+    np.testing.assert_allclose(ib.T_b_i_array, ia.T_b_i_array, rtol=0, atol=tol)
+    assert b.camera_rate_hz == a.camera_rate_hz
+
+
+def _without_k3(rig):
+    import dataclasses
+    return dataclasses.replace(rig, cameras=tuple(dataclasses.replace(c, dist=tuple(c.dist[:4]) + (0.0,))
+                                                  for c in rig.cameras))
+
+
+@pytest.mark.parametrize("name", ["stereo27", "yutu-navcam", "kitti-like", "paper002", "cart27"])
 def test_kalibr_round_trip(tmp_path, name):
+    # rig -> camchain-imucam.yaml + imu.yaml -> rig: the same numbers to 1e-12, the body frame included
+    # (imu.yaml's T_i_b); cart27's k3 cannot be expressed in Kalibr's radtan and comes back 0.
     rig = get_rig(name)
-    write_kalibr(rig, tmp_path / "camchain.yaml", tmp_path / "imu.yaml")
-    back = read_kalibr(tmp_path / "camchain.yaml", tmp_path / "imu.yaml", name="back")
-    for a, b in zip(rig.cameras, back.cameras):
-        assert (a.fx, a.fy, a.cx, a.cy, a.dist, a.width, a.height) == (b.fx, b.fy, b.cx, b.cy, b.dist, b.width, b.height)
-        # Body of the read rig is the IMU frame: T_i_c = inv(T_b_i) T_b_c.
-        np.testing.assert_allclose(b.T_b_c_array, inv_T(rig.imu.T_b_i_array) @ a.T_b_c_array, atol=1e-9)
-    np.testing.assert_allclose(back.T_c0_c1, rig.T_c0_c1, atol=1e-9)
-    assert back.imu.gyro_noise_density == rig.imu.gyro_noise_density and back.imu.rate_hz == rig.imu.rate_hz
-    # T_cn_cnm1 of cam1 is T_c1_c0.
-    d = yaml.safe_load((tmp_path / "camchain.yaml").read_text())
+    write_kalibr(rig, tmp_path / "camchain-imucam.yaml", tmp_path / "imu.yaml", timeshift_s=-0.0025)
+    back = read_kalibr(tmp_path / "camchain-imucam.yaml", tmp_path / "imu.yaml", camera_rate_hz=rig.camera_rate_hz)
+    _assert_same_rig(_without_k3(rig), back)
+    assert read_kalibr_timeshift(tmp_path / "camchain-imucam.yaml") == -0.0025
+    # Kalibr's own conventions: T_cam_imu = T_c_i, T_cn_cnm1 of cam1 = T_c1_c0, 4 coefficients, integral rate
+    d = yaml.safe_load((tmp_path / "camchain-imucam.yaml").read_text())
+    T_i_c0 = inv_T(rig.imu.T_b_i_array) @ rig.cameras[0].T_b_c_array
+    np.testing.assert_allclose(d["cam0"]["T_cam_imu"], inv_T(T_i_c0), atol=1e-12)
     np.testing.assert_allclose(d["cam1"]["T_cn_cnm1"], inv_T(rig.T_c0_c1), atol=1e-12)
-    assert d["cam0"]["distortion_model"] == "radtan" and d["cam0"]["resolution"] == [rig.cameras[0].width,
-                                                                                      rig.cameras[0].height]
+    assert d["cam0"]["distortion_model"] == "radtan" and len(d["cam0"]["distortion_coeffs"]) == 4
+    assert d["cam0"]["resolution"] == [rig.cameras[0].width, rig.cameras[0].height]
+    assert d["cam1"]["timeshift_cam_imu"] == -0.0025 and d["cam1"]["rostopic"] == "/cam1/image_raw"
+    imu = yaml.safe_load((tmp_path / "imu.yaml").read_text())["imu0"]
+    assert imu["update_rate"] == 200 and isinstance(imu["update_rate"], int) and imu["rostopic"] == "/imu0"
+    assert ("NOT EXACT" in (tmp_path / "camchain-imucam.yaml").read_text()) == (name == "cart27")
+
+
+def test_kalibr_rig_through_get_rig_and_cli_config(tmp_path):
+    # --rig camchain-imucam.yaml [--imu imu.yaml]: get_rig recognises the camchain; the config takes
+    # {kalibr: camchain, imu: imu.yaml}; camera_rate_hz comes with --set (Kalibr has no field for it).
+    from sim.config import GenerateConfig
+    rig = get_rig("stereo27")
+    write_kalibr(rig, tmp_path / "camchain-imucam.yaml", tmp_path / "imu.yaml")
+    alone = get_rig(str(tmp_path / "camchain-imucam.yaml"))
+    np.testing.assert_allclose(alone.T_c0_c1, rig.T_c0_c1, atol=1e-12)
+    assert alone.imu.name == "ideal"
+    cfg = GenerateConfig().with_value("rig", {"kalibr": str(tmp_path / "camchain-imucam.yaml"),
+                                              "imu": str(tmp_path / "imu.yaml")})
+    cfg = cfg.with_overrides(["camera_rate_hz=20"])
+    _assert_same_rig(rig, cfg.rig)
 
 
 def test_kalibr_reads_four_coefficients_and_chains_T_cn_cnm1(tmp_path):

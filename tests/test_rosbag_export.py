@@ -79,6 +79,8 @@ def test_bag_calibration_and_static_tf(euroc_dir, tmp_path):
     root, s = euroc_dir
     export_rosbag(root, tmp_path / "c.bag", kind="rosbag1")
     msgs, _ = read_bag(tmp_path / "c.bag")
+    for k in (0, 1):                      # each camera's own info (frame id, P of the rectified pair aside)
+        assert {m.header.frame_id for _, m in msgs[f"/cam{k}/camera_info"]} == {f"cam{k}"}
     info = msgs["/cam1/camera_info"][0][1]
     cam = s.rig.cameras[1]
     assert info.distortion_model == "plumb_bob" and list(info.D) == list(cam.dist)
@@ -187,3 +189,21 @@ def test_export_command(euroc_dir, tmp_path, capsys):
         main(["export", "--dataset", str(root), "--to", "rosbag2", "--out", str(tmp_path / "b2")])
     err = capsys.readouterr().err
     assert exc.value.code == 2 and err.startswith("error: --out:") and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("kind,storage", [("rosbag1", "mcap"), ("rosbag2", "mcap")])
+def test_no_truth_bag_holds_the_sensor_topics_only(euroc_dir, tmp_path, kind, storage, capsys):
+    # `export --no-truth`: the same sensor messages as the full bag, and no /groundtruth/* topic.
+    from sim.app.cli import main
+    root, s = euroc_dir
+    full, bare = tmp_path / ("full.bag" if kind == "rosbag1" else "full"), \
+        tmp_path / ("bare.bag" if kind == "rosbag1" else "bare")
+    export_rosbag(root, full, kind=kind, storage=storage)
+    main(["export", "--dataset", str(root), "--to", kind, "--out", str(bare), "--no-truth", "--json"])
+    assert "/groundtruth" not in capsys.readouterr().out
+    a, _ = read_bag(full)
+    b, _ = read_bag(bare)
+    assert set(b) == set(a) - {"/groundtruth/pose", "/groundtruth/cam0"} and "/groundtruth/pose" in a
+    for topic in b:
+        assert [t for t, _ in b[topic]] == [t for t, _ in a[topic]]
+    assert [m.data.tobytes() for _, m in b["/cam1/image_raw"]] == [m.data.tobytes() for _, m in a["/cam1/image_raw"]]

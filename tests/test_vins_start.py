@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from vo.dataset.open import open_dataset
+from vo.estimators.base import frame_class
 from vo.vins.divergence import DivergenceCheck, Snapshot
 from vo.vins.estimator import VinsEstimator
 from vo.vins.start_table import InitRecorder
@@ -80,7 +81,7 @@ def test_constant_speed_start_stays_in_init_and_emits_no_pose(urban_cruise):
     """At a constant 10 m/s the scale is unobservable: every frame is `init` with the identity pose, and the
     attempts are refused for observability (IMU excitation or the scale's standard deviation), not accepted."""
     est, rec, res = _run(urban_cruise)
-    assert all(r.status == "init" for r in res)
+    assert all(r.status == "init" and frame_class(r) == "init" for r in res)
     assert all(np.array_equal(r.T_o_c0, np.eye(4)) for r in res)
     assert not rec.starts
     msgs = {r.message for r in res}
@@ -98,6 +99,7 @@ def test_forced_divergence_reinitialises(urban_from_rest):
     again = next((k for k in range(first + 2, len(res)) if res[k].message == "initialised"), None)
     assert again is not None, "no re-initialisation"
     assert all(r.status == "reinit" for r in res[first + 1:again])
+    assert all(frame_class(r) == "lost" for r in res[first + 1:again])         # not covered by the evaluation
     assert all(np.array_equal(r.T_o_c0, res[first].T_o_c0) for r in res[first + 1:again])
     assert all(r.status in COVERED for r in res[again:])
     assert len(rec.starts) == 2

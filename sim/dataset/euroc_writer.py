@@ -6,10 +6,11 @@ Layout (as the real EuRoC MAV recordings, body ``B`` = IMU frame ``S``)::
       INCOMPLETE                       # only while writing
       metadata.yaml  rig.yaml  groundtruth_tum.txt (T_w_c0 at frame times)
       gcps.csv                         # only when a check point was reached (never an empty file)
-      mav0/cam0/data.csv  data/<t_ns>.png  sensor.yaml (T_BS = T_i_c0; 4 radtan coefficients)
-           camchain.yaml                              # Kalibr camchain, only when a camera has k3 != 0
+      mav0/cam0/data.csv  data/<t_ns>.png  sensor.yaml (T_BS = T_i_c0; 4 radtan coefficients, k3 in a comment)
+           camchain-imucam.yaml  imu.yaml             # Kalibr calibration (see below)
            cam0/depth/<t_ns>.npy                      # float32 metres along the optical axis, inf = sky
-           cam0/depth/<t_ns>.png                      # or (depth_format png16) uint16 mm, 0 = sky / > 65.535 m
+           cam0/depth/<t_ns>.png                      # or uint16: png16-mm (alias png16) mm, 0 = sky / > 65.535 m;
+                                                      #   tum: 5000 per metre (TUM RGB-D), 0 = sky / > 13.107 m
            cam0/segmentation/<t_ns>.png               # uint16, object id + 1 (0 = background, id -1)
            cam0/segmentation/<t_ns>_dynamic.png       # uint8 0/1 mask (only when seg has 2 channels)
            cam1/...  imu0/data.csv  imu0/sensor.yaml (T_BS = I)
@@ -18,9 +19,11 @@ Layout (as the real EuRoC MAV recordings, body ``B`` = IMU frame ``S``)::
 Floats are written with Python ``repr`` (shortest exact round trip of float64).
 
 Calibration: ``rig.yaml`` is exact and complete. ``sensor.yaml`` lists the 4 radtan coefficients
-``k1, k2, p1, p2`` as real EuRoC does, so it drops ``k3``; when a camera has ``k3 != 0``,
-``mav0/camchain.yaml`` (Kalibr, 5 coefficients) is written and is the exact file for tools that
-do not read ``rig.yaml``.
+``k1, k2, p1, p2`` as real EuRoC does, so it drops ``k3``. ``mav0/camchain-imucam.yaml`` and
+``mav0/imu.yaml`` are Kalibr's files (``T_cam_imu``, ``T_cn_cnm1``, ``timeshift_cam_imu`` = the
+simulated IMU clock offset ``td`` in seconds, noise densities and random walks, ``T_i_b``); Kalibr's
+radtan also has 4 coefficients, so for a rig with ``k3 != 0`` (cart27) both files say in a comment
+that they are not exact. ``--rig mav0/camchain-imucam.yaml --imu mav0/imu.yaml`` reads them back.
 """
 from __future__ import annotations
 
@@ -29,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from rigs.atomic_io import atomic_write_npy
-from sim.dataset.common import (CsvStream, config_hash, finalize_folder, fmt_float, prepare_folder,
+from sim.dataset.common import (CsvStream, commit_folder, config_hash, final_metadata, fmt_float, prepare_folder,
                                 write_marker, write_png)
 from sim.errors import SimError
 
@@ -41,8 +44,10 @@ GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q
              "b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], "
              "b_a_RS_S_z [m s^-2]")
 CAM0_TRUTH_HEADER = "#timestamp [ns],T_w_c0 row-major 3x4 (12 numbers)"
-DEPTH_FORMATS = ("npy", "png16")
-DEPTH_PNG_MAX_MM = 65535
+DEPTH_FORMATS = ("npy", "png16-mm", "tum", "png16")
+# uint16 PNG depth: counts per metre of each PNG format (png16 is the alias of png16-mm)
+DEPTH_PNG_SCALE = {"png16-mm": 1000.0, "png16": 1000.0, "tum": 5000.0}
+DEPTH_PNG_MAX = 65535
 GCP_HEADER = "#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z"
 GT_SENSOR_YAML = """# Additional sensor information
 sensor_type: visual-inertial
@@ -145,10 +150,10 @@ class EurocWriter:
                 (d / "depth").mkdir(exist_ok=True)
             if self.segmentation:
                 (d / "segmentation").mkdir(exist_ok=True)
-            cio.write_euroc_camera_yaml(d / "sensor.yaml", four_coefficients(self.rig.cameras[k]),
-                                        T_i_c(self.rig, k), self.rig.camera_rate_hz)
-        if has_k3(self.rig):
-            cio.write_kalibr(self.rig, self.mav0 / "camchain.yaml")
+            cio.write_euroc_camera_yaml(d / "sensor.yaml", self.rig.cameras[k], T_i_c(self.rig, k),
+                                        self.rig.camera_rate_hz, four=True)
+        cio.write_kalibr(self.rig, self.mav0 / cio.KALIBR_CAMCHAIN, self.mav0 / cio.KALIBR_IMU,
+                         timeshift_s=timeshift_s(self.metadata))
         (self.mav0 / "imu0").mkdir(parents=True, exist_ok=True)
         cio.write_euroc_imu_yaml(self.mav0 / "imu0" / "sensor.yaml", self.rig.imu, np.eye(4))
         atomic_write_text(self.mav0 / "state_groundtruth_estimate0" / "sensor.yaml", GT_SENSOR_YAML)
@@ -183,14 +188,14 @@ class EurocWriter:
         write_marker(self.out_dir, self._hash, f"frames={self._cams[0].rows}")
 
     def _write_depth(self, folder: Path, t_ns: int, depth_m: np.ndarray) -> None:
-        """``npy``: float32 m (inf = nothing drawn); ``png16``: uint16 mm as TUM RGB-D, 0 = no depth
-        (sky, or farther than 65.535 m)."""
+        """``npy``: float32 m (inf = nothing drawn); ``png16-mm`` (alias ``png16``): uint16 mm; ``tum``: uint16
+        at TUM RGB-D's 5000 per metre. PNG: 0 = no depth (sky, or beyond 65535 counts)."""
         if self.depth_format == "npy":
             atomic_write_npy(folder / f"{t_ns}.npy", depth_m)
             return
-        mm = np.round(depth_m.astype(np.float64) * 1000.0)
-        ok = np.isfinite(mm) & (mm <= DEPTH_PNG_MAX_MM) & (mm >= 0)
-        write_png(folder / f"{t_ns}.png", np.where(ok, mm, 0).astype(np.uint16), rgb=False)
+        counts = np.round(depth_m.astype(np.float64) * DEPTH_PNG_SCALE[self.depth_format])
+        ok = np.isfinite(counts) & (counts <= DEPTH_PNG_MAX) & (counts >= 0)
+        write_png(folder / f"{t_ns}.png", np.where(ok, counts, 0).astype(np.uint16), rgb=False)
 
     def _write_seg(self, k: int, t_ns: int, seg: np.ndarray) -> None:
         folder = self.mav0 / f"cam{k}" / "segmentation"
@@ -203,7 +208,7 @@ class EurocWriter:
 
     def add_imu(self, t_ns, gyro=None, accel=None) -> None:
         """Append IMU samples: ``t_ns`` (N,), ``gyro``/``accel`` (N,3) in the IMU frame; or one
-        object with ``.t_ns, .gyro, .accel`` (ImuSamples/ImuData). Chunks may follow each other."""
+        object with ``.t_ns, .gyro, .accel`` (rigs.records.ImuSamples). Chunks may follow each other."""
         if gyro is None and hasattr(t_ns, "gyro"):
             t_ns, gyro, accel = t_ns.t_ns, t_ns.gyro, t_ns.accel
         t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
@@ -243,8 +248,10 @@ class EurocWriter:
         self._gcps.extend(gcps)
 
     # ------------------------------------------------------------------ finish
-    def finalize(self) -> Path:
-        """Write gcps.csv, groundtruth_tum.txt and metadata.yaml, then remove INCOMPLETE."""
+    def finalize(self, commit: bool = True) -> Path:
+        """Write gcps.csv and groundtruth_tum.txt; with ``commit`` also :meth:`commit` (metadata.yaml,
+        manifest, INCOMPLETE removed). A caller that writes more files into the folder first passes
+        ``commit=False`` and calls :meth:`commit` after them."""
         for s in (*self._cams, self._imu, self._gt, self._c0):
             s.close()
         gcp_note = write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
@@ -254,14 +261,20 @@ class EurocWriter:
         meta = dict(self.metadata, format="euroc", gcps=gcp_note, calibration=calibration_note(self.rig))
         if self.depth:
             meta["depth_format"] = self.depth_format
-        finalize_folder(self.out_dir, meta, counts, self.rig)
-        self.finalized = True
+        self.final_meta = final_metadata(meta, counts, self.rig)
+        if commit:
+            self.commit()
         return self.out_dir
+
+    def commit(self) -> None:
+        """The last step: metadata.yaml (``status: complete``), manifest.json, then INCOMPLETE removed."""
+        commit_folder(self.out_dir, self.final_meta)
+        self.finalized = True
 
     def _write_tum(self) -> None:
         """groundtruth_tum.txt from the streamed cam0 truth (T_w_c0), then drop the helper csv."""
-        from vo.trajfile import write_tum
-        from vo.trajectory import Trajectory
+        from rigs.trajfile import write_tum
+        from rigs.trajectory import Trajectory
         rows = [ln.split(",") for ln in self._c0.path.read_text().splitlines()[1:] if ln.strip()]
         if rows:
             t = np.array([int(r[0]) for r in rows], dtype=np.int64)
@@ -271,10 +284,11 @@ class EurocWriter:
         self._c0.path.unlink()
 
 
-def four_coefficients(cam):
-    """The camera with ``k3`` set to 0, so EuRoC's sensor.yaml lists 4 coefficients as the real files do."""
-    import dataclasses
-    return dataclasses.replace(cam, dist=tuple(cam.dist[:4]) + (0.0,))
+def timeshift_s(metadata: dict) -> float:
+    """Kalibr ``timeshift_cam_imu`` [s] of the written data: the configuration's ``imu_clock.time_offset_ms``
+    as the integer ns the IMU stamps were shifted by (``t_imu = t_cam + td``), 0 when none is simulated."""
+    clock = (metadata.get("config") or {}).get("imu_clock") or {}
+    return int(round(float(clock.get("time_offset_ms", 0.0)) * 1e6)) / 1e9
 
 
 def has_k3(rig) -> bool:
@@ -284,9 +298,10 @@ def has_k3(rig) -> bool:
 def calibration_note(rig) -> str:
     """metadata.yaml ``calibration``: which calibration file is exact."""
     if has_k3(rig):
-        return ("rig.yaml and mav0/camchain.yaml are exact; mav0/camK/sensor.yaml lists 4 radtan coefficients "
-                "and omits k3 (non-zero for this rig)")
-    return "rig.yaml and mav0/camK/sensor.yaml are exact (k3 = 0 for every camera)"
+        return ("rig.yaml is exact; mav0/camK/sensor.yaml and the Kalibr mav0/camchain-imucam.yaml list 4 radtan "
+                "coefficients and omit k3 (non-zero for this rig)")
+    return ("rig.yaml, mav0/camK/sensor.yaml and the Kalibr mav0/camchain-imucam.yaml + mav0/imu.yaml are exact "
+            "(k3 = 0 for every camera)")
 
 
 def write_gcps_csv(path: Path, gcps) -> str:

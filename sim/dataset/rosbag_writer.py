@@ -16,6 +16,9 @@ Topics (``/cam0/image_raw``, ``/cam1/image_raw`` and ``/imu0`` as in EuRoC's own
     /wheels                                 sensor_msgs/JointState (left_wheel, right_wheel angles, rad)
                                             when the dataset root holds wheels.csv
 
+``truth=False`` (``export --no-truth``) leaves out ``/groundtruth/*``: a sensor-only bag for handing data
+to a program under test.
+
 Every message's log time and ``header.stamp`` equal the dataset's int64 ns time of that sample.
 Messages are written in time order (ties: tf, camera_info, image, imu, ground truth, wheels).
 """
@@ -53,10 +56,12 @@ def check_kind(kind: str, storage: str) -> None:
         raise SimError(f"--storage: unknown ROS 2 storage {storage!r}; valid: {', '.join(STORAGES)}")
 
 
-def export_rosbag(dataset_dir, out_path, kind: str = "rosbag1", storage: str = "mcap") -> ExportResult:
+def export_rosbag(dataset_dir, out_path, kind: str = "rosbag1", storage: str = "mcap",
+                  allow_incomplete: bool = False, truth: bool = True) -> ExportResult:
     """Write the dataset in ``dataset_dir`` as a bag at ``out_path`` (a ``.bag`` file for rosbag1,
     a new folder for rosbag2; ``storage`` applies to rosbag2 only). ``out_path`` must not exist.
-    A failed export removes what it wrote."""
+    A failed export removes what it wrote. ``allow_incomplete``: the generator's own bag step, which
+    converts its folder before marking it complete."""
     from vo.dataset import open_dataset
     check_kind(kind, storage)
     out_path = Path(out_path)
@@ -67,9 +72,9 @@ def export_rosbag(dataset_dir, out_path, kind: str = "rosbag1", storage: str = "
     if (out_path.suffix == ".bag") != (kind == "rosbag1"):     # readers (rosbags' AnyReader) go by the suffix
         raise SimError(f"--out: {out_path}: a rosbag1 bag is a file named *.bag, a rosbag2 bag a folder not "
                        f"named *.bag")
-    ds = open_dataset(dataset_dir)
+    ds = open_dataset(dataset_dir, allow_incomplete=allow_incomplete)
     try:
-        counts = _write(ds, out_path, kind, storage)
+        counts = _write(ds, out_path, kind, storage, truth)
     except BaseException:
         if out_path.is_dir():
             shutil.rmtree(out_path, ignore_errors=True)
@@ -96,10 +101,10 @@ def _latched_qos():
                QosLiveliness.AUTOMATIC, zero, False)
 
 
-def _write(ds, out_path: Path, kind: str, storage: str) -> dict:
+def _write(ds, out_path: Path, kind: str, storage: str, truth: bool = True) -> dict:
     from sim.dataset.rosmsgs import RosMessages
     msgs = RosMessages(ros1=(kind == "rosbag1"))
-    streams = dataset_streams(ds, msgs)
+    streams = dataset_streams(ds, msgs, truth)
     counts = {topic: 0 for topic in streams}
     with _open_writer(out_path, kind, storage) as writer:
         conns = {}
@@ -122,23 +127,22 @@ def _tagged(topic: str, prio: int, items):
         yield int(t_ns), prio, topic, build
 
 
-def dataset_streams(ds, msgs) -> dict:
-    """{topic: (msgtype, iterator of (t_ns, () -> message))} in tie-break order."""
+def dataset_streams(ds, msgs, truth: bool = True) -> dict:
+    """{topic: (msgtype, iterator of (t_ns, () -> message))} in tie-break order; no ``/groundtruth/*``
+    unless ``truth``."""
     rig, t_frames = ds.rig, ds.frame_times_ns
     out = {}
     t_first = _first_time(ds)
     body = {"imu0": rig.imu.T_b_i_array, "cam0": rig.cameras[0].T_b_c_array, "cam1": rig.cameras[1].T_b_c_array}
     out["/tf_static"] = ("tf2_msgs/msg/TFMessage", iter([(t_first, lambda: msgs.tf_static(t_first, "body", body))]))
     for k in (0, 1):
-        P = projection(rig, k, ds.images_are_rectified)
-        out[f"/cam{k}/camera_info"] = ("sensor_msgs/msg/CameraInfo",
-                                       ((t, _bind(msgs.camera_info, t, f"cam{k}", rig.cameras[k], P))
-                                        for t in t_frames))
+        out[f"/cam{k}/camera_info"] = ("sensor_msgs/msg/CameraInfo", _info_items(t_frames, k, rig, msgs,
+                                                                               ds.images_are_rectified))
     for k in (0, 1):
         out[f"/cam{k}/image_raw"] = ("sensor_msgs/msg/Image", _image_items(ds, k, msgs))
     if ds.imu is not None and len(ds.imu.t_ns):
         out["/imu0"] = ("sensor_msgs/msg/Imu", _imu_items(ds.imu, rig.imu, msgs))
-    gt = ds.groundtruth
+    gt = ds.groundtruth if truth else None
     if gt is not None and len(gt.t_ns):
         frame_id = FRAME_IDS.get(gt.ref, gt.ref)
         out["/groundtruth/pose"] = ("geometry_msgs/msg/PoseStamped",
@@ -157,6 +161,13 @@ def dataset_streams(ds, msgs) -> dict:
                           ((t, _bind(msgs.joint_state, t, "body", ["left_wheel", "right_wheel"], row * rad_per_tick))
                            for t, row in zip(wheels.t_ns, ticks)))
     return out
+
+
+def _info_items(t_frames, k: int, rig, msgs, rectified: bool):
+    """Camera ``k``'s CameraInfo at every frame time (its own function: a generator expression in the
+    loop over cameras would see the last camera's ``k`` when it is consumed)."""
+    P = projection(rig, k, rectified)
+    return ((t, _bind(msgs.camera_info, t, f"cam{k}", rig.cameras[k], P)) for t in t_frames)
 
 
 def _bind(fn, *args):

@@ -2,8 +2,8 @@
 
 Real EuRoC: the body frame ``B`` is the IMU frame (``imu0/sensor.yaml`` has ``T_BS = I``), so
 the rig is built with ``T_b_c = T_BS`` of each camera's sensor.yaml and ``T_b_i = T_BS`` of imu0.
-sensor.yaml lists 4 radtan coefficients; when ``mav0/camchain.yaml`` (Kalibr, written by our
-generator for rigs with ``k3 != 0``) is present, the distortion comes from it (the exact file).
+sensor.yaml lists 4 radtan coefficients; when a ``mav0/camchain.yaml`` (Kalibr layout, which may carry
+a fifth coefficient ``k3``) is present, the distortion comes from it.
 Our own datasets are read from ``rig.yaml``, which is exact and complete.
 """
 from __future__ import annotations
@@ -30,6 +30,11 @@ def pair_cameras(mav0: Path) -> tuple[np.ndarray, list, list]:
     t0, f0 = read_image_list(mav0 / "cam0" / "data.csv")
     t1, f1 = read_image_list(mav0 / "cam1" / "data.csv")
     common, i0, i1 = np.intersect1d(t0, t1, assume_unique=True, return_indices=True)
+    if len(t0) and len(t1) and not len(common):
+        raise DatasetError(f"{mav0 / 'cam0' / 'data.csv'} and {mav0 / 'cam1' / 'data.csv'}: the cameras' timestamps "
+                           f"do not pair: none of the {len(t0)} cam0 stamps equals one of the {len(t1)} cam1 stamps "
+                           f"(first {t0[0]} and {t1[0]}, {int(t1[0]) - int(t0[0])} ns apart); a stereo frame needs "
+                           f"the same timestamp on both cameras")
     warnings = []
     if len(common) < max(len(t0), len(t1)):
         warnings.append(f"dropped {len(t0) - len(common)} cam0 and {len(t1) - len(common)} cam1 frames "
@@ -135,7 +140,8 @@ class EurocDataset(Dataset):
     def depth(self, k: int, cam: int = 0) -> np.ndarray:
         """(H,W) float32 depth along the optical axis (m) of camera ``cam`` at frame ``k``; inf where
         nothing is in range. Reads ``<t_ns>.npy`` (exact float32 m, inf = sky) or ``<t_ns>.png``
-        (uint16 mm, TUM RGB-D style: 0 = no depth, returned as inf; 1 mm quantisation)."""
+        (uint16, 0 = no depth, returned as inf): 5000 per metre when ``metadata.yaml`` says
+        ``depth_format: tum`` (TUM RGB-D), millimetres otherwise (``png16-mm``, ``png16``)."""
         import cv2
         stem = self.mav0 / f"cam{cam}" / "depth" / f"{self._frame_time(k)}"
         npy, png = stem.with_suffix(".npy"), stem.with_suffix(".png")
@@ -146,8 +152,9 @@ class EurocDataset(Dataset):
                                f"generate the dataset with depth enabled)")
         mm = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
         if mm is None or mm.dtype != np.uint16 or mm.ndim != 2:
-            raise DatasetError(f"{png}: expected a 16-bit single-channel PNG of millimetres")
-        depth = mm.astype(np.float32) / np.float32(1000.0)
+            raise DatasetError(f"{png}: expected a 16-bit single-channel PNG of depth")
+        per_m = 5000.0 if self.metadata.get("depth_format") == "tum" else 1000.0
+        depth = mm.astype(np.float32) / np.float32(per_m)
         depth[mm == 0] = np.inf
         return depth
 

@@ -3,6 +3,7 @@
 Recognised: our EuRoC folder (``mav0/`` + ``rig.yaml``/``metadata.yaml``), a real EuRoC recording
 (a folder holding ``mav0/``, or ``mav0`` itself), our KITTI folder (``sequences/NN`` + ``poses/``),
 and a real KITTI ``sequences/NN`` folder. The root of ``generate --format both`` opens its ``euroc/``.
+A ROS 1 ``.bag`` file or a ROS 2 bag folder opens as :class:`vo.dataset.bag_reader.BagDataset`.
 A folder marked ``INCOMPLETE`` is refused.
 """
 from __future__ import annotations
@@ -16,8 +17,8 @@ MARKER = "INCOMPLETE"
 _ANNOUNCED: set = set()
 
 
-def _refuse_incomplete(*folders: Path) -> None:
-    for f in folders:
+def _refuse_incomplete(*folders: Path, allow: bool = False) -> None:
+    for f in folders if not allow else ():
         if (f / MARKER).exists():
             raise DatasetError(f"{f}: dataset is incomplete (INCOMPLETE marker: writing was interrupted); "
                                f"rerun the same generate command to resume it, or regenerate with overwrite")
@@ -55,9 +56,13 @@ def _both_root_to_euroc(path: Path) -> Path:
     return path / "euroc"
 
 
-def open_dataset(path):
-    """Open a dataset folder -> ``EurocDataset`` or ``KittiDataset`` (both :class:`Dataset`)."""
+def open_dataset(path, allow_incomplete: bool = False):
+    """Open a dataset folder -> ``EurocDataset`` or ``KittiDataset`` (both :class:`Dataset`).
+    ``allow_incomplete``: read a folder still marked ``INCOMPLETE`` (the generator's own bag step only)."""
     path = Path(path).expanduser()
+    from vo.dataset.bag_reader import BagDataset, is_bag
+    if is_bag(path):
+        return BagDataset(path)
     if not path.is_dir():
         raise DatasetError(f"{path}: dataset folder not found" if not path.exists() else
                            f"{path}: not a folder (give the dataset folder)")
@@ -66,13 +71,13 @@ def open_dataset(path):
     path = _both_root_to_euroc(path)
     if (path / "mav0").is_dir():
         from vo.dataset.euroc_reader import EurocDataset
-        _refuse_incomplete(path)
+        _refuse_incomplete(path, allow=allow_incomplete)
         return EurocDataset(path / "mav0", path, ours=_is_ours(path))
     seq = _kitti_sequence(path)
     if seq is not None:
         from vo.dataset.kitti_reader import KittiDataset
         root = seq.parent.parent
-        _refuse_incomplete(path, root)
+        _refuse_incomplete(path, root, allow=allow_incomplete)
         return KittiDataset(seq, root, ours=_is_ours(root))
     _refuse_incomplete(path)
     raise DatasetError(f"{path}: not a recognised dataset (expected mav0/ for EuRoC, or sequences/NN or "

@@ -7,7 +7,16 @@ bias in b, rad/s; ``b_a`` the accelerometer bias along body x and y, m/s^2), fil
 :class:`~filterpy.kalman.ExtendedKalmanFilter` with a nonlinear prediction per IMU interval
 ``[t_k, t_k+1]``: ``R <- R Exp((omega_b - b_g) dt)``, ``p <- p + R ((1 - b) ds, 0, 0)`` with ``ds`` the mean
 of the two wheels' distances over the interval (cumulative ticks interpolated at the IMU times). The
-Jacobians are central differences. Process noise: white gyro noise (``gyro_noise_density^2 dt``),
+Jacobians are central differences.
+
+How filterpy is used: each step sets ``F`` (the Jacobian of the motion model) and ``Q``, then calls
+filterpy's ``predict(u)``, which propagates ``P = F P F^T + Q``; a tilt measurement sets ``R`` and
+calls filterpy's ``update(z, HJacobian, Hx, residual)``. The state itself is moved by the motion
+model ``f``, not by ``F x``: filterpy's default ``predict_x`` is linear (``x = F x + B u``), and
+here ``F`` is only the Jacobian of ``f`` (the attitude composes rotations, the position turns the
+wheel distance by the attitude), so ``F x`` would not be the motion. filterpy's documentation names
+``predict_x`` as the method to override for such a model; :class:`MotionEKF` does that, with
+``u = (omega_b, dt, ds)``. Process noise: white gyro noise (``gyro_noise_density^2 dt``),
 white wheel slip (``(slip_std ds)^2`` plus the tick quantum) and a random walk of the slip bias
 (``slip_bias_walk^2 dt``) and of the gyro bias (``gyro_bias_walk^2 dt``, the IMU's Kalibr
 ``gyro_random_walk``; without it the yaw covariance misses the bias drift: 12 deg of yaw error
@@ -115,6 +124,16 @@ def _wrap(a):
     return (a + np.pi) % (2 * np.pi) - np.pi
 
 
+class MotionEKF(ExtendedKalmanFilter):
+    """filterpy's EKF whose state prediction is the nonlinear motion model :func:`_f` (filterpy's
+    extension point for a model ``F x`` does not describe); ``predict(u)`` with ``u = (omega_b (3,),
+    dt [s], ds [m])`` then propagates ``P = F P F^T + Q`` as filterpy does."""
+
+    def predict_x(self, u=0):
+        omega_b, dt, ds = u
+        self.x = _f(self.x, omega_b, dt, ds)
+
+
 @dataclass(frozen=True)
 class DeadReckoning:
     """Filter output at the IMU times: ``t_ns`` (N,), ``T_w_b`` (N,4,4), ``cov`` (N,6,6) (rot_b, trans_b)."""
@@ -160,7 +179,7 @@ def dead_reckon(imu, wheels, R_b_i: np.ndarray, T_w_b0: np.ndarray, P0: np.ndarr
     per_tick = 2 * np.pi * cfg.wheel_radius_m / cfg.ticks_per_rev
     dist = 0.5 * (np.asarray(wheels.left_ticks) + np.asarray(wheels.right_ticks)) * per_tick
     s = np.interp(t.astype(float), np.asarray(wheels.t_ns, float), dist)
-    ekf = ExtendedKalmanFilter(dim_x=N_X, dim_z=2)
+    ekf = MotionEKF(dim_x=N_X, dim_z=2)
     ekf.x = np.r_[T_w_b0[:3, 3], euler_from_R(T_w_b0[:3, :3]), cfg.slip_bias_mean, np.zeros(5)]
     ekf.P = np.zeros((N_X, N_X))
     ekf.P[:6, :6] = np.asarray(P0, float)
@@ -181,8 +200,7 @@ def dead_reckon(imu, wheels, R_b_i: np.ndarray, T_w_b0: np.ndarray, P0: np.ndarr
         q = np.r_[[cfg.gyro_noise_density ** 2 / dt] * 3, (cfg.slip_std * ds) ** 2 + per_tick ** 2 / 6,
                   cfg.slip_bias_walk ** 2 * dt, [cfg.gyro_bias_walk ** 2 * dt] * 3, [cfg.accel_bias_walk ** 2 * dt] * 2]
         ekf.Q = G_n @ np.diag(q) @ G_n.T
-        ekf.predict_x = lambda u=0, x1=_f(x0, w, dt, ds): setattr(ekf, "x", x1)  # filterpy: sets self.x
-        ekf.predict()
+        ekf.predict(u=(w, dt, ds))
         a = acc_b[k + 1]
         if (k + 1) % cfg.tilt_update_every == 0 and abs(np.linalg.norm(a) - G) < cfg.tilt_gate_mps2:
             moving = s[k + 1] - s[max(k + 1 - cfg.tilt_update_every, 0)] > 0.5 * per_tick

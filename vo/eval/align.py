@@ -14,6 +14,17 @@ from rigs.geometry import inv_T
 from vo.trajectory import Trajectory
 
 ALIGN_METHODS = ("se3", "sim3", "none", "first", "posyaw")
+DEFAULT_ALIGN = "first"          # the default of ``vo-testbed eval`` and :func:`vo.eval.evaluate`
+ALIGN_TEXT = {"first": "first estimated pose put on the first ground-truth pose",
+              "se3": "Umeyama SE(3) on the matched positions", "sim3": "Umeyama Sim(3) on the matched positions",
+              "posyaw": "translation and yaw (4-DoF) on the matched positions", "none": "none, poses as given"}
+
+
+def alignment_header(method: str, scale: float | None = None) -> str:
+    """``"first (the default): first estimated pose put on ..."`` or ``"se3 (default: first): Umeyama ..."``:
+    the alignment used, and eval's default, as every evaluation table states it in its header."""
+    which = "the default" if method == DEFAULT_ALIGN else f"default: {DEFAULT_ALIGN}"
+    return f"{method} ({which}): {ALIGN_TEXT.get(method, method)}" + (f", scale {scale:.6f}" if method == "sim3" and scale is not None else "")
 
 
 @dataclass(frozen=True)

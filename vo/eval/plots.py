@@ -9,20 +9,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rigs.atomic_io import atomic_write  # noqa: E402
+from rigs.figures import save_figure  # noqa: E402
+from rigs.trajectory import Trajectory  # noqa: E402
 from vo.eval.associate import associate  # noqa: E402
 from vo.eval.rpe import RpeResult  # noqa: E402
-from vo.trajectory import Trajectory  # noqa: E402
-
-
-def save_figure(fig, path) -> Path:
-    """Save and close ``fig`` atomically (temp name, then rename); format from the suffix."""
-    path = Path(path)
-    try:
-        return atomic_write(path, lambda tmp: fig.savefig(tmp, format=(path.suffix.lstrip(".") or "png"), dpi=120,
-                                                           bbox_inches="tight"))
-    finally:
-        plt.close(fig)
 
 
 def plot_topdown(results: dict, gt: Trajectory, gcps=None, path="topdown.png") -> Path:
@@ -86,3 +76,30 @@ def plot_evaluation(result, gcps, out_dir) -> list:
     return [plot_topdown(est, result.gt_matched, gcps, out / "topdown.png"),
             plot_error_vs_distance(result.gt_matched, est, out / "error_vs_distance.png"),
             plot_rpe({"estimate": result.rpe_frame}, out / "rpe.png")]
+
+
+def plot_comparison(results: dict, gt: Trajectory, path="comparison.png") -> Path:
+    """One figure comparing estimates (name -> :class:`vo.eval.EvalResult`): top-down view of the
+    aligned estimates over ``gt``, position error against distance, and the ATE distribution per estimate."""
+    from vo.eval.align import alignment_header
+    fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(16, 5))
+    a1.plot(gt.positions[:, 0], gt.positions[:, 1], "k-", lw=1.5, label="ground truth")
+    for name, r in results.items():
+        a1.plot(r.aligned_est.positions[:, 0], r.aligned_est.positions[:, 1], lw=1.2, label=name)
+        d, e = error_vs_distance(r.gt_matched, r.aligned_est)
+        a2.plot(d, e, lw=1.2, label=name)
+    a1.set_xlabel("x (m)")
+    a1.set_ylabel("y (m)")
+    a1.set_aspect("equal", adjustable="datalim")
+    a2.set_xlabel("distance travelled (m)")
+    a2.set_ylabel("position error (m)")
+    a3.boxplot([r.ape.t_err_m for r in results.values()], showfliers=False)
+    a3.set_xticks(range(1, len(results) + 1), list(results))
+    a3.set_ylabel("ATE translation (m)")
+    a3.tick_params(axis="x", labelrotation=20)
+    for a in (a1, a2, a3):
+        a.grid(True, alpha=0.3)
+    a1.legend(loc="best", fontsize=8)
+    method = next(iter(results.values())).alignment.method
+    fig.suptitle(f"alignment: {alignment_header(method)}", fontsize=9)
+    return save_figure(fig, path)

@@ -71,8 +71,14 @@ class VinsEstimator(Estimator):
     def set_imu(self, imu) -> None:
         self.stream = ImuStream(imu)
 
+    @classmethod
+    def is_oracle(cls, options: dict) -> bool:
+        """``vins-oracle`` (true segmentation) and ``init=truth`` (true start) read ground truth."""
+        return cls.remove_dynamic or VinsConfig.from_options(cls.preset, options).init == "truth"
+
     def set_dataset(self, dataset) -> None:
-        """Read the true segmentation when the dataset has it (diagnostics; required by ``vins-oracle``)."""
+        """Read the true segmentation when the dataset has it (diagnostics; required by ``vins-oracle``); the
+        runner passes the whole dataset only to an oracle (:meth:`is_oracle`), a sensor-only one otherwise."""
         self.labels = FeatureLabels.of(dataset)
         if self.config.init == "truth":
             self.truth = Truth(dataset)
@@ -123,6 +129,8 @@ class VinsEstimator(Estimator):
         if res.status != "init":
             self.last_T_o_c = res.T_o_c0
         self.emitted = self.emitted or res.status in ("ok", "keyframe")
+        if res.status == "reinit":          # the last pose held while the start is redone: no pose produced
+            res.pose_class = "lost"
         return res
 
     def _set_covariance(self, res) -> None:

@@ -19,7 +19,10 @@ FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "s
 
 @click.command("generate")
 @click.option("--scene", default="campus", show_default=True, help="Scene name (see `vo-testbed list`).")
-@click.option("--rig", default="cart27", show_default=True, help="Rig preset or rig .yaml (see `vo-testbed list`).")
+@click.option("--rig", default="cart27", show_default=True,
+              help="Rig preset, rig .yaml, or a Kalibr camchain-imucam.yaml (see `vo-testbed list`).")
+@click.option("--imu", "imu_yaml", type=click.Path(dir_okay=False), default=None,
+              help="Kalibr imu.yaml for a --rig camchain-imucam.yaml (noise densities, random walks, rate, T_i_b).")
 @click.option("--scenario", default=None, help="Start from a named scenario (flags and --set then change it).")
 @click.option("--vehicle", default="cart", show_default=True, help="Vehicle: cart, car or rover.")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False), default=None,
@@ -34,8 +37,9 @@ FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "s
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--depth/--no-depth", default=False,
               help="Also write per-frame depth along the optical axis (see --depth-format).")
-@click.option("--depth-format", type=click.Choice(["npy", "png16"]), default="npy", show_default=True,
-              help="npy: exact float32 m, inf = sky; png16: uint16 mm as TUM RGB-D, 0 = sky (26x smaller).")
+@click.option("--depth-format", type=click.Choice(["npy", "png16-mm", "tum", "png16"]), default="npy", show_default=True,
+              help="npy: exact float32 m, inf = sky; png16-mm: uint16 millimetres, 0 = sky (26x smaller); tum: uint16 "
+                   "at TUM RGB-D's 5000 per metre (0.2 mm steps, up to 13.1 m), 0 = sky; png16: alias of png16-mm.")
 @click.option("--segmentation/--no-segmentation", default=False,
               help="Also write per-frame segmentation (object id, dynamic flag).")
 @click.option("--ideal/--no-ideal", default=False, help="Turn every noise source off (IMU, image noise).")
@@ -55,6 +59,8 @@ def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, overri
         return _traverse(ctx, scenario, config_file, out_dir, overwrite, no_progress, overrides, as_json, flags)
     cfg = build_config(ctx, scenario, config_file, flags, overrides)
     res = run(cfg, out_dir, progress=not no_progress and not as_json, overwrite=overwrite)
+    for note in res.notes:
+        click.echo(f"warning: {note}", err=True)
     if as_json:
         echo_json(res.to_dict())
     else:
@@ -78,6 +84,10 @@ def build_config(ctx, scenario, config_file, flags: dict, overrides):
         get_scenario(scenario) if scenario else GenerateConfig()
     given = [n for n in FLAG_FIELDS
              if ctx.get_parameter_source(n) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)]
+    if flags.get("imu_yaml"):                                    # Kalibr camchain + imu.yaml
+        if "rig" not in given:
+            raise click.UsageError("--imu imu.yaml goes with --rig camchain-imucam.yaml (a Kalibr camchain)")
+        flags = dict(flags, rig={"kalibr": flags["rig"], "imu": flags["imu_yaml"]})
     plain = [n for n in given if "." not in FLAG_FIELDS[n] and n != "rig"]
     for name in (n for n in given if n not in plain):            # --scene, --rig
         cfg = _labelled([name], cfg.with_value, FLAG_FIELDS[name], flags[name])
