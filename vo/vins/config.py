@@ -70,7 +70,20 @@ class VinsConfig:
     ``init_keyframes`` (after a failure the oldest is dropped if the SfM failed, else the inner keyframe of
     the shortest merged interval; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,
     ``init_max_scale_std`` (largest accepted relative standard deviation of the aligned scale, and largest
-    relative difference between the forward and reverse alignment regressions).
+    relative difference between the forward and reverse alignment regressions), ``init_min_excitation``
+    (m/s^2: the standard deviation over the window's keyframe intervals of the mean specific force, below which
+    the window is not tried, :func:`vo.vins.initial.imu_excitation`; 0 = off, as in VINS-Mono, which logs its
+    0.25 test without acting on it: the scale's standard deviation already says whether the motion observes
+    it, and the campus cart's start from rest, 0.16-0.20 m/s^2, observes it to 1.3 %),
+    ``init_provisional_scale_std``: an alignment whose scale is known only to this (relative standard
+    deviation) starts the window provisionally: no pose is emitted (status ``init``) until the window's own
+    speed is known to ``init_max_scale_std``, or it is dropped after ``init_confirm_s`` seconds. Off by
+    default (equal to ``init_max_scale_std``): the window's speed covariance is overconfident (measured with
+    0.15 on urban seeds 0: the window confirmed a scale 11-16 % off as known to 5 %, docs/vins.md).
+    Divergence (after initialisation, :class:`vo.vins.divergence.DivergenceCheck`): ``fail_max_acc_bias``,
+    ``fail_max_gyr_bias``, ``fail_max_step_m``, ``fail_max_dz_m`` (VINS-Mono's ``failureDetection``),
+    ``fail_max_velocity_jump_mps`` (newest velocity against its IMU prediction), ``fail_max_scale_jump``
+    (relative change of the window's path length in one frame); the estimator then reinitialises.
     ``init`` "vi" (monocular visual-inertial, VINS-Mono) or "truth" (window started from the true keyframe
     states of a simulated dataset: :mod:`vo.vins.truth_init`, for comparing back-ends where "vi" cannot start).
     Output: ``covariance`` "frame" (gtsam marginal of the newest state every frame, ``FrameResult.cov``) or "off".
@@ -108,6 +121,15 @@ class VinsConfig:
     init_min_keyframes: int = knob(11, ge=3)
     init_min_parallax_px: float = knob(30.0, gt=0)
     init_max_scale_std: float = knob(0.05, gt=0)
+    init_min_excitation: float = knob(0.0, ge=0)
+    init_provisional_scale_std: float = knob(0.05, gt=0)
+    init_confirm_s: float = knob(10.0, gt=0)
+    fail_max_acc_bias: float = knob(2.5, gt=0)
+    fail_max_gyr_bias: float = knob(1.0, gt=0)
+    fail_max_step_m: float = knob(5.0, gt=0)
+    fail_max_dz_m: float = knob(1.0, gt=0)
+    fail_max_velocity_jump_mps: float = knob(2.0, gt=0)
+    fail_max_scale_jump: float = knob(0.25, gt=0)
     covariance: Literal[COVARIANCE] = "frame"
     init: Literal[INIT] = "vi"
 
@@ -120,6 +142,9 @@ class VinsConfig:
         if self.init_min_keyframes > self.init_keyframes:
             raise EstimatorError(f"vins.init_min_keyframes: must be <= init_keyframes ({self.init_keyframes}), "
                                  f"got {self.init_min_keyframes!r}")
+        if self.init_provisional_scale_std < self.init_max_scale_std:
+            raise EstimatorError(f"vins.init_provisional_scale_std: must be >= init_max_scale_std "
+                                 f"({self.init_max_scale_std}), got {self.init_provisional_scale_std!r}")
         if self.init_keyframes > self.window_size:
             raise EstimatorError(f"vins.init_keyframes: must be <= window_size ({self.window_size}), "
                                  f"got {self.init_keyframes!r}")

@@ -25,6 +25,7 @@ from vo.errors import EstimatorError
 from vo.estimators.base import Estimator, FrameResult
 from vo.vins.config import VinsConfig
 from vo.vins.covariance import INIT_COV, output_covariance
+from vo.vins.divergence import DivergenceCheck, Snapshot
 from vo.vins.frontend import KltFrontend, mask_at, parallax_px
 from vo.vins.imu import GRAVITY, ImuStream, imu_params, preintegrate
 from vo.vins.initial import SFM_FAILED, initialize, usable_points
@@ -40,9 +41,16 @@ class VinsEstimator(Estimator):
     preset = "vins"
     remove_dynamic = False         # vins-oracle: no features on moving objects (true segmentation)
 
-    def __init__(self, rig, **options):
+    def __init__(self, rig, initializer=None, divergence=None, **options):
+        """``initializer``: the visual-inertial start, called as :func:`vo.vins.initial.initialize` (default);
+        ``divergence``: the failure test after each window optimisation, called as
+        :class:`vo.vins.divergence.DivergenceCheck` (default: one with the ``fail_*`` options)."""
         super().__init__(rig, **options)
-        self.config = VinsConfig.from_options(self.preset, options)
+        self.config = cfg = VinsConfig.from_options(self.preset, options)
+        self.initializer = initialize if initializer is None else initializer
+        self.divergence = divergence if divergence is not None else DivergenceCheck(
+            cfg.fail_max_acc_bias, cfg.fail_max_gyr_bias, cfg.fail_max_step_m, cfg.fail_max_dz_m,
+            cfg.fail_max_velocity_jump_mps, cfg.fail_max_scale_jump)
         self.camera = rig.cameras[0]
         self.T_i_c = np.linalg.inv(rig.imu.T_b_i_array) @ self.camera.T_b_c_array
         self.params = imu_params(self.config, rig.imu)
@@ -50,6 +58,9 @@ class VinsEstimator(Estimator):
                                     self.config.f_threshold_px, self.config.klt_refine)
         self.stream = None
         self.first_frame = None
+        self.reinitialising = False     # after a divergence, until the start succeeds again
+        self.emitted = False            # a pose was produced (status ok / keyframe) at least once
+        self.provisional_since = None   # t_ns of a provisional start the window has not confirmed yet
         self.diagnostics: list = []
         self._reset()
         self.T_o_w = None
@@ -76,8 +87,17 @@ class VinsEstimator(Estimator):
                                  f"generate it with --segmentation")
 
     def _reset(self) -> None:
+        """Forget the window and the initialisation keyframes (VINS-Mono's ``clearState``): start again."""
         self.window = None
         self.init_frames: list = []
+        self.provisional_since = None
+
+    def _diverged(self, frame, feats, message: str) -> FrameResult:
+        """The window failed: reset and start a new initialisation from this frame on. Every frame until it
+        succeeds is ``reinit`` (not ``init``: a pose was produced before) with the last emitted pose held."""
+        self._reset()
+        self.reinitialising = self.emitted
+        return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(), message=message)
 
     # ------------------------------------------------------------------ per frame
     def process(self, frame) -> FrameResult:
@@ -93,7 +113,7 @@ class VinsEstimator(Estimator):
         if self.first_frame is None:
             res = FrameResult(frame.t_ns, self.last_T_o_c.copy(), "init", message="before the first IMU sample")
         elif feats.t_ns > self.stream.t[-1]:        # images after the last IMU sample: no motion to integrate
-            status = "init" if self.window is None else "lost"
+            status = self._init_status() if self.window is None else "lost"
             res = FrameResult(frame.t_ns, self.last_T_o_c.copy(), status, message="after the last IMU sample")
         elif self.window is None:
             res = self._process_init(frame, feats)
@@ -108,6 +128,9 @@ class VinsEstimator(Estimator):
         self._diagnose(feats, res, dynamic)
         if res.status != "init":
             self.last_T_o_c = res.T_o_c0
+        self.emitted = self.emitted or res.status in ("ok", "keyframe")
+        if res.status == "reinit":          # the last pose held while the start is redone: no pose produced
+            res.pose_class = "lost"
         return res
 
     def _set_covariance(self, res) -> None:
@@ -132,9 +155,13 @@ class VinsEstimator(Estimator):
         n_tracked = int(np.sum(feats.count > 1))
         return par >= self.config.min_parallax_px or n_tracked < self.config.min_tracked
 
+    def _init_status(self) -> str:
+        return "reinit" if self.reinitialising else "init"
+
     def _process_init(self, frame, feats) -> FrameResult:
         if not self.stream.covers(self.first_frame.t_ns, feats.t_ns):
-            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "init", message="no IMU at this frame time")
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),
+                               message="no IMU at this frame time")
         new_kf = self._is_keyframe(feats, self.init_frames[-1] if self.init_frames else None)
         if new_kf:
             self.init_frames.append(feats)
@@ -147,12 +174,12 @@ class VinsEstimator(Estimator):
                                      f"dataset through the runner)")
             return self._initialised(frame, truth_init(self.truth, self.init_frames))
         if cfg.init == "vi" and new_kf and len(self.init_frames) >= need:
-            result, msg = initialize(self.stream, self.params, self.init_frames, self.T_i_c, cfg)
+            result, msg = self.initializer(self.stream, self.params, self.init_frames, self.T_i_c, cfg)
             if result is not None:
                 return self._initialised(frame, result)
             if len(self.init_frames) >= cfg.init_keyframes:
                 self._drop_init_keyframe(msg == SFM_FAILED)
-        return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "init", message=msg)
+        return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(), message=msg)
 
     def _drop_init_keyframe(self, sfm_failed: bool) -> None:
         """Make room for the next keyframe after a failed initialisation. When the SfM failed, the oldest
@@ -169,6 +196,11 @@ class VinsEstimator(Estimator):
 
     def _initialised(self, frame, result) -> FrameResult:
         self._start_window(result)
+        if result.provisional:
+            self.provisional_since = frame.t_ns
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),
+                               message=f"provisional start (alignment scale std {100 * result.scale_rel_std:.1f} %)")
+        self.reinitialising = False
         T_w_c = self.window.T_w_c(self.window.states[-1])
         return FrameResult(frame.t_ns, self.T_o_w @ T_w_c, "keyframe", message="initialised")
 
@@ -195,7 +227,7 @@ class VinsEstimator(Estimator):
         w.optimize()
         if self.T_o_w is None and self.truth is not None:
             self.T_o_w = np.linalg.inv(self.truth.T_w_c[self.first_frame.t_ns])
-        elif self.T_o_w is None:
+        elif self.T_o_w is None or not self.emitted:
             self.T_o_w = np.linalg.inv(self._first_camera_pose())
         else:              # re-initialisation: the first new keyframe continues from the last emitted pose
             self.T_o_w = self.last_T_o_c @ np.linalg.inv(w.T_w_c(w.states[0]))
@@ -219,8 +251,10 @@ class VinsEstimator(Estimator):
         w = self.window
         last_kf = next(st for st in reversed(w.states) if st.is_kf)
         is_kf = self._is_keyframe(feats, last_kf.feats)
+        before = self._snapshot()
         try:
-            w.add_state(feats.t_ns, feats, is_kf)
+            new = w.add_state(feats.t_ns, feats, is_kf)
+            v_pred = w.values.atVector(V(new.k))
             if not w.states[-2].is_kf:
                 w.drop_second_newest()
             elif len(w.states) > self.config.window_size:
@@ -228,15 +262,55 @@ class VinsEstimator(Estimator):
             self._triangulate_new()
             w.optimize()
         except RuntimeError as e:                      # gtsam: indeterminant system, cheirality, ...
-            self._reset()
-            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit",
-                               message=f"optimizer failed: {e}", pose_class="lost")      # the last pose held
+            return self._diverged(frame, feats, f"optimizer failed: {e}")
         T = self.T_o_w @ w.T_w_c(w.states[-1])
         if not np.all(np.isfinite(T)):
-            self._reset()
-            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit",
-                               message="non-finite estimate", pose_class="lost")
+            return self._diverged(frame, feats, "non-finite estimate")
+        why = self.divergence(before, v_pred, self._snapshot(), new.k)
+        if why is not None:
+            return self._diverged(frame, feats, why)
+        if self.provisional_since is not None:
+            return self._confirm(frame, T, is_kf)
         return FrameResult(frame.t_ns, T, "keyframe" if is_kf else "ok", n_inliers=len(w.lm))
+
+    def speed_rel_std(self) -> float:
+        """Relative standard deviation of the newest state's speed (:meth:`Window.velocity_covariance` along
+        the velocity): the window's scale uncertainty once the vehicle moves (inf below 1 m/s)."""
+        w = self.window
+        st = w.states[-1]
+        v = w.values.atVector(V(st.k))
+        speed = float(np.linalg.norm(v))
+        if speed < 1.0:
+            return float("inf")
+        u = v / speed
+        try:
+            return float(np.sqrt(max(u @ w.velocity_covariance(st) @ u, 0.0)) / speed)
+        except (RuntimeError, np.linalg.LinAlgError):
+            return float("inf")
+
+    def _confirm(self, frame, T, is_kf) -> FrameResult:
+        """Provisional start: emit the first pose once the window knows its speed (hence its scale) to
+        ``init_max_scale_std``; drop the start after ``init_confirm_s`` without it."""
+        cfg = self.config
+        rel = self.speed_rel_std()
+        if rel <= cfg.init_max_scale_std:
+            self.provisional_since = None
+            self.reinitialising = False
+            return FrameResult(frame.t_ns, T, "keyframe" if is_kf else "ok", n_inliers=len(self.window.lm),
+                               message="initialised")
+        if (frame.t_ns - self.provisional_since) * 1e-9 > cfg.init_confirm_s:
+            self._reset()
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),
+                               message=f"provisional start not confirmed in {cfg.init_confirm_s:g} s: start again")
+        return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),
+                           message=f"provisional start: speed std {100 * rel:.1f} % > {100 * cfg.init_max_scale_std:g} %")
+
+    def _snapshot(self) -> Snapshot:
+        """The window's state positions and its newest velocity and biases (:mod:`vo.vins.divergence`)."""
+        w = self.window
+        b = w.values.atConstantBias(B(w.states[-1].k))
+        return Snapshot({st.k: w.values.atPose3(X(st.k)).translation() for st in w.states},
+                        w.values.atVector(V(w.states[-1].k)), b.accelerometer(), b.gyroscope())
 
     def _triangulate_new(self) -> None:
         """Landmarks for tracks seen in >= 2 window states, from the first and the newest observation.

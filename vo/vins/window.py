@@ -375,6 +375,20 @@ class Window:
         d = 1 if self.inv_depth else 3
         return pose_block_marginal(H, H.shape[0] - d * len(lm_keys), d)
 
+    def velocity_covariance(self, st: State) -> np.ndarray:
+        """3x3 marginal covariance of V(k) in w, computed as :meth:`pose_covariance` (the same weak landmark
+        priors and Schur complements). At speed, the relative standard deviation of the speed is that of the
+        window's scale: the camera sees the motion only up to scale, the IMU fixes it."""
+        g = self.graph()
+        for i in self.lm:
+            g.add(self._weak_landmark_prior(i))
+        lm_keys = [L(key) for key in self.lm.values()]
+        lm_set = set(lm_keys)
+        keys = list(dict.fromkeys([V(st.k), X(st.k)] + [k for k in g.keyVector() if k not in lm_set])) + lm_keys
+        H, _ = g.linearize(self.values).hessian(gtsam.Ordering(keys))
+        d = 1 if self.inv_depth else 3
+        return pose_block_marginal(H, H.shape[0] - d * len(lm_keys), d)[:3, :3]
+
     def _weak_landmark_prior(self, track: int):
         """``LANDMARK_PRIOR_M`` std at the estimate; for an inverse depth the same std along the ray
         (d p / d rho = |m_a| / rho^2)."""

@@ -1,0 +1,187 @@
+"""The start-up table of ``docs/vins.md``: when and how well ``vins`` initialises without truth, and what it
+covers afterwards, per dataset.
+
+``python -m vo.vins.start_table DATASET [DATASET ...] [--frames N] [--json OUT] [--opt key=value ...]``
+runs ``vins`` (or ``--estimator NAME``) on each dataset's first ``N`` frames (default: all) and prints one row:
+the frame and time (from the first frame) of the first initialisation, the distance travelled by then,
+the scale and gravity errors against the truth of the alignment that started the window (:class:`InitRecorder`,
+injected into the estimator, not patched in) and of the window when it emits its first pose
+(:func:`window_errors`; later than the alignment after a provisional start), the re-initialisations, the frames covered (status ``ok`` or
+``keyframe``: a pose was produced), the drift (end-point error / path, %) and the mean RPE over 10 m pairs
+of the covered frames from the first initialisation on, aligned at that frame. Bad input: one ``error:``
+line, exit 2.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+
+import numpy as np
+
+from vo.eval.rpe import rpe
+from vo.trajectory import Trajectory
+from vo.vins.imu import GRAVITY
+from vo.vins.initial import initialize
+
+COVERED = ("ok", "keyframe")
+RPE_M = 10.0
+
+
+class InitRecorder:
+    """An initializer (:func:`vo.vins.initial.initialize`'s signature) that records, for each successful
+    start, the keyframe span and the errors against the dataset's truth ``gt`` (``T_w_c0`` Trajectory):
+    scale error (least-squares scale of the SfM positions against the true ones, relative to the
+    reference keyframe, minus 1) and the angle between the aligned and the true gravity (deg)."""
+
+    def __init__(self, gt, inner=initialize):
+        self.gt, self.inner = gt, inner
+        self.k_of = {int(t): k for k, t in enumerate(gt.t_ns)}
+        self.starts: list = []
+        self.last_message = ""
+
+    def __call__(self, stream, params, frames, T_i_c, config):
+        r, msg = self.inner(stream, params, frames, T_i_c, config)
+        self.last_message = msg
+        if r is not None:
+            ks = [self.k_of[int(f.t_ns)] for f in frames]
+            T_c0_w = np.linalg.inv(self.gt.T[ks[r.ref]])
+            p_true = (T_c0_w @ self.gt.T[ks])[:, :3, 3]
+            g_true = T_c0_w[:3, :3] @ np.array([0.0, 0.0, -GRAVITY])
+            ds = r.scale * np.sum(r.p_v_c * p_true) / np.sum(p_true ** 2) - 1
+            dg = np.degrees(np.arccos(np.clip(r.g_v @ g_true / GRAVITY ** 2, -1, 1)))
+            self.starts.append({"keyframes": [ks[0], ks[-1]], "scale_err_pct": float(ds * 100),
+                                "gravity_err_deg": float(dg)})
+        return r, msg
+
+
+def window_errors(w, gt) -> dict:
+    """The window against the truth: scale error (least-squares ratio of the states' distances from the oldest
+    state, estimated vs true, minus 1, %) and the tilt of the newest camera (deg; yaw is unobservable)."""
+    k_of = {int(t): k for k, t in enumerate(gt.t_ns)}
+    T_e = np.array([w.T_w_c(st) for st in w.states])
+    T_g = gt.T[[k_of[int(st.t_ns)] for st in w.states]]
+    d_e, d_g = (np.linalg.norm(T[:, :3, 3] - T[0, :3, 3], axis=1) for T in (T_e, T_g))
+    up_e, up_g = T_e[-1, :3, :3].T[:, 2], T_g[-1, :3, :3].T[:, 2]
+    return {"window_scale_err_pct": float((np.sum(d_e * d_g) / np.sum(d_g ** 2) - 1) * 100),
+            "window_tilt_deg": float(np.degrees(np.arccos(np.clip(up_e @ up_g, -1, 1))))}
+
+
+def run_one(path, n_frames=None, estimator: str = "vins", options=None) -> dict:
+    """Row of the start table for the dataset at ``path`` (see the module docstring)."""
+    from vo.dataset import open_dataset
+    from vo.estimators.registry import make_estimator
+    ds = open_dataset(path)
+    gt = ds.groundtruth_cam0()
+    rec = InitRecorder(gt)
+    est = make_estimator(estimator, ds.rig, initializer=rec, **(options or {}))
+    est.set_imu(ds.imu)
+    est.set_dataset(ds)
+    n = len(ds) if n_frames is None else min(int(n_frames), len(ds))
+    status, T, events = [], [], []
+    at_first_pose = None
+    t0 = time.perf_counter()
+    for k, fr in enumerate(ds.frames(0, n)):
+        res = est.process(fr)
+        status.append(res.status)
+        T.append(res.T_o_c0)
+        if at_first_pose is None and res.status in COVERED:
+            at_first_pose = window_errors(est.window, gt)
+        if res.message == "initialised" or (res.status == "reinit" and (k == 0 or status[-2] != "reinit")):
+            events.append((k, res.status, res.message))
+    wall = time.perf_counter() - t0
+    t_ns = np.asarray(gt.t_ns[:n], np.int64)
+    Tg = gt.T[:n]
+    row = {"dataset": str(path), "frames": n, "route_m": float(np.sum(np.linalg.norm(np.diff(Tg[:, :3, 3], axis=0),
+                                                                                   axis=1))),
+           "wall_s": wall, "events": events, "starts": rec.starts,
+           "covered": int(sum(s in COVERED for s in status))}
+    first = next((k for k, s in enumerate(status) if s in COVERED), None)
+    row["init_frame"] = first
+    if first is None:
+        row["last_message"] = rec.last_message
+        return row
+    row["init_time_s"] = float((t_ns[first] - t_ns[0]) * 1e-9)
+    row["init_dist_m"] = float(np.sum(np.linalg.norm(np.diff(Tg[:first + 1, :3, 3], axis=0), axis=1)))
+    row.update(at_first_pose)
+    row["reinits"] = sum(1 for e in events if e[1] == "reinit")
+    idx = np.array([k for k in range(first, n) if status[k] in COVERED])
+    if len(idx) < 2:
+        return row
+    Te = np.array(T)[idx]
+    Tg_c = Tg[idx]
+    Te = Tg_c[0] @ np.linalg.inv(Te[0]) @ Te
+    g, e = Trajectory(t_ns[idx], Tg_c, "o", "c0"), Trajectory(t_ns[idx], Te, "o", "c0")
+    row["path_m"] = float(g.path_length)
+    row["drift_pct"] = float(np.linalg.norm(Te[-1, :3, 3] - Tg_c[-1, :3, 3]) / max(g.path_length, 1e-9) * 100)
+    if g.path_length > 2 * RPE_M:
+        row["rpe10m_mean_m"] = float(np.mean(rpe(g, e, RPE_M, "m", pairs_from="gt").t_err_m))
+    return row
+
+
+def format_row(r: dict) -> str:
+    """One markdown table row."""
+    name = r["dataset"].rstrip("/").split("/")[-1]
+    if r["init_frame"] is None:
+        return (f"| {name} | {r['frames']} | no initialisation | - | - | - | 0 | - | - | - | "
+                f"last: {r.get('last_message', '')} |")
+    s = r["starts"][0] if r["starts"] else {}
+    f = (lambda key, fmt: format(r[key], fmt) if key in r else "-")
+    return (f"| {name} | {r['frames']} | {r['init_frame']} / {r['init_time_s']:.1f} s / {r['init_dist_m']:.1f} m | "
+            f"{s.get('scale_err_pct', float('nan')):+.2f} / {r['window_scale_err_pct']:+.2f} | "
+            f"{s.get('gravity_err_deg', float('nan')):.3f} / {r['window_tilt_deg']:.3f} | "
+            f"{r['reinits']} | {r['covered']} | {f('path_m', '.0f')} | {f('drift_pct', '.2f')} | "
+            f"{f('rpe10m_mean_m', '.3f')} | |")
+
+
+HEADER = ("| dataset | frames | first pose: frame / time / distance | scale err % (alignment / window) | "
+          "gravity err deg (alignment / window tilt) | reinits | "
+          "frames covered | path m after init | drift % | RPE 10 m mean m | note |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|")
+
+
+def main(argv=None) -> int:
+    from rigs.errors import TestbedError
+    from rigs.typed_config import parse_value
+    from vo.errors import EstimatorError
+    args = list(sys.argv[1:] if argv is None else argv)
+    paths, opts, n, out, est = [], {}, None, None, "vins"
+    try:
+        while args:
+            a = args.pop(0)
+            if a == "--frames":
+                n = int(args.pop(0))
+            elif a == "--json":
+                out = args.pop(0)
+            elif a == "--estimator":
+                est = args.pop(0)
+            elif a == "--opt":
+                k, v = args.pop(0).split("=", 1)
+                opts[k] = parse_value(v, k, EstimatorError)
+            else:
+                paths.append(a)
+    except (IndexError, ValueError):
+        print("usage: python -m vo.vins.start_table DATASET [...] [--frames N] [--json OUT] [--estimator NAME] "
+              "[--opt key=value ...]", file=sys.stderr)
+        return 2
+    if not paths:
+        print("usage: python -m vo.vins.start_table DATASET [...] [--frames N] [--json OUT]", file=sys.stderr)
+        return 2
+    print(HEADER, flush=True)
+    rows = []
+    try:
+        for p in paths:
+            r = run_one(p, n, est, opts)
+            rows.append(r)
+            print(format_row(r), flush=True)
+    except TestbedError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    if out:
+        with open(out, "w") as fh:
+            json.dump(rows, fh, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
