@@ -2,4 +2,4 @@
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering unless the user chose otherwise
-__version__ = "0.2.0"      # dataset version (metadata, config hash): bumped when a config's bytes change
+__version__ = "0.3.0"      # dataset version (metadata, config hash): bumped when a config's bytes change

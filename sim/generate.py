@@ -151,55 +151,65 @@ def _formats(fmt: str) -> tuple:
     return ("euroc", "kitti") if fmt == "both" else (fmt,)
 
 
-def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, start: int = 0):
+def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, start: int = 0,
+                  threads: int | None = None, timer=None):
     """Measure every stereo frame at ``T_w_b_frames`` (N,4,4) with the camera sensor, add frame ``k``'s
     image noise (stream ``image_noise``, index k), stream to the writers from frame ``start`` on, stamped
     ``setup.frame_stamp_ns``. With image effects (``camera.*``) frames go through
-    :class:`sim.sensors.camera.FrameExposer`; returns the auto exposure gains then (None otherwise)."""
-    from tqdm import tqdm
-    from sim.sensors.camera import StereoCamera, add_noise
+    :class:`sim.sensors.camera.FrameExposer`; returns the auto exposure gains then (None otherwise).
 
-    if setup.config.camera.image_effects:
-        return _render_with_effects(setup, writers, progress, start)
+    Rendering runs on this thread (it owns the GL context); each frame's noise, effects after the
+    auto exposure, PNG encoding and writing run in a :class:`sim.frame_pipeline.FramePipeline` of
+    ``threads`` workers (None: one per CPU; 0: inline), committed in frame order: the bytes do not depend
+    on ``threads``. ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``render`` (with
+    read-back), ``read-back``, ``noise``, ``effects``, ``encode`` and ``write``."""
+    from tqdm import tqdm
+    from sim.frame_pipeline import FramePipeline
+    from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
+    from sim.stage_timer import NO_TIMER
 
     c = setup.config
-    with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
-                      supersample=setup.supersample, rgb=c.rgb) as camera:
-        if c.segmentation:
-            writers.add_segmentation_ids(setup.scene.segmentation_rows(camera.geom_names()))
-        bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
-                   disable=not progress, dynamic_ncols=True)
-        for k in range(start, len(setup.frame_t_ns)):
-            images, depth, seg = camera.measure(T_w_b_frames[k], setup.scene.actor_states(int(setup.frame_t_ns[k])))
-            images = add_noise(images, setup.image_noise, indexed_stream(c.seed, "image_noise", k))
-            writers.add_frame(int(setup.frame_stamp_ns[k]), images, depth=depth, seg=seg)
-            bar.update(1)
-        bar.close()
-    return None
-
-
-def _render_with_effects(setup: Setup, writers, progress: bool, start: int) -> list:
-    """:func:`render_frames` through the :class:`sim.sensors.camera.FrameExposer`; with auto exposure every
-    frame from 0 is exposed (its gain depends on earlier frames; the writers skip those already on disk)."""
-    from tqdm import tqdm
-    from sim.sensors.camera import FrameExposer, StereoCamera
-
-    c = setup.config
-    start = 0 if c.camera.auto_exposure else start
-    pose_at = lambda t_ns: setup.trajectory.states(t_ns).T_w_b  # noqa: E731
+    timer = timer or NO_TIMER
+    effects = c.camera.image_effects
+    first = 0 if effects and c.camera.auto_exposure else start   # auto exposure: gains from frame 0 on
     gains = [1.0] * len(setup.frame_t_ns)
+    pose_at = lambda t_ns: setup.trajectory.states(t_ns).T_w_b  # noqa: E731
     with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
-                      supersample=setup.supersample, rgb=c.rgb) as camera:
+                      supersample=setup.supersample, rgb=c.rgb, timer=timer) as camera, \
+            FramePipeline(threads) as pipeline:
         if c.segmentation:
             writers.add_segmentation_ids(setup.scene.segmentation_rows(camera.geom_names()))
         exposer = FrameExposer(camera, setup.rig, c.camera, 1.0 / setup.rig.camera_rate_hz, c.seed,
-                               setup.image_noise, noisy=not c.ideal)
-        for k in tqdm(range(start, len(setup.frame_t_ns)), total=len(setup.frame_t_ns), initial=start,
-                      desc="render", unit="pair", disable=not progress, dynamic_ncols=True):
-            images, depth, seg, gains[k] = exposer.expose(k, int(setup.frame_t_ns[k]), pose_at,
-                                                          setup.scene.actor_states)
-            writers.add_frame(int(setup.frame_stamp_ns[k]), images, depth=depth, seg=seg)
-    return gains
+                               setup.image_noise, noisy=not c.ideal) if effects else None
+        bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
+                   disable=not progress, dynamic_ncols=True)
+        for k in range(first, len(setup.frame_t_ns)):
+            with timer.stage("render"):
+                if exposer is None:
+                    images, depth, seg = camera.measure(T_w_b_frames[k],
+                                                        setup.scene.actor_states(int(setup.frame_t_ns[k])))
+                else:
+                    images, depth, seg, gains[k] = exposer.render(k, int(setup.frame_t_ns[k]), pose_at,
+                                                                  setup.scene.actor_states)
+            if k < start:                   # on disk already (auto exposure replays from frame 0)
+                continue
+            t_ns = int(setup.frame_stamp_ns[k])
+
+            def work(k=k, t_ns=t_ns, images=images, depth=depth, seg=seg):
+                with timer.stage("noise"):
+                    if exposer is None:
+                        out = add_noise(images, setup.image_noise, indexed_stream(c.seed, "image_noise", k))
+                    else:
+                        out = exposer.finish(k, images, gains[k])
+                writers.write_frame_files(k, t_ns, out, depth=depth, seg=seg, timer=timer)
+
+            def commit(_, t_ns=t_ns):
+                writers.add_frame(t_ns, files_written=True)
+                bar.update(1)
+            pipeline.submit(work, commit)
+        pipeline.drain()
+        bar.close()
+    return gains if effects else None
 
 
 def wheel_odometry(setup: Setup, dims):
@@ -210,12 +220,14 @@ def wheel_odometry(setup: Setup, dims):
     return measure_wheels(setup.trajectory, dims, enc, t_ns, stream(setup.config.seed, "wheels"))
 
 
-def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: bool = False) -> GenerateResult:
+def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: bool = False,
+             threads: int | None = None, timer=None) -> GenerateResult:
     """Generate the dataset described by ``config`` into ``out_dir``.
 
     The folder carries an ``INCOMPLETE`` marker until everything is written; an interrupted
     run is resumed by calling ``generate`` again with the same config (frames already on disk
-    are skipped; the result is byte-identical to an uninterrupted run).
+    are skipped; the result is byte-identical to an uninterrupted run). ``threads`` and ``timer``: as
+    :func:`render_frames` (the bytes do not depend on ``threads``).
     """
     from sim.dataset import DatasetWriters
     from sim.sensors.calib_error import perturb_rig
@@ -234,7 +246,8 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     # calib_error: the images use setup.rig, the files written for estimators the perturbed rig
     written_rig, calib_draws = perturb_rig(setup.rig, config.calib_error, stream(config.seed, "calib_error"))
     writers = DatasetWriters(out_dir, written_rig, metadata(setup), fmt=config.format, depth=config.depth,
-                             segmentation=config.segmentation, overwrite=overwrite, depth_format=config.depth_format)
+                             segmentation=config.segmentation, overwrite=overwrite, depth_format=config.depth_format,
+                             png_compression=config.render.png_compression)
     start = writers.resumed_frames      # > 0 when resuming an interrupted run of the same config
     # IMU and ground truth are replayed in full; the writers skip rows already on disk
     writers.add_imu(noisy.t_ns + time_offset_ns(config), noisy.gyro, noisy.accel)   # t_imu = t_cam + td
@@ -248,7 +261,8 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     if setup.rig.wheels is not None:
         writers.add_wheels(wheel_odometry(setup, dims))
     if config.images:
-        gains = render_frames(setup, truth["T_w_b_frames"], writers, progress=progress, start=start)
+        gains = render_frames(setup, truth["T_w_b_frames"], writers, progress=progress, start=start,
+                              threads=threads, timer=timer)
         write_frame_effects(out_dir, setup, gains)
     png = str(out_dir / "topdown.png")
     write_topdown(setup, truth, png)

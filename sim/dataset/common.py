@@ -21,8 +21,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from rigs.atomic_io import atomic_write, atomic_write_text
+from rigs.atomic_io import atomic_write_bytes, atomic_write_text
+from sim.config import PNG_COMPRESSION
 from sim.errors import SimError
+from sim.stage_timer import NO_TIMER
 
 MARKER = "INCOMPLETE"
 METADATA = "metadata.yaml"
@@ -111,19 +113,29 @@ def _plain(obj):
     return obj
 
 
-def write_png(path: Path, image: np.ndarray, rgb: bool = True) -> None:
-    """Write ``image`` (H,W) or (H,W,3) RGB (uint8/uint16) as PNG; deterministic bytes.
 
-    Written to a temp name then renamed, so a file under the final name is always whole.
-    """
+
+def encode_png(image: np.ndarray, rgb: bool = True, compression: int = PNG_COMPRESSION) -> bytes:
+    """``image`` (H,W) or (H,W,3) RGB (uint8/uint16) as PNG bytes at zlib level ``compression`` (0-9);
+    deterministic (the bytes ``cv2.imwrite`` writes)."""
     img = np.ascontiguousarray(image)
     if img.ndim == 3 and img.shape[2] == 3 and rgb:
         img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
+    ok, buf = cv2.imencode(".png", img, [cv2.IMWRITE_PNG_COMPRESSION, int(compression)])
+    if not ok:
+        raise SimError(f"cv2.imencode failed for an image of shape {img.shape} dtype {img.dtype}")
+    return buf.tobytes()
 
-    def imwrite(tmp: Path) -> None:
-        if not cv2.imwrite(str(tmp), img, [cv2.IMWRITE_PNG_COMPRESSION, 3]):
-            raise SimError(f"{path}: cv2.imwrite failed for an image of shape {img.shape} dtype {img.dtype}")
-    atomic_write(path, imwrite)
+
+def write_png(path: Path, image: np.ndarray, rgb: bool = True, compression: int = PNG_COMPRESSION,
+              timer=NO_TIMER) -> None:
+    """Write ``image`` as PNG (:func:`encode_png`); deterministic bytes. Written to a temp name then
+    renamed, so a file under the final name is always whole. Safe to call from several threads.
+    ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``encode`` and ``write``."""
+    with timer.stage("encode"):
+        data = encode_png(image, rgb, compression)
+    with timer.stage("write"):
+        atomic_write_bytes(path, data)
 
 
 class CsvStream:

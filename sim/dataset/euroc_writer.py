@@ -29,9 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from rigs.atomic_io import atomic_write_npy
-from sim.dataset.common import (CsvStream, config_hash, finalize_folder, fmt_float, prepare_folder,
-                                write_marker, write_png)
+from sim.dataset.common import (PNG_COMPRESSION, CsvStream, config_hash, finalize_folder, fmt_float,
+                                prepare_folder, write_marker, write_png)
 from sim.errors import SimError
+from sim.stage_timer import NO_TIMER
 
 CAM_HEADER = "#timestamp [ns],filename"
 IMU_HEADER = ("#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
@@ -106,17 +107,17 @@ class EurocWriter:
     """Stream a stereo-inertial sequence to disk in the EuRoC ASL layout (see module docstring).
 
     ``rig``: a stereo ``rigs.Rig``; ``metadata``: the fully resolved configuration (plain dict,
-    no wall-clock times). A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames
+    no wall-clock times); ``png_compression``: zlib level 0-9 of every PNG. A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames
     are already on disk, and replayed samples at or before each stream's last row are skipped.
     """
 
     def __init__(self, out_dir, rig, metadata: dict, depth: bool = False, segmentation: bool = False,
-                 overwrite: bool = False, depth_format: str = "npy"):
+                 overwrite: bool = False, depth_format: str = "npy", png_compression: int = PNG_COMPRESSION):
         if not rig.is_stereo:
             raise SimError(f"EurocWriter: rig {rig.name!r} has {len(rig.cameras)} camera(s); need 2")
         if depth_format not in DEPTH_FORMATS:
             raise SimError(f"depth_format: unknown {depth_format!r}; valid: {', '.join(DEPTH_FORMATS)}")
-        self.depth_format = depth_format
+        self.depth_format, self.png_compression = depth_format, int(png_compression)
         self.rig, self.metadata = rig, dict(metadata)
         self.depth, self.segmentation = bool(depth), bool(segmentation)
         self.out_dir, resuming = prepare_folder(out_dir, self.metadata, overwrite)
@@ -155,51 +156,66 @@ class EurocWriter:
         save_rig(self.rig, self.out_dir / "rig.yaml")
 
     # ------------------------------------------------------------------ streams
-    def add_frame(self, t_ns: int, images, depth=None, seg=None) -> None:
+    def add_frame(self, t_ns: int, images=None, depth=None, seg=None, files_written: bool = False) -> None:
         """Write one stereo epoch: ``images`` [left, right] (H,W) gray or (H,W,3) RGB uint8.
 
         ``depth``/``seg``: None, one (H,W) array for cam0, or a list per camera. ``seg`` is (H,W)
         object ids (-1 background) or (H,W,2) with channel 1 a dynamic-object mask.
+        ``files_written``: the epoch's files were written by :meth:`write_frame_files` (in a worker
+        thread); only the rows and the marker are added, so a frame counts once all its files exist.
         """
         t_ns = int(t_ns)
         if self._cams[0].resume_t is not None and t_ns <= self._cams[0].resume_t:
             return
+        if not files_written:
+            self.write_frame_files(t_ns, images, depth=depth, seg=seg)
+        for cam in self._cams:
+            cam.append(t_ns, [f"{t_ns}.png"])
+        write_marker(self.out_dir, self._hash, f"frames={self._cams[0].rows}")
+
+    def write_frame_files(self, t_ns: int, images, depth=None, seg=None, index: int | None = None,
+                          timer=NO_TIMER) -> None:
+        """The files of one epoch (images, depth, segmentation), as :meth:`add_frame`, without its rows:
+        safe from several threads at once (``index``, the frame number, is not needed by this layout)."""
+        t_ns = int(t_ns)
         if len(images) != 2:
             raise SimError(f"add_frame: expected 2 images (left, right), got {len(images)}")
         for k, d in enumerate(_per_camera(depth, 2, "depth")):
             if d is not None:
                 if not self.depth:
                     raise SimError("add_frame: depth given but the writer was created with depth=False")
-                self._write_depth(self.mav0 / f"cam{k}" / "depth", t_ns, np.asarray(d, dtype=np.float32))
+                self._write_depth(self.mav0 / f"cam{k}" / "depth", t_ns, np.asarray(d, dtype=np.float32), timer)
         for k, s in enumerate(_per_camera(seg, 2, "seg")):
             if s is not None:
                 if not self.segmentation:
                     raise SimError("add_frame: seg given but the writer was created with segmentation=False")
-                self._write_seg(k, t_ns, np.asarray(s))
+                self._write_seg(k, t_ns, np.asarray(s), timer)
         for k in (0, 1):
-            write_png(self.mav0 / f"cam{k}" / "data" / f"{t_ns}.png", images[k])
-        for cam in self._cams:
-            cam.append(t_ns, [f"{t_ns}.png"])
-        write_marker(self.out_dir, self._hash, f"frames={self._cams[0].rows}")
+            write_png(self.mav0 / f"cam{k}" / "data" / f"{t_ns}.png", images[k], compression=self.png_compression,
+                      timer=timer)
 
-    def _write_depth(self, folder: Path, t_ns: int, depth_m: np.ndarray) -> None:
+    def _write_depth(self, folder: Path, t_ns: int, depth_m: np.ndarray, timer=NO_TIMER) -> None:
         """``npy``: float32 m (inf = nothing drawn); ``png16``: uint16 mm as TUM RGB-D, 0 = no depth
         (sky, or farther than 65.535 m)."""
         if self.depth_format == "npy":
-            atomic_write_npy(folder / f"{t_ns}.npy", depth_m)
+            with timer.stage("write"):
+                atomic_write_npy(folder / f"{t_ns}.npy", depth_m)
             return
         mm = np.round(depth_m.astype(np.float64) * 1000.0)
         ok = np.isfinite(mm) & (mm <= DEPTH_PNG_MAX_MM) & (mm >= 0)
-        write_png(folder / f"{t_ns}.png", np.where(ok, mm, 0).astype(np.uint16), rgb=False)
+        write_png(folder / f"{t_ns}.png", np.where(ok, mm, 0).astype(np.uint16), rgb=False,
+                  compression=self.png_compression, timer=timer)
 
-    def _write_seg(self, k: int, t_ns: int, seg: np.ndarray) -> None:
+    def _write_seg(self, k: int, t_ns: int, seg: np.ndarray, timer=NO_TIMER) -> None:
         folder = self.mav0 / f"cam{k}" / "segmentation"
         ids = seg[..., 0] if seg.ndim == 3 else seg
         if ids.min() < -1 or ids.max() > 65534:
             raise SimError(f"add_frame: segmentation ids must be in [-1, 65534], got [{ids.min()}, {ids.max()}]")
-        write_png(folder / f"{t_ns}.png", (ids.astype(np.int64) + 1).astype(np.uint16), rgb=False)
+        write_png(folder / f"{t_ns}.png", (ids.astype(np.int64) + 1).astype(np.uint16), rgb=False,
+                  compression=self.png_compression, timer=timer)
         if seg.ndim == 3:
-            write_png(folder / f"{t_ns}_dynamic.png", (seg[..., 1] != 0).astype(np.uint8), rgb=False)
+            write_png(folder / f"{t_ns}_dynamic.png", (seg[..., 1] != 0).astype(np.uint8), rgb=False,
+                      compression=self.png_compression, timer=timer)
 
     def add_imu(self, t_ns, gyro=None, accel=None) -> None:
         """Append IMU samples: ``t_ns`` (N,), ``gyro``/``accel`` (N,3) in the IMU frame; or one
