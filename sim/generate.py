@@ -6,6 +6,7 @@ separate per sensor (``sim.rng``), so turning images off does not change the IMU
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -162,7 +163,8 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     auto exposure, PNG encoding and writing run in a :class:`sim.frame_pipeline.FramePipeline` of
     ``threads`` workers (None: one per CPU; 0: inline), committed in frame order: the bytes do not depend
     on ``threads``. ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``render`` (with
-    read-back), ``read-back``, ``noise``, ``effects``, ``encode`` and ``write``."""
+    read-back), ``read-back``, ``noise``, ``effects``, ``encode`` and ``write``, and ``frame loop``, the
+    loop's elapsed time."""
     from tqdm import tqdm
     from sim.frame_pipeline import FramePipeline
     from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
@@ -183,6 +185,7 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
                                setup.image_noise, noisy=not c.ideal) if effects else None
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
                    disable=not progress, dynamic_ncols=True)
+        t0 = time.perf_counter()
         for k in range(first, len(setup.frame_t_ns)):
             with timer.stage("render"):
                 if exposer is None:
@@ -208,6 +211,7 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
                 bar.update(1)
             pipeline.submit(work, commit)
         pipeline.drain()
+        timer.add("frame loop", time.perf_counter() - t0)
         bar.close()
     return gains if effects else None
 

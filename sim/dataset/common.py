@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from rigs.atomic_io import atomic_write_bytes, atomic_write_text
-from sim.config import PNG_COMPRESSION
+from sim.config import PNG_COMPRESSION, PNG_STRATEGY
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
 
@@ -115,25 +115,32 @@ def _plain(obj):
 
 
 
-def encode_png(image: np.ndarray, rgb: bool = True, compression: int = PNG_COMPRESSION) -> bytes:
-    """``image`` (H,W) or (H,W,3) RGB (uint8/uint16) as PNG bytes at zlib level ``compression`` (0-9);
-    deterministic (the bytes ``cv2.imwrite`` writes)."""
+_STRATEGY = {"default": cv2.IMWRITE_PNG_STRATEGY_DEFAULT, "filtered": cv2.IMWRITE_PNG_STRATEGY_FILTERED,
+             "huffman": cv2.IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY, "rle": cv2.IMWRITE_PNG_STRATEGY_RLE,
+             "fixed": cv2.IMWRITE_PNG_STRATEGY_FIXED}
+
+
+def encode_png(image: np.ndarray, rgb: bool = True, compression: int = PNG_COMPRESSION,
+               strategy: str = PNG_STRATEGY) -> bytes:
+    """``image`` (H,W) or (H,W,3) RGB (uint8/uint16) as PNG bytes at zlib level ``compression`` (0-9) and
+    zlib ``strategy`` (:data:`sim.config.PNG_STRATEGIES`); deterministic (the bytes ``cv2.imwrite`` writes)."""
     img = np.ascontiguousarray(image)
     if img.ndim == 3 and img.shape[2] == 3 and rgb:
         img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
-    ok, buf = cv2.imencode(".png", img, [cv2.IMWRITE_PNG_COMPRESSION, int(compression)])
+    ok, buf = cv2.imencode(".png", img, [cv2.IMWRITE_PNG_COMPRESSION, int(compression),
+                                         cv2.IMWRITE_PNG_STRATEGY, _STRATEGY[strategy]])
     if not ok:
         raise SimError(f"cv2.imencode failed for an image of shape {img.shape} dtype {img.dtype}")
     return buf.tobytes()
 
 
 def write_png(path: Path, image: np.ndarray, rgb: bool = True, compression: int = PNG_COMPRESSION,
-              timer=NO_TIMER) -> None:
+              timer=NO_TIMER, strategy: str = PNG_STRATEGY) -> None:
     """Write ``image`` as PNG (:func:`encode_png`); deterministic bytes. Written to a temp name then
     renamed, so a file under the final name is always whole. Safe to call from several threads.
     ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``encode`` and ``write``."""
     with timer.stage("encode"):
-        data = encode_png(image, rgb, compression)
+        data = encode_png(image, rgb, compression, strategy)
     with timer.stage("write"):
         atomic_write_bytes(path, data)
 
