@@ -163,8 +163,8 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     auto exposure, PNG encoding and writing run in a :class:`sim.frame_pipeline.FramePipeline` of
     ``threads`` workers (None: one per CPU; 0: inline), committed in frame order: the bytes do not depend
     on ``threads``. ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``render`` (with
-    read-back), ``read-back``, ``noise``, ``effects``, ``encode`` and ``write``, and ``frame loop``, the
-    loop's elapsed time."""
+    read-back), ``read-back``, ``noise``, ``effects``, ``encode`` and ``write``, and ``frame loop`` and
+    ``frame loop CPU``, the loop's elapsed and process CPU time."""
     from tqdm import tqdm
     from sim.frame_pipeline import FramePipeline
     from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
@@ -185,7 +185,7 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
                                setup.image_noise, noisy=not c.ideal) if effects else None
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
                    disable=not progress, dynamic_ncols=True)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for k in range(first, len(setup.frame_t_ns)):
             with timer.stage("render"):
                 if exposer is None:
@@ -212,6 +212,7 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
             pipeline.submit(work, commit)
         pipeline.drain()
         timer.add("frame loop", time.perf_counter() - t0)
+        timer.add("frame loop CPU", time.process_time() - c0)
         bar.close()
     return gains if effects else None
 
