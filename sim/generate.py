@@ -153,7 +153,8 @@ def _formats(fmt: str) -> tuple:
 
 
 def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, start: int = 0,
-                  threads: int | None = None, timer=None):
+                  threads: int | None = None, timer=None, workers: int = 1, scheduler: str | None = None,
+                  egl_devices=()):
     """Measure every stereo frame at ``T_w_b_frames`` (N,4,4) with the camera sensor, add frame ``k``'s
     image noise (stream ``image_noise``, index k), stream to the writers from frame ``start`` on, stamped
     ``setup.frame_stamp_ns``. With image effects (``camera.*``) frames go through
@@ -164,9 +165,18 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     ``threads`` workers (None: one per CPU; 0: inline), committed in frame order: the bytes do not depend
     on ``threads``. ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``render`` (with
     read-back), ``read-back``, ``noise``, ``effects``, ``encode`` and ``write``, and ``frame loop`` and
-    ``frame loop CPU``, the loop's elapsed and process CPU time."""
+    ``frame loop CPU``, the loop's elapsed and process CPU time.
+
+    ``workers > 1`` or a Dask ``scheduler``: frame ranges are rendered (noise and effects included) in
+    other processes, each with its own GL context (:mod:`sim.render_workers`; ``egl_devices`` spread them
+    over GPUs), and written here in order, byte-identical. ``metadata.yaml`` records under ``rendering``
+    the GL renderer(s) that drew the frames of this run."""
+    if workers > 1 or scheduler:
+        return _render_frames_in_workers(setup, writers, progress, start, threads, timer, workers, scheduler,
+                                         egl_devices)
     from tqdm import tqdm
     from sim.frame_pipeline import FramePipeline
+    from sim.render_workers import device_label
     from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
     from sim.stage_timer import NO_TIMER
 
@@ -181,6 +191,7 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
             FramePipeline(threads) as pipeline:
         if c.segmentation:
             writers.add_segmentation_ids(setup.scene.segmentation_rows(camera.geom_names()))
+        writers.add_metadata({"rendering": [device_label(camera.gl_renderer)]})
         exposer = FrameExposer(camera, setup.rig, c.camera, 1.0 / setup.rig.camera_rate_hz, c.seed,
                                setup.image_noise, noisy=not c.ideal) if effects else None
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
@@ -217,6 +228,46 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     return gains if effects else None
 
 
+def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, timer, workers, scheduler,
+                              egl_devices) -> None:
+    """:func:`render_frames` with the frames rendered by :class:`sim.render_workers.ChunkSource`."""
+    from tqdm import tqdm
+    from sim.frame_pipeline import FramePipeline
+    from sim.render_workers import ChunkSource
+    from sim.stage_timer import NO_TIMER
+
+    c = setup.config
+    timer = timer or NO_TIMER
+    n = len(setup.frame_t_ns)
+    devices, ids_written = [], not c.segmentation
+    bar = tqdm(total=n, initial=start, desc="render", unit="pair", disable=not progress, dynamic_ncols=True)
+    t0, c0 = time.perf_counter(), time.process_time()
+    with ChunkSource(c, workers, scheduler, egl_devices) as source, FramePipeline(threads) as pipeline:
+        for chunk in source.chunks(start, n):
+            if not ids_written:
+                writers.add_segmentation_ids(setup.scene.segmentation_rows(chunk.geom_names))
+                ids_written = True
+            if chunk.device not in devices:
+                devices.append(chunk.device)
+            for j, (images, depth, seg) in enumerate(chunk.frames):
+                k = chunk.start + j
+                t_ns = int(setup.frame_stamp_ns[k])
+
+                def work(k=k, t_ns=t_ns, images=images, depth=depth, seg=seg):
+                    writers.write_frame_files(k, t_ns, images, depth=depth, seg=seg, timer=timer)
+
+                def commit(_, t_ns=t_ns):
+                    writers.add_frame(t_ns, files_written=True)
+                    bar.update(1)
+                pipeline.submit(work, commit)
+        pipeline.drain()
+    timer.add("frame loop", time.perf_counter() - t0)
+    timer.add("frame loop CPU", time.process_time() - c0)
+    bar.close()
+    writers.add_metadata({"rendering": sorted(devices)})
+    return None
+
+
 def wheel_odometry(setup: Setup, dims):
     """Encoder ticks of the rig's wheels on a vehicle with ``dims`` at ``rig.wheels.rate_hz`` (stream ``wheels``)."""
     from sim.sensors.wheels import measure_wheels
@@ -226,13 +277,15 @@ def wheel_odometry(setup: Setup, dims):
 
 
 def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: bool = False,
-             threads: int | None = None, timer=None) -> GenerateResult:
+             threads: int | None = None, timer=None, workers: int = 1, scheduler: str | None = None,
+             egl_devices=()) -> GenerateResult:
     """Generate the dataset described by ``config`` into ``out_dir``.
 
     The folder carries an ``INCOMPLETE`` marker until everything is written; an interrupted
     run is resumed by calling ``generate`` again with the same config (frames already on disk
-    are skipped; the result is byte-identical to an uninterrupted run). ``threads`` and ``timer``: as
-    :func:`render_frames` (the bytes do not depend on ``threads``).
+    are skipped; the result is byte-identical to an uninterrupted run). ``threads``, ``timer``,
+    ``workers``, ``scheduler`` and ``egl_devices``: as :func:`render_frames` (the bytes do not depend on
+    them, but for ``metadata.yaml``'s ``rendering``, the renderer that drew the frames).
     """
     from sim.dataset import DatasetWriters
     from sim.sensors.calib_error import perturb_rig
@@ -241,6 +294,9 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     from sim.vehicles import vehicle_class
 
     out_dir = Path(out_dir)
+    if workers > 1 or scheduler:
+        from sim.render_workers import check_splittable
+        check_splittable(config)
     setup = resolve(config)
     dims = vehicle_class(config.vehicle).dims
     if setup.rig.wheels is not None:     # the calibration written is the geometry the ticks are made with
@@ -267,7 +323,8 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
         writers.add_wheels(wheel_odometry(setup, dims))
     if config.images:
         gains = render_frames(setup, truth["T_w_b_frames"], writers, progress=progress, start=start,
-                              threads=threads, timer=timer)
+                              threads=threads, timer=timer, workers=workers, scheduler=scheduler,
+                              egl_devices=egl_devices)
         write_frame_effects(out_dir, setup, gains)
     png = str(out_dir / "topdown.png")
     write_topdown(setup, truth, png)

@@ -107,6 +107,7 @@ class StereoRenderer:
         self._ctx = mujoco.MjrContext(m, mujoco.mjtFontScale.mjFONTSCALE_100.value)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._ctx)
         self._ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self.gl_renderer = _gl_renderer()   # e.g. "llvmpipe (LLVM 15.0.6, 256 bits)", "NVIDIA H100 .../PCIe"
         self._scn = mujoco.MjvScene(m, maxgeom=max_geom)
         self._scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
         self._opt = self._make_option(show_vehicle)
@@ -226,3 +227,11 @@ class StereoRenderer:
             if g.segid >= 0 and g.objtype == mujoco.mjtObj.mjOBJ_GEOM:
                 lut[g.segid + 1] = (g.objid, self._dyn[g.objid])
         return lut[np.clip(segid, 0, scn.ngeom)]
+
+
+def _gl_renderer() -> str:
+    """``GL_RENDERER`` of the current context: the device that draws (PyOpenGL, which MuJoCo's EGL and
+    OSMesa back-ends use themselves)."""
+    from OpenGL import GL
+    name = GL.glGetString(GL.GL_RENDERER)
+    return name.decode(errors="replace") if name else ""

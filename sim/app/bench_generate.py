@@ -2,11 +2,12 @@
 
 One run of :func:`bench_generate` on a scenario's first ``frames`` frames, side by side:
 
-- *render only*: the same frames rendered by the camera sensor (:class:`sim.sensors.camera.StereoCamera`,
+- *render only*: the same frames rendered in this process by the camera sensor (:class:`sim.sensors.camera.StereoCamera`,
   the scenario's rig, scene, poses and actors) and dropped;
 - *end to end*: :func:`sim.generate.generate` into a temporary folder (render, noise and effects, PNG
   encoding, writing), timed over its frame loop (scene building, IMU and truth files left out, as for
-  render only the GL context's creation).
+  render only the GL context's creation); with ``workers > 1`` the frames are rendered by that many
+  processes (:mod:`sim.render_workers`), their start-up included.
 
 ``repeat`` alternates the two and keeps each one's best run (the machine may be shared). Per-stage
 figures are thread-milliseconds per pair (:class:`sim.stage_timer.StageTimer`; the worker threads run
@@ -34,6 +35,7 @@ class GenerateBench:
     scenario: str
     frames: int
     threads: int
+    workers: int
     png_compression: int
     render_pairs_per_s: float
     end_to_end_pairs_per_s: float
@@ -75,7 +77,7 @@ def render_only(setup, timer=None) -> tuple:
         return len(setup.frame_t_ns), time.perf_counter() - t0, time.process_time() - c0
 
 
-def end_to_end(config, threads, workdir) -> tuple:
+def end_to_end(config, threads, workdir, workers: int = 1, scheduler=None) -> tuple:
     """``(pairs, seconds of the frame loop, its CPU seconds, StageTimer)`` of one
     :func:`sim.generate.generate` run."""
     from sim.generate import generate
@@ -83,14 +85,16 @@ def end_to_end(config, threads, workdir) -> tuple:
     timer = StageTimer()
     out = tempfile.mkdtemp(prefix="bench-generate-", dir=workdir)
     try:
-        res = generate(config, os.path.join(out, "ds"), progress=False, threads=threads, timer=timer)
+        res = generate(config, os.path.join(out, "ds"), progress=False, threads=threads, timer=timer,
+                       workers=workers, scheduler=scheduler)
     finally:
         shutil.rmtree(out, ignore_errors=True)
     return res.n_frames, timer.seconds("frame loop"), timer.seconds("frame loop CPU"), timer
 
 
 def bench_generate(scenario: str = "campus-short", frames: int | None = 100, threads: int | None = None,
-                   repeat: int = 1, overrides=(), workdir=None, progress=None) -> GenerateBench:
+                   repeat: int = 1, overrides=(), workdir=None, progress=None, workers: int = 1,
+                   scheduler=None) -> GenerateBench:
     """Render-only and end-to-end pairs per second of ``scenario``'s first ``frames`` frames (module
     docstring); ``threads``: the pipeline's workers (None: one per CPU), ``overrides``: ``--set`` items."""
     from sim.frame_pipeline import default_threads
@@ -103,7 +107,7 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     for r in range(max(1, repeat)):
         n, dt, dc = render_only(setup)
         best_render = min(best_render, (dt, dc))
-        n, dt, dc, timer = end_to_end(config, threads, workdir)
+        n, dt, dc, timer = end_to_end(config, threads, workdir, workers, scheduler)
         if dt < best_e2e[0]:
             best_e2e, best_timer = (dt, dc), timer
         if progress:
@@ -113,8 +117,8 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     stage_ms = {s: 1e3 * tot.get(s, 0.0) / n for s in STAGES}
     stage_ms["render"] -= stage_ms["read-back"]
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    return GenerateBench(scenario, n, threads, config.render.png_compression, n / best_render[0], n / best_e2e[0],
-                         stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n, os.cpu_count() or 0,
+    return GenerateBench(scenario, n, threads, workers, config.render.png_compression, n / best_render[0],
+                         n / best_e2e[0], stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n, os.cpu_count() or 0,
                          (round(load0, 2), round(os.getloadavg()[0], 2)))
 
 
@@ -148,7 +152,8 @@ def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -
 
 
 def format_bench(b: GenerateBench) -> str:
-    lines = [f"scenario {b.scenario}: {b.frames} pairs, {b.threads} worker threads, PNG level {b.png_compression}, "
+    lines = [f"scenario {b.scenario}: {b.frames} pairs, {b.workers} render process(es), {b.threads} worker threads, "
+             f"PNG level {b.png_compression}, "
              f"{b.cpus} CPUs, load {b.load_avg[0]:.2f} -> {b.load_avg[1]:.2f}",
              f"render only   {b.render_pairs_per_s:7.1f} pairs/s   (CPU {b.render_cpu_ms:.1f} ms/pair, all threads)",
              f"end to end    {b.end_to_end_pairs_per_s:7.1f} pairs/s   (CPU {b.end_to_end_cpu_ms:.1f} ms/pair, all threads)",

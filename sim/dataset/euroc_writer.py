@@ -133,6 +133,7 @@ class EurocWriter:
         self._c0 = CsvStream(self.out_dir / "cam0_truth.csv", CAM0_TRUTH_HEADER, resuming)
         self._gcps: list = []
         self.finalized = False
+        self.extra_metadata: dict = {}      # finalize() adds these keys to metadata.yaml
 
     # ------------------------------------------------------------------ static files
     def _write_static_files(self) -> None:
@@ -267,7 +268,8 @@ class EurocWriter:
         self._write_tum()
         counts = {"n_frames": self._cams[0].rows, "n_imu": self._imu.rows, "n_groundtruth": self._gt.rows,
                   "n_gcps": len(self._gcps)}
-        meta = dict(self.metadata, format="euroc", gcps=gcp_note, calibration=calibration_note(self.rig))
+        meta = dict(self.metadata, **self.extra_metadata, format="euroc", gcps=gcp_note,
+                    calibration=calibration_note(self.rig))
         if self.depth:
             meta["depth_format"] = self.depth_format
         finalize_folder(self.out_dir, meta, counts, self.rig)

@@ -75,6 +75,12 @@ class DatasetWriters:
         for w in self.writers:
             w.write_frame_files(t_ns, images, depth=depth, seg=seg, index=index, timer=timer)
 
+    def add_metadata(self, extra: dict) -> None:
+        """Keys added to every ``metadata.yaml`` at :meth:`finalize` (not part of the configuration hash that
+        a resumed run must match), e.g. ``rendering``: the device(s) that drew the frames."""
+        for w in self.writers:
+            w.extra_metadata.update(extra)
+
     def add_imu(self, *args, **kwargs) -> None:
         for w in self.writers:
             w.add_imu(*args, **kwargs)

@@ -78,6 +78,7 @@ class KittiWriter:
         self._truth = CsvStream(self.out_dir / "kitti_cam0_truth.csv", TRUTH_HEADER, resuming)
         self._gcps: list = []
         self.finalized = False
+        self.extra_metadata: dict = {}      # finalize() adds these keys to metadata.yaml
 
     def T_r0_b(self) -> np.ndarray:
         """(4,4) body -> rectified left camera: ``inv(T_b_c0 @ T_c0_r0)``, ``T_c0_r0 = [R0_rect^T | 0]``."""
@@ -137,7 +138,8 @@ class KittiWriter:
         gcp_note = write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
         self._frames.path.unlink()
         self._truth.path.unlink()
-        meta = dict(self.metadata, format="kitti", kitti={"sequence": self.sequence, "t0_ns": t0}, gcps=gcp_note)
+        meta = dict(self.metadata, **self.extra_metadata, format="kitti",
+                    kitti={"sequence": self.sequence, "t0_ns": t0}, gcps=gcp_note)
         finalize_folder(self.out_dir, meta, {"n_frames": len(t_frames), "n_poses": n_poses,
                                              "n_gcps": len(self._gcps)}, self.rig)
         self.finalized = True

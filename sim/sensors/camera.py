@@ -37,6 +37,11 @@ class StereoCamera:
         images = [img if img.ndim == 2 or self.rgb else to_gray(img) for img in fr.images[:2]]
         return images, fr.depth, fr.seg
 
+    @property
+    def gl_renderer(self) -> str:
+        """The GL renderer that draws (``GL_RENDERER``), e.g. ``llvmpipe (LLVM 15.0.6, 256 bits)``."""
+        return self._renderer.gl_renderer
+
     def geom_names(self) -> list:
         """Name of every geom of the compiled world, by geom id ("" if unnamed)."""
         import mujoco

@@ -84,12 +84,15 @@ def localize_cmd(dataset, mode, max_sites, pairs, poses, items, as_json):
               help="Its first N frames (0: the whole route).")
 @click.option("--threads", type=click.IntRange(min=0), default=None,
               help="Worker threads of the frame pipeline (default: one per CPU; 0: the serial loop).")
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Render processes of the end-to-end run (generate --workers).")
+@click.option("--scheduler", default=None, metavar="ADDRESS", help="Render on this Dask cluster (generate --scheduler).")
 @click.option("--repeat", type=click.IntRange(min=1), default=1, show_default=True,
               help="Alternate render-only and end-to-end runs N times; the best of each is kept.")
 @click.option("--png-levels", is_flag=True, help="Instead: PNG size and encoding time at zlib levels 0-9.")
 @set_option
 @json_option
-def generate_cmd(scenario, frames, threads, repeat, png_levels, overrides, as_json):
+def generate_cmd(scenario, frames, threads, workers, scheduler, repeat, png_levels, overrides, as_json):
     """Render-only and end-to-end pairs/s, their ratio, ms per pair and stage, peak memory."""
     from sim.app.bench_generate import bench_generate, format_bench, format_levels
     from sim.app.bench_generate import png_levels as levels
@@ -98,5 +101,6 @@ def generate_cmd(scenario, frames, threads, repeat, png_levels, overrides, as_js
         echo_json(rows) if as_json else click.echo(format_levels(rows))
         return
     say = None if as_json else (lambda m: click.echo(m, err=True))
-    b = bench_generate(scenario, frames, threads, repeat, overrides, progress=say)
+    b = bench_generate(scenario, frames, threads, repeat, overrides, progress=say, workers=workers,
+                       scheduler=scheduler)
     echo_json(b.to_dict()) if as_json else click.echo(format_bench(b))
