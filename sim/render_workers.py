@@ -154,7 +154,9 @@ class ChunkSource:
         return self._pool.submit(render_chunk, self.config, a, b)
 
     def chunks(self, start: int, stop: int, size: int = CHUNK_FRAMES):
-        """Yield the :class:`RenderedChunk` of ``start .. stop-1`` in order."""
+        """Yield the :class:`RenderedChunk` of ``start .. stop-1`` in order; chunks of ``size`` frames, fewer
+        on a short route (at least two chunks per worker)."""
+        size = max(1, min(size, -(-(stop - start) // (2 * self.workers))))
         todo, pending = deque(chunk_ranges(start, stop, size)), deque()
         while todo or pending:
             while todo and len(pending) < 2 * self.workers:

@@ -80,21 +80,48 @@ def test_pipelined_generation_is_byte_identical_to_the_serial_loop(tmp_path, ite
     assert len(a) > 20 and a == b
 
 
+@pytest.mark.slow
+def test_multi_worker_generation_is_byte_identical_to_the_serial_loop(tmp_path):
+    """Two render processes (11 frames in chunks of 3, which may finish out of order) against the serial
+    loop, with per-frame image effects; the rendering record names the same renderer on one machine."""
+    from sim.generate import generate
+    cfg = SHORT.with_overrides(["format=both", "segmentation=true", "camera.exposure_ms=4",
+                                "camera.blur_subframes=2", "camera.vignetting=0.3"])
+    generate(cfg, tmp_path / "serial", progress=False, threads=0)
+    from sim.render_workers import chunk_ranges
+    assert chunk_ranges(0, 11, 3) == [(0, 3), (3, 6), (6, 9), (9, 11)]
+    generate(cfg, tmp_path / "workers", progress=False, workers=2)
+    a, b = digest(tmp_path / "serial"), digest(tmp_path / "workers")
+    assert len(a) > 40 and a == b
+    assert "rendering:" in (tmp_path / "workers" / "euroc" / "metadata.yaml").read_text()
+
+
+def test_auto_exposure_is_not_split_over_workers(tmp_path):
+    from sim.errors import SimError
+    from sim.generate import generate
+    with pytest.raises(SimError, match="camera.auto_exposure makes each frame's gain depend"):
+        generate(SHORT.with_overrides(["camera.auto_exposure=true"]), tmp_path / "ae", progress=False, workers=2)
+    assert not (tmp_path / "ae").exists()
+
+
 CHILD = """
 import sys
 from sim.config import GenerateConfig
 from sim.generate import generate
-generate(GenerateConfig(scene="indoor", rig="stereo27", duration_s=3.0, seed=3), sys.argv[1], progress=False, threads=2)
+if __name__ == "__main__":
+    generate(GenerateConfig(scene="indoor", rig="stereo27", duration_s=3.0, seed=3), sys.argv[1], progress=False,
+             threads=2, workers=int(sys.argv[2]))
 """
 
 
 @pytest.mark.slow
-def test_pipelined_run_interrupted_by_sigint_resumes_byte_identically(tmp_path):
+@pytest.mark.parametrize("workers", [1, 2], ids=["pipelined", "two-workers"])
+def test_run_interrupted_by_sigint_resumes_byte_identically(tmp_path, workers):
     from sim.generate import generate
     cfg = GenerateConfig(scene="indoor", rig="stereo27", duration_s=3.0, seed=3)
     broken = tmp_path / "broken"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    child = subprocess.Popen([sys.executable, "-c", CHILD, str(broken)], env=env, cwd=ROOT)
+    child = subprocess.Popen([sys.executable, "-c", CHILD, str(broken), str(workers)], env=env, cwd=ROOT)
     rows = broken / "mav0" / "cam0" / "data.csv"
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and child.poll() is None:
@@ -106,7 +133,7 @@ def test_pipelined_run_interrupted_by_sigint_resumes_byte_identically(tmp_path):
     n_rows = len(rows.read_text().splitlines()) - 1
     assert (broken / "INCOMPLETE").exists() and not (broken / "metadata.yaml").exists() and 3 <= n_rows < 61
     assert not [p for p in broken.rglob(".*") if p.is_file()]          # no temporary file left behind
-    generate(cfg, broken, progress=False, threads=2)                   # resumes after the frames on disk
+    generate(cfg, broken, progress=False, threads=2, workers=workers)  # resumes after the frames on disk
     generate(cfg, tmp_path / "straight", progress=False, threads=0)
     assert digest(broken) == digest(tmp_path / "straight")
 
@@ -148,3 +175,15 @@ def test_quantized_noise_matches_the_rounded_gaussian(sigma):
     rng = np.random.default_rng(3)
     state = rng.bit_generator.state
     assert np.array_equal(add_quantized_noise(img, 0.0, rng), img) and rng.bit_generator.state == state
+
+
+@pytest.mark.parametrize("args, needle", [
+    (("--workers", "2", "--set", "camera.auto_exposure=true"), "camera.auto_exposure makes each frame's gain"),
+    (("--set", "render.png_compression=12"), "render.png_compression: must be in [0, 9], got 12"),
+    (("--set", "render.png_strategy=zip"), "render.png_strategy: unknown 'zip'; valid: default, filtered, huffman"),
+])
+def test_generate_speed_options_bad_input_is_one_line_exit_2(args, needle, tmp_path, capsys):
+    from test_bad_input_cli import assert_one_line_exit_2, vo_testbed
+    code, _, err = vo_testbed(capsys, "generate", "--scenario", "smoke", *args, "--out", tmp_path / "ds")
+    assert_one_line_exit_2(code, err, needle)
+    assert not (tmp_path / "ds").exists()                       # refused before anything was written
