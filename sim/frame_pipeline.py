@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 from collections import deque
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from typing import Callable
 
 from sim.errors import SimError
@@ -70,7 +70,7 @@ class FramePipeline:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
         for future, _ in pending:                  # collect worker exceptions so none is left unretrieved
-            if not future.cancelled() and isinstance(future, Future):
+            if not future.cancelled():
                 future.exception()
 
     def __enter__(self):
