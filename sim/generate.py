@@ -288,6 +288,7 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     them, but for ``metadata.yaml``'s ``rendering``, the renderer that drew the frames).
     """
     from sim.dataset import DatasetWriters
+    from sim.dataset.common import PngOptions
     from sim.sensors.calib_error import perturb_rig
     from sim.sensors.effects_truth import time_offset_ns, write_calibration_truth, write_frame_effects
     from sim.sensors.wheels import with_vehicle_geometry
@@ -308,7 +309,7 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     written_rig, calib_draws = perturb_rig(setup.rig, config.calib_error, stream(config.seed, "calib_error"))
     writers = DatasetWriters(out_dir, written_rig, metadata(setup), fmt=config.format, depth=config.depth,
                              segmentation=config.segmentation, overwrite=overwrite, depth_format=config.depth_format,
-                             png_compression=config.render.png_compression)
+                             png=PngOptions.of(config.render))
     start = writers.resumed_frames      # > 0 when resuming an interrupted run of the same config
     # IMU and ground truth are replayed in full; the writers skip rows already on disk
     writers.add_imu(noisy.t_ns + time_offset_ns(config), noisy.gyro, noisy.accel)   # t_imu = t_cam + td

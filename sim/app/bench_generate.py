@@ -14,7 +14,7 @@ figures are thread-milliseconds per pair (:class:`sim.stage_timer.StageTimer`; t
 concurrently, so they may add up to more than the elapsed time); ``render`` excludes ``read-back``
 (``mjr_readPixels``, which also waits for the renderer to finish). Peak memory is the process's peak
 resident set (``ru_maxrss``). :func:`png_levels` times PNG encoding of the scenario's noisy frames at
-every zlib level (``render.png_compression``).
+every zlib level, strategy and row filter (``render.png_compression``, ``png_strategy``, ``png_filter``).
 """
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ class GenerateBench:
     frames: int
     threads: int
     workers: int
-    png_compression: int
+    png: str                                          # PNG options: level, strategy, filter
     render_pairs_per_s: float
     end_to_end_pairs_per_s: float
     stage_ms: dict = field(default_factory=dict)     # thread-ms per pair and stage (STAGES)
@@ -117,17 +117,20 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     stage_ms = {s: 1e3 * tot.get(s, 0.0) / n for s in STAGES}
     stage_ms["render"] -= stage_ms["read-back"]
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    return GenerateBench(scenario, n, threads, workers, config.render.png_compression, n / best_render[0],
+    r = config.render
+    png = f"level {r.png_compression}, {r.png_strategy}, {r.png_filter} filter"
+    return GenerateBench(scenario, n, threads, workers, png, n / best_render[0],
                          n / best_e2e[0], stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n, os.cpu_count() or 0,
                          (round(load0, 2), round(os.getloadavg()[0], 2)))
 
 
 def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -> list:
-    """``[{strategy, level, kb_per_image, encode_ms_per_image}]`` for every zlib strategy
-    (``render.png_strategy``) and level 0-9 (``render.png_compression``) on ``frames`` frames of
+    """``[{strategy, level, filter, kb_per_image, encode_ms_per_image}]`` for every zlib strategy
+    (``render.png_strategy``) and level 0-9 (``render.png_compression``) with all row filters, then every
+    row filter (``render.png_filter``) at level 1, ``rle``, on ``frames`` frames of
     ``scenario`` spread over its route, noisy unless ``ideal``; encoding time is CPU time (one thread)."""
-    from sim.config import PNG_STRATEGIES
-    from sim.dataset.common import encode_png
+    from sim.config import PNG_FILTERS, PNG_STRATEGIES
+    from sim.dataset.common import PngOptions, encode_png
     from sim.generate import resolve
     from sim.rng import indexed_stream
     from sim.sensors.camera import StereoCamera, add_noise
@@ -140,20 +143,21 @@ def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -
         for j, k in enumerate(picks):
             imgs, _, _ = camera.measure(T_w_b[j], setup.scene.actor_states(int(setup.frame_t_ns[k])))
             images += add_noise(imgs, setup.image_noise, indexed_stream(c.seed, "image_noise", int(k)))
+    settings = [PngOptions(level, strategy, "all") for strategy in PNG_STRATEGIES for level in range(10)]
+    settings += [PngOptions(1, "rle", f) for f in PNG_FILTERS]
     rows = []
-    for strategy in PNG_STRATEGIES:
-        for level in range(10):
-            t0 = time.process_time()
-            sizes = [len(encode_png(img, compression=level, strategy=strategy)) for img in images]
-            dt = time.process_time() - t0
-            rows.append({"strategy": strategy, "level": level, "kb_per_image": float(np.mean(sizes)) / 1024.0,
-                         "encode_ms_per_image": 1e3 * dt / len(images)})
+    for png in settings:
+        t0 = time.process_time()
+        sizes = [len(encode_png(img, png=png)) for img in images]
+        dt = time.process_time() - t0
+        rows.append({"strategy": png.strategy, "level": png.compression, "filter": png.filter,
+                     "kb_per_image": float(np.mean(sizes)) / 1024.0, "encode_ms_per_image": 1e3 * dt / len(images)})
     return rows
 
 
 def format_bench(b: GenerateBench) -> str:
     lines = [f"scenario {b.scenario}: {b.frames} pairs, {b.workers} render process(es), {b.threads} worker threads, "
-             f"PNG level {b.png_compression}, "
+             f"PNG {b.png}, "
              f"{b.cpus} CPUs, load {b.load_avg[0]:.2f} -> {b.load_avg[1]:.2f}",
              f"render only   {b.render_pairs_per_s:7.1f} pairs/s   (CPU {b.render_cpu_ms:.1f} ms/pair, all threads)",
              f"end to end    {b.end_to_end_pairs_per_s:7.1f} pairs/s   (CPU {b.end_to_end_cpu_ms:.1f} ms/pair, all threads)",
@@ -164,7 +168,7 @@ def format_bench(b: GenerateBench) -> str:
 
 
 def format_levels(rows: list) -> str:
-    out = [f"{'strategy':>8} {'level':>5} {'KB/image':>9} {'encode CPU ms/image':>20}"]
-    out += [f"{r['strategy']:>8} {r['level']:>5} {r['kb_per_image']:9.1f} {r['encode_ms_per_image']:20.2f}"
-            for r in rows]
+    out = [f"{'strategy':>8} {'level':>5} {'filter':>6} {'KB/image':>9} {'encode CPU ms/image':>20}"]
+    out += [f"{r['strategy']:>8} {r['level']:>5} {r['filter']:>6} {r['kb_per_image']:9.1f} "
+            f"{r['encode_ms_per_image']:20.2f}" for r in rows]
     return "\n".join(out)

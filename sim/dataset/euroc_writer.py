@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from rigs.atomic_io import atomic_write_npy
-from sim.dataset.common import (PNG_COMPRESSION, CsvStream, config_hash, finalize_folder, fmt_float,
+from sim.dataset.common import (CsvStream, PngOptions, config_hash, finalize_folder, fmt_float,
                                 prepare_folder, write_marker, write_png)
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
@@ -107,17 +107,17 @@ class EurocWriter:
     """Stream a stereo-inertial sequence to disk in the EuRoC ASL layout (see module docstring).
 
     ``rig``: a stereo ``rigs.Rig``; ``metadata``: the fully resolved configuration (plain dict,
-    no wall-clock times); ``png_compression``: zlib level 0-9 of every PNG. A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames
+    no wall-clock times); ``png``: how PNGs are written (:class:`sim.dataset.common.PngOptions`). A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames
     are already on disk, and replayed samples at or before each stream's last row are skipped.
     """
 
     def __init__(self, out_dir, rig, metadata: dict, depth: bool = False, segmentation: bool = False,
-                 overwrite: bool = False, depth_format: str = "npy", png_compression: int = PNG_COMPRESSION):
+                 overwrite: bool = False, depth_format: str = "npy", png: PngOptions = PngOptions()):
         if not rig.is_stereo:
             raise SimError(f"EurocWriter: rig {rig.name!r} has {len(rig.cameras)} camera(s); need 2")
         if depth_format not in DEPTH_FORMATS:
             raise SimError(f"depth_format: unknown {depth_format!r}; valid: {', '.join(DEPTH_FORMATS)}")
-        self.depth_format, self.png_compression = depth_format, int(png_compression)
+        self.depth_format, self.png = depth_format, png
         self.rig, self.metadata = rig, dict(metadata)
         self.depth, self.segmentation = bool(depth), bool(segmentation)
         self.out_dir, resuming = prepare_folder(out_dir, self.metadata, overwrite)
@@ -192,7 +192,7 @@ class EurocWriter:
                     raise SimError("add_frame: seg given but the writer was created with segmentation=False")
                 self._write_seg(k, t_ns, np.asarray(s), timer)
         for k in (0, 1):
-            write_png(self.mav0 / f"cam{k}" / "data" / f"{t_ns}.png", images[k], compression=self.png_compression,
+            write_png(self.mav0 / f"cam{k}" / "data" / f"{t_ns}.png", images[k], png=self.png,
                       timer=timer)
 
     def _write_depth(self, folder: Path, t_ns: int, depth_m: np.ndarray, timer=NO_TIMER) -> None:
@@ -205,7 +205,7 @@ class EurocWriter:
         mm = np.round(depth_m.astype(np.float64) * 1000.0)
         ok = np.isfinite(mm) & (mm <= DEPTH_PNG_MAX_MM) & (mm >= 0)
         write_png(folder / f"{t_ns}.png", np.where(ok, mm, 0).astype(np.uint16), rgb=False,
-                  compression=self.png_compression, timer=timer)
+                  png=self.png, timer=timer)
 
     def _write_seg(self, k: int, t_ns: int, seg: np.ndarray, timer=NO_TIMER) -> None:
         folder = self.mav0 / f"cam{k}" / "segmentation"
@@ -213,10 +213,10 @@ class EurocWriter:
         if ids.min() < -1 or ids.max() > 65534:
             raise SimError(f"add_frame: segmentation ids must be in [-1, 65534], got [{ids.min()}, {ids.max()}]")
         write_png(folder / f"{t_ns}.png", (ids.astype(np.int64) + 1).astype(np.uint16), rgb=False,
-                  compression=self.png_compression, timer=timer)
+                  png=self.png, timer=timer)
         if seg.ndim == 3:
             write_png(folder / f"{t_ns}_dynamic.png", (seg[..., 1] != 0).astype(np.uint8), rgb=False,
-                      compression=self.png_compression, timer=timer)
+                      png=self.png, timer=timer)
 
     def add_imu(self, t_ns, gyro=None, accel=None) -> None:
         """Append IMU samples: ``t_ns`` (N,), ``gyro``/``accel`` (N,3) in the IMU frame; or one

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.dataset.common import PNG_COMPRESSION
+from sim.dataset.common import PngOptions
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
 
@@ -43,7 +43,7 @@ class DatasetWriters:
 
     def __init__(self, out_dir, rig, metadata: dict, fmt: str = "euroc", depth: bool = False,
                  segmentation: bool = False, overwrite: bool = False, depth_format: str = "npy",
-                 png_compression: int = PNG_COMPRESSION):
+                 png: PngOptions = PngOptions()):
         from sim.dataset.euroc_writer import EurocWriter
         from sim.dataset.kitti_writer import KittiWriter
         if fmt not in FORMATS:
@@ -54,10 +54,10 @@ class DatasetWriters:
         if fmt in ("euroc", "both", *BAG_NAMES):
             self.writers.append(EurocWriter(out_dir / "euroc" if fmt == "both" else out_dir, rig, metadata,
                                             depth=depth, segmentation=segmentation, overwrite=overwrite,
-                                            depth_format=depth_format, png_compression=png_compression))
+                                            depth_format=depth_format, png=png))
         if fmt in ("kitti", "both"):
             self.writers.append(KittiWriter(out_dir / "kitti" if fmt == "both" else out_dir, rig, metadata,
-                                            overwrite=overwrite, png_compression=png_compression))
+                                            overwrite=overwrite, png=png))
 
     @property
     def resumed_frames(self) -> int:

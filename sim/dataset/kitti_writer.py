@@ -21,7 +21,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from sim.dataset.common import (PNG_COMPRESSION, CsvStream, config_hash, finalize_folder, fmt_float,
+from sim.dataset.common import (CsvStream, PngOptions, config_hash, finalize_folder, fmt_float,
                                 prepare_folder, write_marker, write_png)
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
@@ -57,12 +57,12 @@ class KittiWriter:
     """
 
     def __init__(self, out_dir, rig, metadata: dict, sequence: str = "00", overwrite: bool = False,
-                 png_compression: int = PNG_COMPRESSION):
+                 png: PngOptions = PngOptions()):
         from rigs.rectify import stereo_rectify
         if not (len(sequence) == 2 and sequence.isdigit()):
             raise SimError(f"KittiWriter: sequence must be two digits like '00', got {sequence!r}")
         self.rig, self.metadata, self.sequence = rig, dict(metadata), sequence
-        self.png_compression = int(png_compression)
+        self.png = png
         self.out_dir, resuming = prepare_folder(out_dir, self.metadata, overwrite)
         self._hash = config_hash(self.metadata)
         self.seq_dir = self.out_dir / "sequences" / sequence
@@ -107,7 +107,7 @@ class KittiWriter:
             with timer.stage("effects"):
                 rect = cv2.remap(to_gray(images[k]), *self._maps[k], interpolation=cv2.INTER_LINEAR)
             write_png(self.seq_dir / f"image_{k}" / f"{int(index):06d}.png", rect, rgb=False,
-                      compression=self.png_compression, timer=timer)
+                      png=self.png, timer=timer)
 
     def add_cam0_truth(self, t_ns, T_w_c0) -> None:
         t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
