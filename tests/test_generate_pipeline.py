@@ -187,3 +187,17 @@ def test_generate_speed_options_bad_input_is_one_line_exit_2(args, needle, tmp_p
     code, _, err = vo_testbed(capsys, "generate", "--scenario", "smoke", *args, "--out", tmp_path / "ds")
     assert_one_line_exit_2(code, err, needle)
     assert not (tmp_path / "ds").exists()                       # refused before anything was written
+
+
+@pytest.mark.slow
+def test_frame_ranges_on_a_dask_cluster_give_the_serial_bytes(tmp_path):
+    """--scheduler: the chunks go to a Dask cluster (one local worker process here) and the dataset is the
+    serial loop's, byte for byte."""
+    distributed = pytest.importorskip("dask.distributed")     # the sweep extra
+    from sim.generate import generate
+    generate(SHORT, tmp_path / "serial", progress=False, threads=0)
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        generate(SHORT, tmp_path / "dask", progress=False, scheduler=cluster.scheduler_address)
+    assert digest(tmp_path / "serial") == digest(tmp_path / "dask")
