@@ -164,7 +164,7 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     auto exposure, PNG encoding and writing run in a :class:`sim.frame_pipeline.FramePipeline` of
     ``threads`` workers (None: one per CPU; 0: inline), committed in frame order: the bytes do not depend
     on ``threads``. ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``render`` (with
-    read-back), ``read-back``, ``noise``, ``effects``, ``encode`` and ``write``, and ``frame loop`` and
+    read-back), ``read-back``, ``noise/effects``, ``rectify`` (KITTI), ``encode`` and ``write``, and ``frame loop`` and
     ``frame loop CPU``, the loop's elapsed and process CPU time.
 
     ``workers > 1`` or a Dask ``scheduler``: frame ranges are rendered (noise and effects included) in
@@ -210,7 +210,7 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
             t_ns = int(setup.frame_stamp_ns[k])
 
             def work(k=k, t_ns=t_ns, images=images, depth=depth, seg=seg):
-                with timer.stage("noise"):
+                with timer.stage("noise/effects"):
                     if exposer is None:
                         out = add_noise(images, setup.image_noise, indexed_stream(c.seed, "image_noise", k))
                     else:

@@ -2,8 +2,8 @@
 
 One run of :func:`bench_generate` on a scenario's first ``frames`` frames, side by side:
 
-- *render only*: the same frames rendered in this process by the camera sensor (:class:`sim.sensors.camera.StereoCamera`,
-  the scenario's rig, scene, poses and actors) and dropped;
+- *render only*: the same frames rendered in this process by the camera sensor
+  (:class:`sim.sensors.camera.StereoCamera`, the scenario's rig, scene, poses and actors) and dropped;
 - *end to end*: :func:`sim.generate.generate` into a temporary folder (render, noise and effects, PNG
   encoding, writing), timed over its frame loop (scene building, IMU and truth files left out, as for
   render only the GL context's creation); with ``workers > 1`` the frames are rendered by that many
@@ -27,7 +27,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-STAGES = ("render", "read-back", "noise", "effects", "encode", "write")
+STAGES = ("render", "read-back", "noise/effects", "rectify", "encode", "write")
 
 
 @dataclass(frozen=True)
@@ -120,7 +120,8 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     r = config.render
     png = f"level {r.png_compression}, {r.png_strategy}, {r.png_filter} filter"
     return GenerateBench(scenario, n, threads, workers, png, n / best_render[0],
-                         n / best_e2e[0], stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n, os.cpu_count() or 0,
+                         n / best_e2e[0], stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n,
+                         os.cpu_count() or 0,
                          (round(load0, 2), round(os.getloadavg()[0], 2)))
 
 
@@ -160,7 +161,8 @@ def format_bench(b: GenerateBench) -> str:
              f"PNG {b.png}, "
              f"{b.cpus} CPUs, load {b.load_avg[0]:.2f} -> {b.load_avg[1]:.2f}",
              f"render only   {b.render_pairs_per_s:7.1f} pairs/s   (CPU {b.render_cpu_ms:.1f} ms/pair, all threads)",
-             f"end to end    {b.end_to_end_pairs_per_s:7.1f} pairs/s   (CPU {b.end_to_end_cpu_ms:.1f} ms/pair, all threads)",
+             f"end to end    {b.end_to_end_pairs_per_s:7.1f} pairs/s   "
+             f"(CPU {b.end_to_end_cpu_ms:.1f} ms/pair, all threads)",
              f"ratio         {b.ratio:7.2f}",
              "stage ms/pair " + "  ".join(f"{s} {b.stage_ms[s]:.1f}" for s in STAGES),
              f"peak memory   {b.peak_rss_mb:7.0f} MB"]

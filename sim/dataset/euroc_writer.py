@@ -107,8 +107,8 @@ class EurocWriter:
     """Stream a stereo-inertial sequence to disk in the EuRoC ASL layout (see module docstring).
 
     ``rig``: a stereo ``rigs.Rig``; ``metadata``: the fully resolved configuration (plain dict,
-    no wall-clock times); ``png``: how PNGs are written (:class:`sim.dataset.common.PngOptions`). A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames
-    are already on disk, and replayed samples at or before each stream's last row are skipped.
+    no wall-clock times); ``png``: how PNGs are written (:class:`sim.dataset.common.PngOptions`).
+    A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames are already on disk, and replayed samples at or before each stream's last row are skipped.
     """
 
     def __init__(self, out_dir, rig, metadata: dict, depth: bool = False, segmentation: bool = False,

@@ -104,7 +104,7 @@ class KittiWriter:
         if len(images) != 2:
             raise SimError(f"add_frame: expected 2 images (left, right), got {len(images)}")
         for k in (0, 1):
-            with timer.stage("effects"):
+            with timer.stage("rectify"):
                 rect = cv2.remap(to_gray(images[k]), *self._maps[k], interpolation=cv2.INTER_LINEAR)
             write_png(self.seq_dir / f"image_{k}" / f"{int(index):06d}.png", rect, rgb=False,
                       png=self.png, timer=timer)

@@ -86,7 +86,8 @@ def localize_cmd(dataset, mode, max_sites, pairs, poses, items, as_json):
               help="Worker threads of the frame pipeline (default: one per CPU; 0: the serial loop).")
 @click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
               help="Render processes of the end-to-end run (generate --workers).")
-@click.option("--scheduler", default=None, metavar="ADDRESS", help="Render on this Dask cluster (generate --scheduler).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Render on this Dask cluster (generate --scheduler).")
 @click.option("--repeat", type=click.IntRange(min=1), default=1, show_default=True,
               help="Alternate render-only and end-to-end runs N times; the best of each is kept.")
 @click.option("--png-levels", is_flag=True, help="Instead: PNG size and encoding time at zlib levels 0-9.")
