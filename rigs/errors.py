@@ -15,3 +15,8 @@ class TestbedError(Exception):
 
 class RigError(TestbedError, ValueError):
     """A rig, camera or IMU definition is invalid; the message names the file and the field."""
+
+
+class RecordError(TestbedError):
+    """A shared record is invalid (a trajectory's shapes or times) or a trajectory file is missing or
+    malformed; the message names the file, the line or the field."""

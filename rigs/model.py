@@ -83,6 +83,10 @@ class Camera:
                 raise RigError(f"{w}.{f}: expected a number, got {v!r}") from None
             if not math.isfinite(v):
                 raise RigError(f"{w}.{f}: must be finite, got {v!r}")
+            size = self.width if f == "cx" else self.height
+            if not 0.0 <= v <= size:
+                raise RigError(f"{w}.{f}: principal point {v:g} px is outside the image (0 to {size} px, "
+                               f"the camera's {'width' if f == 'cx' else 'height'})")
             object.__setattr__(self, f, v)
         d = tuple(float(x) for x in self.dist) if self.dist is not None else ()
         if len(d) == 4:
@@ -153,6 +157,9 @@ class Wheels:
             raise RigError(f"wheels.ticks_per_rev: must be a positive integer, got {self.ticks_per_rev!r}")
 
 
+MIN_BASELINE_M = 1e-6      # two cameras closer than this share one position: no stereo geometry
+
+
 @dataclass(frozen=True)
 class Rig:
     """A stereo (or multi-camera) rig with an IMU. ``cameras[0]`` is the reference (left) camera."""
@@ -179,6 +186,20 @@ class Rig:
     @property
     def is_stereo(self) -> bool:
         return len(self.cameras) >= 2
+
+    def check_stereo(self) -> "Rig":
+        """``self``; a RigError when two cameras sit at one position (closer than :data:`MIN_BASELINE_M`):
+        such a pair has no stereo geometry. Checked where a rig is read or data are generated (a test's
+        stand-in rig built in code may put two cameras anywhere)."""
+        cams = self.cameras
+        for i in range(len(cams)):
+            for j in range(i + 1, len(cams)):
+                d = float(np.linalg.norm(cams[i].T_b_c_array[:3, 3] - cams[j].T_b_c_array[:3, 3]))
+                if d < MIN_BASELINE_M:
+                    raise RigError(f"rig {self.name!r}.cameras: {cams[i].name} and {cams[j].name} sit at the same "
+                                   f"position (baseline {d:g} m); a stereo rig needs a baseline of at least "
+                                   f"{MIN_BASELINE_M:g} m")
+        return self
 
     def T_c0_c(self, k: int) -> np.ndarray:
         """(4,4) pose of camera ``k`` in the reference camera frame."""

@@ -13,6 +13,8 @@ Keys are the field names of the rig dataclasses (:mod:`rigs.model`), resolved th
   mounting ``T_b_i``), ``wheels=none`` / ``wheels=default``.
 
 Errors are one line: ``override 'baseline=-1': baseline: must be a positive finite number, got -1``.
+These keys are the rig's grammar everywhere: a typed config with a rig field declares :data:`RIG_KEYS`
+(``knob(..., keys=RIG_KEYS)``), so :func:`rigs.typed_config.replace_path` resolves ``rig.<key>`` here.
 """
 from __future__ import annotations
 
@@ -24,7 +26,7 @@ import numpy as np
 from rigs.errors import RigError
 from rigs.imu_models import get_imu_model
 from rigs.model import Camera, Imu, Rig, Wheels
-from rigs.typed_config import coerce, field_types, init_fields, split_item
+from rigs.typed_config import KeyGrammar, coerce, field_types, init_fields, split_item
 
 DIST_INDEX = {"k1": 0, "k2": 1, "p1": 2, "p2": 3, "k3": 4}     # OpenCV order of Camera.dist
 SHORTHANDS = ("baseline", "imu", "wheels")
@@ -152,3 +154,6 @@ def apply_overrides(rig: Rig, overrides=(), source: str = "override") -> Rig:
     for item in overrides:
         rig = apply_override(rig, item, source)
     return rig
+
+
+RIG_KEYS = KeyGrammar(is_key, set_key, valid_keys)    # the rig's --set keys inside a typed config (``rig.<key>``)

@@ -8,7 +8,9 @@ right camera follows from the calibration, ``T_b_c1 = T_b_c0 @ T_c0_c1`` (near `
 mast ``IMU_BELOW_CAMERAS_M`` below the cameras with axes aligned with ``b``.
 
 The code is the source of truth; ``rigs/presets/<name>.yaml`` are written from it by
-:func:`write_preset_yamls` (``python -m rigs.presets``) and a test checks they agree.
+:func:`write_preset_yamls` (after changing a preset: ``python -c "from rigs.presets import
+write_preset_yamls; write_preset_yamls()"``), and ``tests/test_rigs_presets_files.py`` checks that the files
+are what it writes, byte for byte.
 """
 from __future__ import annotations
 
@@ -186,8 +188,3 @@ def write_preset_yamls(folder=PRESET_DIR) -> list[Path]:
         save_rig(_BUILDERS[name](), path, header=_HEADERS[name])
         paths.append(path)
     return paths
-
-
-if __name__ == "__main__":
-    for p in write_preset_yamls():
-        print(p)

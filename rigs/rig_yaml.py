@@ -104,13 +104,13 @@ def rig_from_dict(d, source: str = "<dict>") -> Rig:
     cams = d["cameras"]
     if not isinstance(cams, list) or not cams:
         raise field_error(source, "cameras", f"expected a non-empty list of cameras, got {cams!r}")
-    cameras = tuple(camera_from_dict(c, source, f"cameras[{i}]") for i, c in enumerate(cams))
     wheels = None if d["wheels"] is None else wheels_from_dict(d["wheels"], source)
     name = field_str(d["name"], source, "name")
     try:
+        cameras = tuple(camera_from_dict(c, source, f"cameras[{i}]") for i, c in enumerate(cams))
         return Rig(name=name, cameras=cameras, imu=imu_from_dict(d["imu"], source),
                    camera_rate_hz=field_number(d["camera_rate_hz"], source, "camera_rate_hz", positive=True),
-                   wheels=wheels, mount=field_str(d["mount"], source, "mount"))
+                   wheels=wheels, mount=field_str(d["mount"], source, "mount")).check_stereo()
     except RigError as exc:
         msg = str(exc)
         raise RigError(msg if msg.startswith(f"{source}: ") else f"{source}: {msg}") from None

@@ -38,7 +38,9 @@ from rigs.errors import TestbedError
 @dataclass(frozen=True)
 class Spec:
     """Per-field checks beyond the annotated type: bounds, oddness, and a ``parse(value)`` hook that
-    turns any value not already of the field's type (a preset name, a mapping) into it."""
+    turns any value not already of the field's type (a preset name, a mapping) into it. ``keys``: the
+    field's own sub-key grammar (:class:`KeyGrammar`) for a value that is not a config dataclass, such as
+    the rig (:data:`rigs.overrides.RIG_KEYS`); :func:`replace_path` hands it the rest of a dotted key."""
 
     ge: float | None = None
     gt: float | None = None
@@ -46,6 +48,7 @@ class Spec:
     lt: float | None = None
     odd: bool = False
     parse: typing.Callable | None = None
+    keys: "KeyGrammar | None" = None
 
     def problem(self, v) -> str | None:
         """Why ``v`` (already of the field's type) is out of range, or None."""
@@ -75,10 +78,20 @@ def _num(x) -> str:
     return f"{x:g}" if isinstance(x, float) else str(x)
 
 
+@dataclass(frozen=True)
+class KeyGrammar:
+    """The dotted sub-keys of a field value with its own key language: ``is_key(value, key)``,
+    ``set_key(value, key, parsed) -> new value`` (errors name the key) and ``valid_keys(value) -> list``."""
+
+    is_key: typing.Callable
+    set_key: typing.Callable
+    valid_keys: typing.Callable
+
+
 def knob(default=MISSING, *, default_factory=MISSING, ge=None, gt=None, le=None, lt=None, odd=False, parse=None,
-         doc: str = ""):
+         keys: KeyGrammar | None = None, doc: str = ""):
     """A dataclass field with a :class:`Spec` (and a one-line ``doc``) in its metadata."""
-    meta = {"spec": Spec(ge, gt, le, lt, odd, parse), "doc": doc}
+    meta = {"spec": Spec(ge, gt, le, lt, odd, parse, keys), "doc": doc}
     return dataclasses.field(default=default, default_factory=default_factory, metadata=meta)
 
 
@@ -168,6 +181,10 @@ def check_fields(obj, error, prefix: str = "") -> None:
         object.__setattr__(obj, f.name, value)
 
 
+def _field_spec(cls, name: str) -> Spec:
+    return next(f for f in init_fields(cls) if f.name == name).metadata.get("spec") or Spec()
+
+
 def _is_instance(value, tp) -> bool:
     return isinstance(tp, type) and isinstance(value, tp)
 
@@ -233,7 +250,9 @@ def valid_keys(cls, prefix: str = "") -> list:
     types = field_types(cls)
     for f in init_fields(cls):
         tp = types[f.name]
-        if dataclasses.is_dataclass(tp) and isinstance(tp, type):
+        if (f.metadata.get("spec") or Spec()).keys is not None:
+            out.append(prefix + f.name)             # its sub-keys depend on the value: KeyGrammar.valid_keys
+        elif dataclasses.is_dataclass(tp) and isinstance(tp, type):
             out.append(f"{prefix}{f.name}.<{'|'.join(g.name for g in init_fields(tp))}>")
         else:
             out.append(prefix + f.name)
@@ -247,6 +266,8 @@ def has_path(cls, key: str) -> bool:
     if head not in [f.name for f in init_fields(cls)]:
         return False
     tp = types[head]
+    if rest and _field_spec(cls, head).keys is not None:
+        return True                                 # checked against the value by its KeyGrammar
     return not rest or (dataclasses.is_dataclass(tp) and isinstance(tp, type) and has_path(tp, rest))
 
 
@@ -258,6 +279,9 @@ def replace_path(obj, key: str, value, error, prefix: str = ""):
         raise error(f"{prefix}{key}: unknown key; valid keys: {', '.join(valid_keys(type(obj), prefix))}")
     if rest:
         child = getattr(obj, head)
+        grammar = _field_spec(type(obj), head).keys
+        if grammar is not None:
+            return dataclasses.replace(obj, **{head: grammar.set_key(child, rest, value)})
         if not dataclasses.is_dataclass(child):
             raise error(f"{prefix}{key}: unknown key; {prefix}{head} has no sub-keys")
         value = replace_path(child, rest, value, error, f"{prefix}{head}.")

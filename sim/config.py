@@ -25,6 +25,7 @@ from typing import Literal, Optional, get_args
 
 from rigs.errors import TestbedError
 from rigs.model import Rig
+from rigs.overrides import RIG_KEYS
 from rigs.typed_config import (check_fields, from_mapping, has_path, knob, load_dataclass, replace_path,
                                split_item, to_mapping, valid_keys)
 from scenes.base import SceneConfig
@@ -177,7 +178,7 @@ class GenerateConfig:
     """Everything that determines a generated dataset (together with the package version)."""
 
     scene: SceneConfig = knob(default_factory=lambda: SceneConfig(seed=None), parse=scene_of)
-    rig: Rig = knob(default_factory=lambda: rig_of("cart27"), parse=rig_of)
+    rig: Rig = knob(default_factory=lambda: rig_of("cart27"), parse=rig_of, keys=RIG_KEYS)
     duration_s: Optional[float] = knob(None, gt=0.0, doc="seconds to simulate; None: the whole route")
     seed: int = knob(0, ge=0)
     format: Format = "euroc"
@@ -204,6 +205,7 @@ class GenerateConfig:
         except SceneError as e:
             raise SceneError(f"scene.name: {e}") from None
         vehicle_class(self.vehicle)
+        self.rig.check_stereo()                   # two cameras at one position: no stereo geometry
         if not self.images and self.format in ("kitti", "both"):
             raise SimError(f"images: false (--no-images) with format {self.format!r}: KITTI odometry holds "
                            f"images only, nothing written; use format euroc for IMU and ground truth alone")
@@ -215,16 +217,12 @@ class GenerateConfig:
 
     def with_value(self, key: str, value) -> "GenerateConfig":
         """A copy with dotted ``key`` set to the parsed ``value`` (see the module docstring)."""
-        from rigs.overrides import is_key, set_key
         key = ALIASES.get(key, key)
-        head, _, rest = key.partition(".")
-        if head == "rig" and rest:
-            return dataclasses.replace(self, rig=set_key(self.rig, rest, value))
-        if has_path(GenerateConfig, head):
-            return replace_path(self, key, value, SimError)
-        if is_key(self.rig, key):
-            return dataclasses.replace(self, rig=set_key(self.rig, key, value))
-        raise SimError(f"{key}: unknown key; valid keys: {', '.join(self.valid_keys())}")
+        if not has_path(GenerateConfig, key.partition(".")[0]):
+            if not RIG_KEYS.is_key(self.rig, key):
+                raise SimError(f"{key}: unknown key; valid keys: {', '.join(self.valid_keys())}")
+            key = f"rig.{key}"                      # a rig key may leave out its "rig." prefix
+        return replace_path(self, key, value, SimError)
 
     def with_overrides(self, items, source: str = "override") -> "GenerateConfig":
         """Apply ``key=value`` strings in order (values parsed as YAML); errors are one line
@@ -240,9 +238,8 @@ class GenerateConfig:
 
     def valid_keys(self) -> list:
         """Every ``--set`` key, the rig's override keys included."""
-        from rigs.overrides import valid_keys as rig_keys
-        own = [k for k in valid_keys(GenerateConfig) if not k.startswith("rig")]
-        return own + list(ALIASES) + ["rig"] + rig_keys(self.rig)
+        own = [k for k in valid_keys(GenerateConfig) if k != "rig"]
+        return own + list(ALIASES) + ["rig"] + RIG_KEYS.valid_keys(self.rig)
 
     def to_dict(self) -> dict:
         """The resolved whole as plain builtins (the rig in full); :func:`load_generate_config` reads it back.

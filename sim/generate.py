@@ -29,6 +29,7 @@ class GenerateResult:
     path_length_m: float
     topdown_png: str
     formats: tuple
+    notes: tuple = ()            # what differs from the request (e.g. a duration longer than the route)
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -103,7 +104,7 @@ def imu_streams(setup: Setup):
 
 def truth_records(setup: Setup, biases):
     """IMU-frame ground truth at IMU times, cam0 poses at frame times, and the GCPs."""
-    from vo.dataset.types import Gcp
+    from rigs.records import Gcp
 
     rig, traj = setup.rig, setup.trajectory
     T_b_i = rig.imu.T_b_i_array
@@ -145,7 +146,23 @@ def metadata(setup: Setup) -> dict:
         "image_noise_sigma": setup.image_noise,
         "n_frames": int(len(setup.frame_t_ns)) if c.images else 0, "n_imu": int(len(setup.imu_t_ns)),
         "path_length_m": float(setup.trajectory.path_length()),
+        "duration_s": generated_duration_s(setup),
+        **({"duration_note": note} if (note := duration_note(setup)) else {}),
     }
+
+
+def generated_duration_s(setup: Setup) -> float:
+    """Seconds actually simulated (the requested ``duration_s`` ends at the end of the route)."""
+    return (setup.trajectory.t1_ns - setup.trajectory.t0_ns) * 1e-9
+
+
+def duration_note(setup: Setup):
+    """A line when the requested ``duration_s`` is longer than the route (None otherwise)."""
+    asked, done = setup.config.duration_s, generated_duration_s(setup)
+    if asked is None or asked <= done + 1e-6:
+        return None
+    return (f"duration_s: {asked:g} s asked for, but the route of {setup.config.scene.name} ends after "
+            f"{done:.3f} s; {done:.3f} s were generated (metadata.yaml duration_s)")
 
 
 def _formats(fmt: str) -> tuple:
@@ -281,12 +298,25 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
              egl_devices=()) -> GenerateResult:
     """Generate the dataset described by ``config`` into ``out_dir``.
 
-    The folder carries an ``INCOMPLETE`` marker until everything is written; an interrupted
-    run is resumed by calling ``generate`` again with the same config (frames already on disk
-    are skipped; the result is byte-identical to an uninterrupted run). ``threads``, ``timer``,
-    ``workers``, ``scheduler`` and ``egl_devices``: as :func:`render_frames` (the bytes do not depend on
-    them, but for ``metadata.yaml``'s ``rendering``, the renderer that drew the frames).
+    The folder is locked for the whole run (:func:`sim.dataset.common.claim_folder`): a second writer gets
+    a one-line error naming this process. It carries an ``INCOMPLETE`` marker until everything is written,
+    bags included; an interrupted run is resumed by calling ``generate`` again with the same config
+    (frames already on disk are skipped; the result is byte-identical to an uninterrupted run).
+    ``overwrite`` deletes a dataset of ours (marked :data:`sim.dataset.common.OWNER`), never anything else.
+    ``threads``, ``timer``, ``workers``, ``scheduler`` and ``egl_devices``: as :func:`render_frames` (the
+    bytes do not depend on them, but for ``metadata.yaml``'s ``rendering``, the renderer that drew the frames).
     """
+    from sim.dataset.common import claim_folder
+    if workers > 1 or scheduler:
+        from sim.render_workers import check_splittable
+        check_splittable(config)                    # before anything is written
+    with claim_folder(out_dir, overwrite):
+        return _generate(config, Path(out_dir), progress, threads, timer, workers, scheduler, egl_devices)
+
+
+def _generate(config: GenerateConfig, out_dir: Path, progress: bool, threads=None, timer=None, workers: int = 1,
+              scheduler=None, egl_devices=()) -> GenerateResult:
+    """:func:`generate` in a folder this process has claimed."""
     from sim.dataset import DatasetWriters
     from sim.dataset.common import PngOptions
     from sim.sensors.calib_error import perturb_rig
@@ -295,9 +325,6 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     from sim.vehicles import vehicle_class
 
     out_dir = Path(out_dir)
-    if workers > 1 or scheduler:
-        from sim.render_workers import check_splittable
-        check_splittable(config)
     setup = resolve(config)
     dims = vehicle_class(config.vehicle).dims
     if setup.rig.wheels is not None:     # the calibration written is the geometry the ticks are made with
@@ -308,7 +335,7 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     # calib_error: the images use setup.rig, the files written for estimators the perturbed rig
     written_rig, calib_draws = perturb_rig(setup.rig, config.calib_error, stream(config.seed, "calib_error"))
     writers = DatasetWriters(out_dir, written_rig, metadata(setup), fmt=config.format, depth=config.depth,
-                             segmentation=config.segmentation, overwrite=overwrite, depth_format=config.depth_format,
+                             segmentation=config.segmentation, depth_format=config.depth_format,
                              png=PngOptions.of(config.render))
     start = writers.resumed_frames      # > 0 when resuming an interrupted run of the same config
     # IMU and ground truth are replayed in full; the writers skip rows already on disk
@@ -332,7 +359,8 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     writers.finalize()
     return GenerateResult(str(out_dir), int(len(setup.frame_t_ns)) if config.images else 0,
                           int(len(setup.imu_t_ns)), (setup.trajectory.t1_ns - setup.trajectory.t0_ns) * 1e-9,
-                          float(setup.trajectory.path_length()), png, _formats(config.format))
+                          float(setup.trajectory.path_length()), png, _formats(config.format),
+                          tuple(filter(None, [duration_note(setup)])))
 
 
 def write_topdown(setup: Setup, truth: dict, path: str) -> None:
@@ -341,7 +369,7 @@ def write_topdown(setup: Setup, truth: dict, path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from scenes.plot import plot_topdown
-    from vo.eval.plots import save_figure
+    from rigs.figures import save_figure
 
     fig, ax = plt.subplots(figsize=(8, 7))
     xy = truth["T_w_c0"][:, :2, 3]

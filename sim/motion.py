@@ -35,9 +35,11 @@ from typing import Callable, Optional
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
+from rigs.trajectory import Trajectory
 from rigs.typed_config import check_fields, knob
 from sim.errors import SimError
 from sim.planar_path import arc_length_table, chord_spline, u_at_arclength
+from sim.speed_stops import StopGoProfile
 from sim.vehicles.cart import CART
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
@@ -280,8 +282,7 @@ class VehicleTrajectory:
         z, pitch, roll = _ground_attitude(xy, t_hat, ground_height, config.wheelbase_m, config.track_m)
         spline = _fit_s_spline(s, np.column_stack([xy, z, pitch, roll]), route.closed)
         if getattr(route, "stops_m", ()):                             # stop-and-go legs (sim.speed_stops)
-            from sim.speed_stops import StopGoProfile
-            profile = StopGoProfile.build(length, route, config)
+            profile = StopGoProfile.build(length, route, config, SpeedProfile.build)
         else:
             profile = SpeedProfile.build(length, route.cruise_speed_mps, route.accel_mps2,
                                          config.rest_before_s, config.rest_after_s, config.start_speed_mps)
@@ -380,7 +381,6 @@ class VehicleTrajectory:
         return hi
 
     def to_trajectory(self, t_ns):
-        """Poses ``T_w_b`` at ``t_ns`` as a ``vo.trajectory.Trajectory``."""
-        from vo.trajectory import Trajectory
+        """Poses ``T_w_b`` at ``t_ns`` as a ``rigs.trajectory.Trajectory``."""
         st = self.states(t_ns)
         return Trajectory(st.t_ns, st.T_w_b, ref="w", frame="b")

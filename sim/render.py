@@ -36,7 +36,7 @@ from sim.config import check_supersample  # noqa: E402
 from sim.errors import SimError  # noqa: E402
 from sim.stage_timer import NO_TIMER  # noqa: E402
 from sim.world import World  # noqa: E402
-from vo.frontend.image import to_gray  # noqa: E402
+from rigs.image import to_gray  # noqa: E402
 from sim.vehicles import VEHICLE_GROUP  # noqa: E402
 
 

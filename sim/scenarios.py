@@ -6,7 +6,11 @@ the configuration (or the package version) changes.
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import os
+import shutil
+import sys
 from pathlib import Path
 
 from sim.config import GenerateConfig
@@ -105,12 +109,64 @@ def cache_root() -> Path:
     return Path(os.environ.get("VO_TESTBED_CACHE", Path.home() / ".cache" / "vo-testbed"))
 
 
+def renderer_versions() -> dict:
+    """Versions of what the bytes of a dataset depend on besides its configuration: ours (the package, and
+    the dataset version), MuJoCo's (rendering, physics) and OpenCV's (noise, rectification, PNG encoding)."""
+    from importlib.metadata import PackageNotFoundError, version
+    import cv2
+    from sim import __version__
+    try:
+        package = version("vo-testbed")
+    except PackageNotFoundError:
+        package = "not installed"
+    try:
+        mujoco_version = version("mujoco")
+    except PackageNotFoundError:
+        import mujoco
+        mujoco_version = mujoco.__version__
+    return {"vo-testbed": package, "dataset": __version__, "mujoco": mujoco_version, "opencv": cv2.__version__}
+
+
+def cache_key(config: GenerateConfig, versions: dict = None) -> str:
+    """Folder name of ``config``'s cache entry: scene, rig, and a hash of the configuration together with
+    ``versions`` (default :func:`renderer_versions`: a MuJoCo or OpenCV upgrade gets a new entry)."""
+    blob = json.dumps({"config": config.config_hash(), **(versions or renderer_versions())}, sort_keys=True)
+    return f"{config.scene.name}-{config.rig.name}-{hashlib.sha256(blob.encode()).hexdigest()[:16]}"
+
+
+def _say(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
 def cached_dataset(config: GenerateConfig, progress: bool = True) -> Path:
-    """Path of the dataset for ``config``, generating (or resuming) it when not complete."""
+    """Path of the dataset for ``config``, generating (or resuming) it when not complete.
+
+    The entry is locked (``.<entry>.lock`` beside it) while it is checked and written: a second process
+    (a CI matrix sharing the cache) waits for the first and then reuses its result. A complete entry is
+    verified against its manifest (:mod:`sim.dataset.manifest`); a damaged one is regenerated with a
+    warning on stderr."""
+    from sim.dataset.common import MARKER, METADATA, OWNER
+    from sim.dataset.locking import FolderLock
+    from sim.dataset.manifest import verify_manifest
     from sim.generate import generate
 
-    out = cache_root() / f"{config.scene.name}-{config.rig.name}-{config.config_hash()}"
-    if (out / "metadata.yaml").exists() and not (out / "INCOMPLETE").exists():
-        return out
-    generate(config, out, progress=progress, overwrite=False)
+    root = cache_root()
+    root.mkdir(parents=True, exist_ok=True)
+    key = cache_key(config)
+    out = root / key
+    lock = FolderLock(root / f".{key}.lock", f"cache entry {out}")
+    waiting = lambda pid: _say(f"waiting for {'process ' + str(pid) if pid else 'another process'}, "  # noqa: E731
+                               f"which is writing the cache entry {out}")
+    with lock.acquire(wait=True, on_wait=waiting):
+        if (out / METADATA).is_file() and not (out / MARKER).exists():
+            problems = verify_manifest(out)
+            if not problems:
+                return out
+            _say(f"warning: cache entry {out} is damaged ({problems[0]}"
+                 f"{f'; {len(problems) - 1} more problem(s)' if len(problems) > 1 else ''}); regenerating it")
+            shutil.rmtree(out)
+        elif out.is_dir() and any(out.iterdir()) and not (out / OWNER).is_file():   # not made by generate
+            _say(f"warning: cache entry {out} was not written by vo-testbed generate; regenerating it")
+            shutil.rmtree(out)
+        generate(config, out, progress=progress, overwrite=False)
     return out

@@ -28,10 +28,10 @@ class StopGoProfile:
         self.duration = float(durs.sum())
 
     @classmethod
-    def build(cls, length_m: float, route, config) -> "StopGoProfile":
+    def build(cls, length_m: float, route, config, leg) -> "StopGoProfile":
         """Legs of ``route`` (``stops_m``, ``stop_dwell_s``, cruise speed, acceleration) with the rests and start
-        speed of the motion ``config``."""
-        from sim.motion import SpeedProfile
+        speed of the motion ``config``; ``leg`` builds one leg with the arguments of
+        :meth:`sim.motion.SpeedProfile.build` (the caller passes it, so this module does not import motion)."""
         stops = [float(s) for s in route.stops_m]
         if stops and stops[-1] >= length_m:
             raise SimError(f"route.stops_m: stop at {stops[-1]:.1f} m is beyond the route's {length_m:.1f} m")
@@ -39,10 +39,10 @@ class StopGoProfile:
         legs = []
         for i in range(len(bounds) - 1):
             first, last = i == 0, i == len(bounds) - 2
-            legs.append(SpeedProfile.build(float(bounds[i + 1] - bounds[i]), route.cruise_speed_mps, route.accel_mps2,
-                                           config.rest_before_s if first else float(route.stop_dwell_s),
-                                           config.rest_after_s if last else 0.0,
-                                           config.start_speed_mps if first else 0.0))
+            legs.append(leg(float(bounds[i + 1] - bounds[i]), route.cruise_speed_mps, route.accel_mps2,
+                            config.rest_before_s if first else float(route.stop_dwell_s),
+                            config.rest_after_s if last else 0.0,
+                            config.start_speed_mps if first else 0.0))
         return cls(legs, bounds[:-1])
 
     def __call__(self, t):

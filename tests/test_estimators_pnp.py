@@ -5,6 +5,7 @@ import pytest
 from rigs.model import Camera, Rig
 from vo.dataset.types import StereoFrame
 from vo.errors import EstimatorError
+from vo.estimators.base import MAX_COAST_FRAMES, frame_class
 from vo.estimators.pnp import KltPnpEstimator, OrbPnpEstimator
 from vo.estimators.pnp_core import PnpConfig
 from helpers.synthetic import box_scene, render
@@ -65,6 +66,7 @@ def test_relative_motion_recovered(sequence, make, max_m, max_deg):
     results = [est.process(f) for f in frames]
     assert results[0].status == "init" and np.allclose(results[0].T_o_c0, np.eye(4))
     assert all(r.status in ("ok", "keyframe") for r in results[1:]), [r.status for r in results]
+    assert [frame_class(r) for r in results] == ["ok"] * N_FRAMES      # the first frame's pose is the origin
     err = relative_errors(results, range(1, N_FRAMES))
     assert err[:, 0].max() < max_m, err
     assert err[:, 1].max() < max_deg, err
@@ -94,6 +96,10 @@ def test_blank_frames_few_features_then_reinit(sequence, cls):
     assert statuses[4] == "few_features" and statuses[5] == "few_features", statuses
     assert "tracked <" in results[4].message or "landmarks <" in results[4].message
     assert statuses[6] == "reinit", statuses
+    # 4 and 5 failed, 6 re-initialised at the pose extrapolated from 3 at constant velocity: coasted poses
+    assert [frame_class(r) for r in results] == ["ok"] * 4 + ["coasting"] * 3 + ["ok"] * 2
+    step = inv_T(results[2].T_o_c0) @ results[3].T_o_c0
+    assert np.allclose(results[6].T_o_c0, results[3].T_o_c0 @ step @ step @ step)
     assert all(np.all(np.isfinite(r.T_o_c0)) for r in results)
     # after re-initialisation the relative motion is right again (same bounds as above, ORB's looser)
     err = relative_errors(results, [7, 8])
@@ -106,6 +112,19 @@ def test_all_black_sequence_never_initialises():
     for k in range(3):
         r = est.process(stereo_frame(rig, None, k, blank=0))
         assert r.status == "few_features" and np.array_equal(r.T_o_c0, np.eye(4))
+        assert frame_class(r) == "init"                  # a placeholder: no pose yet
+
+
+def test_coasting_ends_in_held_poses():
+    """After MAX_COAST_FRAMES failed frames the pose is held: those frames are lost, not coasting."""
+    rig = make_rig()
+    planes = box_scene(np.random.default_rng(7))
+    est = KltPnpEstimator(rig)
+    good = [est.process(stereo_frame(rig, planes, k)) for k in range(3)]
+    failed = [est.process(stereo_frame(rig, planes, 3 + k, blank=0)) for k in range(MAX_COAST_FRAMES + 2)]
+    assert [frame_class(r) for r in good] == ["ok"] * 3
+    assert [frame_class(r) for r in failed] == ["coasting"] * MAX_COAST_FRAMES + ["lost"] * 2
+    assert np.array_equal(failed[-1].T_o_c0, failed[-3].T_o_c0)
 
 
 def test_options_validated():

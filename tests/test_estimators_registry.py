@@ -90,14 +90,18 @@ def test_runner_saves_outputs(tmp_path):
     assert np.allclose(tum.T, res.trajectory.T, atol=1e-8)      # 9 decimals written
     kitti = read_kitti(tmp_path / "trajectory_kitti.txt", tmp_path / "times.txt")
     assert np.allclose(kitti.T, res.trajectory.T, rtol=1e-8, atol=1e-9)
+    assert np.array_equal(kitti.t_ns, ds.frame_times_ns[:4])     # times.txt: the data's clock, exact
     lines = (tmp_path / "frames.csv").read_text().splitlines()
-    assert lines[0].startswith("t_ns,status,n_features,n_inliers,message") and len(lines) == 5
+    assert lines[0].startswith("t_ns,status,pose,n_features,n_inliers,message") and len(lines) == 5
     rows = list(csv.DictReader(io.StringIO("\n".join(lines))))
     assert rows[1]["t_ns"] == str(ds.frame_times_ns[1]) and rows[1]["status"] == "ok"
     assert rows[1]["message"] == "fine, thanks"        # the comma survives csv quoting
     assert rows[0]["status"] == "init" and float(rows[0]["total_ms"]) == 0.0
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["n_frames"] == 4 and summary["status_counts"]["init"] == 1
+    # a plug-in that does not give pose_class: its first frame (status init) is a placeholder, not covered
+    assert [r["pose"] for r in rows] == ["init", "ok", "ok", "ok"]
+    assert summary["frames_by_status"] == {"ok": 3, "coasting": 0, "init": 1, "lost": 0}
     assert not list(tmp_path.glob("*.part"))
 
 

@@ -40,7 +40,7 @@ def test_eval_cli_table_and_json_same_numbers(files):
     assert f"rmse {lib.ape.trans.rmse:.4f}" in res.output and "KITTI" in res.output
     res_j = CliRunner().invoke(cli, args + ["--json"])
     assert res_j.exit_code == 0, res_j.output
-    d = json.loads(res_j.output)
+    d = json.loads(res_j.stdout)                  # stderr says what was compared
     assert d["ape"]["trans_m"]["rmse"] == pytest.approx(lib.ape.trans.rmse, rel=1e-12)
     assert d["rpe_frame"]["trans_m"]["mean"] == pytest.approx(lib.rpe_frame.trans.mean, rel=1e-12)
     assert d["drift"]["drift_ratio_pct"] == pytest.approx(lib.drift.drift_ratio_pct, rel=1e-12)
@@ -74,12 +74,12 @@ def test_eval_cli_kitti_files_and_short_route_strict_json(tmp_path):
     n = 3                                                     # standing still: drift ratio, KITTI NaN -> null
     T = np.tile(np.eye(4), (n, 1, 1))
     traj = Trajectory(np.arange(n, dtype=np.int64) * 100_000_000, T)
-    write_kitti(tmp_path / "gt.txt", traj)
+    write_kitti(tmp_path / "gt.txt", traj, times_path=tmp_path / "times.txt")   # one times.txt beside both
     write_kitti(tmp_path / "est.txt", traj)
     res = CliRunner().invoke(cli, ["eval", "--gt", str(tmp_path / "gt.txt"), "--est", str(tmp_path / "est.txt"),
                                    "--json"])
     assert res.exit_code == 0, res.output
-    d = json.loads(res.output, parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
+    d = json.loads(res.stdout, parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
     assert d["n_matched"] == 3 and d["ape"]["trans_m"]["rmse"] == 0.0
     assert d["drift"]["drift_ratio_pct"] is None and d["kitti"]["t_err_pct"] is None
 

@@ -30,13 +30,14 @@ def test_layer_contracts_hold():
     ("vo/_planted.py", "vo imports neither sim, scenes nor mujoco"),
     ("rigs/geometry/_planted.py", "rigs.geometry imports nothing of ours"),
     ("sim/_planted.py", "only the app layer imports the app layer"),
+    ("sim/sensors/_planted.py", "sim imports nothing from vo (the app layer sim.app may import both)"),
 ])
 def test_a_planted_violation_breaks_its_contract(tmp_path, planted, contract):
     for pkg in PACKAGES:
         shutil.copytree(ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(ROOT / "pyproject.toml", tmp_path / "pyproject.toml")
     target = {"vo/_planted.py": "import sim.generate\n", "rigs/geometry/_planted.py": "import rigs.model\n",
-              "sim/_planted.py": "import sim.app.check\n"}[planted]
+              "sim/_planted.py": "import sim.app.check\n", "sim/sensors/_planted.py": "import vo.trajectory\n"}[planted]
     (tmp_path / planted).write_text(target)
     res = _lint(tmp_path, tmp_path)
     assert res.returncode != 0

@@ -5,7 +5,7 @@ import pytest
 from rigs.model import Imu
 from sim.allan import allan_deviation, density_at_1s, fit_white_and_walk, loglog_slope
 from sim.errors import SimError
-from sim.sensors.imu import ImuSamples
+from rigs.records import ImuSamples
 from sim.sensors.imu_noise import add_imu_noise
 from sim.rng import stream
 

@@ -69,11 +69,11 @@ def test_consistency_runs_redraw_imu_noise_per_seed():
 
     from rigs.presets import get_rig
     from sim.app.consistency.runs import NoisyDataset
-    from vo.dataset.types import ImuData
+    from rigs.records import ImuSamples
     imu = get_rig("cart27").imu
     n = 20000
     t = 1_000_000_000 + np.arange(n, dtype=np.int64) * int(1e9 / imu.rate_hz)
-    base = SimpleNamespace(imu=ImuData(t, np.zeros((n, 3)), np.zeros((n, 3))))
+    base = SimpleNamespace(imu=ImuSamples(t, np.zeros((n, 3)), np.zeros((n, 3))))
     a, b, a2 = (NoisyDataset(base, 1.0, s, imu_model=imu).imu for s in (1, 2, 1))
     assert not np.allclose(a.gyro, b.gyro) and np.array_equal(a.gyro, a2.gyro)
     white = np.diff(a.gyro, axis=0) / np.sqrt(2)          # removes the (slow) bias random walk

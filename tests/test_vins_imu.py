@@ -14,7 +14,7 @@ from scenes.base import Route
 from sim.motion import MotionConfig, VehicleTrajectory
 from sim.rng import stream
 from sim.sensors.imu import imu_pose_velocity, imu_times_ns, measure_states
-from vo.dataset.types import ImuData
+from rigs.records import ImuSamples
 from vo.errors import EstimatorError
 from vo.vins.config import VinsConfig
 from vo.vins.imu import ImuStream, imu_params, preintegrate
@@ -39,7 +39,7 @@ def exact_imu(traj, rate_hz):
     st = traj.states(t)
     s = measure_states(st, IMU.T_b_i_array)
     T_w_i, v_w = imu_pose_velocity(st, IMU.T_b_i_array)
-    return ImuData(s.t_ns, s.gyro, s.accel), T_w_i, v_w
+    return ImuSamples(s.t_ns, s.gyro, s.accel), T_w_i, v_w
 
 
 def preintegration_errors(traj, rate_hz, interval_s=0.5):
@@ -104,8 +104,8 @@ def test_bad_imu_streams_give_one_line_errors():
     t_bad = t.copy()
     t_bad[5] = t_bad[3]
     with pytest.raises(EstimatorError, match="out of order.*index 5"):
-        ImuStream(ImuData(t_bad, z, z))
-    s = ImuStream(ImuData(t, z, z))
+        ImuStream(ImuSamples(t_bad, z, z))
+    s = ImuStream(ImuSamples(t, z, z))
     with pytest.raises(EstimatorError, match="covers"):
         s.interval(0, int(t[-1]) + 1)
 
@@ -114,7 +114,7 @@ def test_gap_is_interpolated_or_rejected():
     """A dropout shorter than max_gap_s is bridged by linear interpolation (finite result); longer -> error."""
     t = np.concatenate([np.arange(0, 20), np.arange(40, 60)]).astype(np.int64) * 5_000_000    # 0.1 s gap
     acc = np.tile([0.0, 0.0, 9.81], (len(t), 1))
-    imu = ImuData(t, np.zeros((len(t), 3)), acc)
+    imu = ImuSamples(t, np.zeros((len(t), 3)), acc)
     pim = preintegrate(ImuStream(imu), imu_params(VinsConfig()), 0, int(t[-1]), gtsam.imuBias.ConstantBias())
     assert np.all(np.isfinite(pim.deltaVij())) and np.abs(pim.deltaVij() - [0, 0, 9.81 * pim.deltaTij()]).max() < 1e-9
     with pytest.raises(EstimatorError, match="gap"):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from gtsam.symbol_shorthand import X
 
-from vo.dataset.types import ImuData
+from rigs.records import ImuSamples
 from vo.vins.config import VinsConfig
 from vo.vins.frontend import FeatureFrame
 from vo.vins.imu import GRAVITY, ImuStream, imu_params
@@ -18,7 +18,7 @@ def _standing_window(n_states=4, preset="vins", count=8, landmark="point3"):
     """A body standing still at the origin (camera = IMU frame, looking along z), exact 200 Hz IMU."""
     t = np.arange(0, int(1e9) * n_states, int(5e6), dtype=np.int64)
     z = np.zeros((len(t), 3))
-    imu = ImuData(t, z, np.tile([0.0, 0.0, GRAVITY], (len(t), 1)))
+    imu = ImuSamples(t, z, np.tile([0.0, 0.0, GRAVITY], (len(t), 1)))
     cfg = VinsConfig.from_options(preset, {"landmark": landmark})
     w = Window(cfg, CAM, np.eye(4), ImuStream(imu), imu_params(cfg))
     p_w = {1: [0.5, 0.2, 8.0], 2: [-1.0, 0.4, 12.0], 3: [0.8, -0.6, 6.0], 4: [-0.3, -0.9, 15.0], 9: [2.0, 1.0, 400.0]}

@@ -27,6 +27,7 @@ class Evaluated:
     def to_dict(self) -> dict:
         return {"estimator": self.name, "metrics": self.evaluation.to_dict(),
                 "n_frames": len(self.run.frames), "n_lost": self.run.n_lost,
+                "frames_by_status": self.run.class_counts(),
                 "timings_ms": self.run.timings_ms}
 
 
@@ -46,30 +47,45 @@ def prepare_out_dir(path) -> Path:
     return out
 
 
+def refuse_dataset_as_out(ds, dataset_dir, out_dir) -> None:
+    """A one-line VoError when ``out_dir`` is one of the dataset's own folders (its root, ``mav0``, a KITTI
+    sequence): the run's files (``topdown.png``, ``trajectory_*.txt``, ...) would overwrite the dataset's."""
+    out = Path(out_dir).expanduser().resolve()
+    own = {Path(p).resolve() for p in (dataset_dir, ds.path, getattr(ds, "root", ds.path), getattr(ds, "mav0", ds.path),
+                                       getattr(ds, "seq", ds.path))}
+    if out in own:
+        raise VoError(f"--out {out_dir}: is the dataset's own folder ({dataset_dir}); the run's files (topdown.png, "
+                      f"trajectory_tum.txt, ...) would overwrite the dataset's; choose another folder")
+
+
 def run_dataset(dataset_dir, estimator: str, out_dir, options: Optional[dict] = None, progress: bool = True,
-                max_frames=None):
-    """``vo-testbed run``: open ``dataset_dir`` once, run, save to ``out_dir``, evaluate when the dataset
-    has ground truth -> ``(RunResult, Evaluated or None)``."""
+                max_frames=None, seed: int = 0):
+    """``vo-testbed run``: open ``dataset_dir`` once, run (OpenCV's RNG seeded with ``seed``), save to
+    ``out_dir``, evaluate when the dataset has ground truth and the estimator produced at least two poses
+    (classes ok, coasting) -> ``(RunResult, Evaluated or None)``."""
     from vo.dataset import open_dataset
     from vo.estimators.registry import check_spec
     from vo.estimators.runner import run_estimator
 
     check_spec(estimator)
-    out = prepare_out_dir(out_dir)
     ds = open_dataset(dataset_dir)
-    run = run_estimator(estimator, ds, options=options or {}, progress=progress, max_frames=max_frames)
+    refuse_dataset_as_out(ds, dataset_dir, out_dir)
+    out = prepare_out_dir(out_dir)
+    run = run_estimator(estimator, ds, options=options or {}, progress=progress, max_frames=max_frames, seed=seed)
     run.save(out)                      # kept even when the evaluation then fails
-    if ds.groundtruth is None:
+    if ds.groundtruth is None or len(run.estimated()) < 2:
         return run, None
     return run, evaluate_run(ds, run, estimator, out_dir=out, save_run=False)
 
 
 def run_and_evaluate(dataset, estimator: str, out_dir=None, options: Optional[dict] = None,
-                     progress: bool = True, align: str = "first", max_frames=None) -> Evaluated:
-    """Run ``estimator`` on an opened dataset, evaluate against ``dataset.groundtruth_cam0()``."""
+                     progress: bool = True, align: str = "first", max_frames=None, seed: int = 0) -> Evaluated:
+    """Run ``estimator`` on an opened dataset (OpenCV's RNG seeded with ``seed``), evaluate against
+    ``dataset.groundtruth_cam0()``."""
     from vo.estimators.runner import run_estimator
 
-    run = run_estimator(estimator, dataset, options=options or {}, progress=progress, max_frames=max_frames)
+    run = run_estimator(estimator, dataset, options=options or {}, progress=progress, max_frames=max_frames,
+                        seed=seed)
     return evaluate_run(dataset, run, estimator, out_dir=out_dir, align=align)
 
 
@@ -86,12 +102,12 @@ def reference_truth(dataset, run):
 
 def evaluate_run(dataset, run, estimator: str, out_dir=None, align: str = "first", plots: bool = True,
                  save_run: bool = True) -> Evaluated:
-    """Evaluate a finished run against the dataset's ground truth; save (into ``out_dir``) the run's
-    files unless ``save_run`` is False, and the metrics and plots."""
+    """Evaluate a finished run against the dataset's ground truth (its produced poses only: classes ok and
+    coasting); save (into ``out_dir``) the run's files unless ``save_run`` is False, and the metrics and plots."""
     from vo.eval import evaluate
 
     gt = reference_truth(dataset, run)
-    ev = evaluate(gt, run.trajectory, gcps=dataset.gcps, align=align)
+    ev = evaluate(gt, run.trajectory, gcps=dataset.gcps, align=align, pose_classes=run.pose_classes())
     label = estimator if not estimator.startswith("cmd:") else "external"
     result = Evaluated(label, run, ev, ev.aligned_est)
     if out_dir is not None:
@@ -129,3 +145,26 @@ def load_groundtruth(path, fmt: str = "auto"):
         gt = ds.groundtruth_cam0()
         return gt, list(ds.gcps), f"ground truth: left camera (c0) of the {ds.kind} dataset {ds.path}"
     return read_trajectory(path, fmt), [], ""
+
+
+def load_estimate(path, fmt: str = "auto", times_path=None, frames_path=None):
+    """The estimate for ``eval`` -> ``(Trajectory, pose classes (N,) or None, notes)``. KITTI poses take
+    their times from ``times_path`` or the ``times.txt`` beside them (no rate assumed); the classes come
+    from the run's frame log ``frames_path`` or the ``frames.csv`` beside ``path`` (None without one: every
+    pose counts as ok). ``notes`` say in words what was read."""
+    from vo.estimators.base import FRAME_CLASSES
+    from vo.estimators.framelog import LOG_NAME, classes_for
+    from vo.trajfile import detect_format, kitti_times_path, read_trajectory
+    kind = detect_format(path) if fmt == "auto" else fmt
+    est = read_trajectory(path, kind, times_path=times_path)
+    when = (f", times from {kitti_times_path(path, times_path)}" if kind == "kitti" else "")
+    notes = [f"estimate: {path} ({kind}, {len(est)} poses{when})"]
+    log = Path(frames_path) if frames_path is not None else Path(path).parent / LOG_NAME
+    if frames_path is not None and not log.is_file():
+        raise VoError(f"{log}: frame log not found")
+    classes = classes_for(est, log) if log.is_file() else None
+    if classes is not None:
+        counts = ", ".join(f"{c} {int(sum(classes == c))}" for c in FRAME_CLASSES)
+        notes.append(f"frame status: {log} ({counts}); init and lost poses are not scored")
+    return est, classes, notes
+

@@ -1,13 +1,12 @@
 """Rendering throughput benchmark: stereo pairs per second along each scene's route.
 
-``python -m sim.app.bench_render [scene ...]`` prints one line per (scene, shadows) setting.
+``vo-testbed bench render [--scene NAME ...] [--shadows]`` prints one line per (scene, shadows) setting.
 Poses: ``n_pairs`` points evenly spaced in arc length along ``scene.route.xy``, body on the
 ground (``scene.ground_height``), yaw along the path; the default rig's cameras are 1.2 m high.
 Only RGB rendering is timed (what dataset generation needs per frame), after 2 warm-up frames.
 """
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass, replace
 
@@ -96,17 +95,3 @@ def bench_render(scene_names=("campus", "indoor"), rig: Rig = None, n_pairs: int
             sc.config = replace(sc.config, shadows=shadows)
         out.append(bench_scene(sc, rig, n_pairs))
     return out
-
-
-def main(argv=None) -> int:
-    names = tuple((argv if argv is not None else sys.argv[1:]) or ("campus", "indoor"))
-    for shadows in (False, True):
-        for r in bench_render(names, shadows=shadows):
-            print(f"{r.scene:10s} {r.width}x{r.height} shadows={str(r.shadows):5s} "
-                  f"{r.pairs_per_s:6.1f} pairs/s  {r.ms_per_pair:6.1f} ms/pair  "
-                  f"(CPU {r.cpu_ms_per_pair:6.1f} ms/pair)")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -17,7 +17,7 @@ class VoBenchRow:
     ate_rmse_m: float
     n_frames: int
     n_lost: int
-    n_init: int                  # frames before the estimator's first pose (status "init": identity pose)
+    n_init: int                  # placeholder frames before the estimator's first pose (frame class "init")
     ms_per_frame: dict = field(default_factory=dict)   # stage -> mean ms
 
     def to_dict(self) -> dict:
@@ -31,7 +31,8 @@ def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp
     import cv2
     from sim.scenarios import cached_dataset, get_scenario
     from vo.dataset import open_dataset
-    from vo.pipeline import run_and_evaluate
+    from vo.estimators.runner import run_estimator
+    from vo.pipeline import evaluate_run
 
     if one_core:
         cv2.setNumThreads(1)
@@ -39,8 +40,11 @@ def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp
     for scenario in scenarios:
         ds = open_dataset(cached_dataset(get_scenario(scenario), progress=progress))
         for name in estimators:
-            res = run_and_evaluate(ds, name, options=options, progress=progress, max_frames=max_frames)
-            rows.append(bench_row(scenario, name, res))
+            run = run_estimator(name, ds, options=options or {}, progress=progress, max_frames=max_frames)
+            if len(run.estimated()) < 2:              # never initialised: nothing to score, a row of NaN
+                rows.append(unevaluated_row(scenario, name, run, ds))
+            else:
+                rows.append(bench_row(scenario, name, evaluate_run(ds, run, name)))
     return rows
 
 
@@ -50,7 +54,16 @@ def bench_row(scenario: str, name: str, res) -> VoBenchRow:
     rmsd = tuple(float(v) for v in ev.gcps.rmsd_xyz) if ev.gcps is not None else (np.nan,) * 3
     return VoBenchRow(scenario, name, float(ev.drift.gt_length_m), float(ev.drift.drift_ratio_pct),
                       float(ev.drift.end_diff_m), rmsd, float(ev.ape.trans.rmse), len(res.run.frames),
-                      int(res.run.n_lost), sum(f.status == "init" for f in res.run.frames), dict(res.run.timings_ms))
+                      int(res.run.n_lost), res.run.class_counts()["init"], dict(res.run.timings_ms))
+
+
+def unevaluated_row(scenario: str, name: str, run, dataset) -> VoBenchRow:
+    """The row of a run with fewer than two estimated poses (classes ok, coasting): figures NaN, the
+    route's length from the ground truth, the frames counted."""
+    from vo.pipeline import reference_truth
+    nan = float("nan")
+    return VoBenchRow(scenario, name, float(reference_truth(dataset, run).path_length), nan, nan, (nan,) * 3, nan,
+                      len(run.frames), int(run.n_lost), run.class_counts()["init"], dict(run.timings_ms))
 
 
 def format_rows(rows) -> str:

@@ -2,12 +2,18 @@
 
 Life cycle of an output folder ``out_dir``:
 
+0. :func:`claim_folder` (``generate``) - creates ``out_dir``, locks it (:mod:`sim.dataset.locking`: a
+   second writer gets an error naming the process that holds it), refuses a non-empty folder that does
+   not carry our :data:`OWNER` marker, deletes the contents of ours on ``overwrite``, writes the marker.
 1. :func:`prepare_folder` - a missing or empty folder starts fresh; a folder holding an
    ``INCOMPLETE`` marker is resumed (same configuration) or wiped (``overwrite=True``); a complete
    dataset folder is refused unless ``overwrite=True``. The marker is written before anything else.
 2. Frames and samples stream to disk (PNG per image, CSV rows appended and flushed).
-3. :func:`finalize_folder` writes ``metadata.yaml`` (atomically, :mod:`rigs.atomic_io`) and removes
-   ``INCOMPLETE`` last, so a folder without the marker is always complete.
+3. :func:`final_metadata` makes the ``metadata.yaml`` content; every other file is written (bags
+   included), then :func:`commit_folder` writes ``metadata.yaml`` (``status: complete``, atomically,
+   :mod:`rigs.atomic_io`) and ``manifest.json`` (:mod:`sim.dataset.manifest`) and removes
+   ``INCOMPLETE`` last, so a folder without the marker is always complete and an interrupted one
+   always resumes.
 
 No wall-clock time is written anywhere: the same inputs give byte-identical folders.
 """
@@ -22,13 +28,75 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from rigs.atomic_io import atomic_write_bytes, atomic_write_text
+from rigs.atomic_io import atomic_write, atomic_write_bytes, atomic_write_text
 from sim.config import PNG_COMPRESSION, PNG_FILTER, PNG_STRATEGY
+from sim.dataset.locking import LOCK_NAME, FolderLock
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
 
 MARKER = "INCOMPLETE"
 METADATA = "metadata.yaml"
+OWNER = ".vo-testbed-dataset"           # our mark: only a folder carrying it is ever deleted (--overwrite)
+OWNER_TEXT = "written by vo-testbed generate; `generate --overwrite` may delete this folder\n"
+BOOKKEEPING = (LOCK_NAME, OWNER)        # files of ours that do not make a folder "non-empty"
+
+
+def _entries(out_dir: Path) -> list:
+    return [p for p in out_dir.iterdir() if p.name not in BOOKKEEPING] if out_dir.is_dir() else []
+
+
+def is_owned(out_dir) -> bool:
+    """True when ``out_dir`` (or, for ``--format both``'s euroc/ and kitti/, its parent) carries :data:`OWNER`."""
+    out_dir = Path(out_dir)
+    return (out_dir / OWNER).is_file() or (out_dir.parent / OWNER).is_file()
+
+
+class ClaimedFolder:
+    """The lock on an output folder taken by :func:`claim_folder`; a context manager that releases it,
+    and removes the folder again when it created it and a failure left nothing but our bookkeeping."""
+
+    def __init__(self, path: Path, lock: FolderLock, created: bool):
+        self.path, self.lock, self.created = path, lock, created
+
+    def __enter__(self) -> "ClaimedFolder":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        try:
+            if exc_type is not None and self.created and not _entries(self.path):
+                shutil.rmtree(self.path, ignore_errors=True)
+        finally:
+            self.lock.release()
+
+
+def claim_folder(out_dir, overwrite: bool) -> ClaimedFolder:
+    """Create ``out_dir`` and lock it for this process (:class:`sim.dataset.locking.FolderBusy`, naming the
+    holder's pid, when another process writes it). A non-empty folder without our :data:`OWNER` marker is
+    refused (never written into, never deleted); with ``overwrite`` the contents of ours are deleted.
+    Every problem is a one-line SimError naming the folder."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise SimError(f"{out_dir}: output path exists and is not a folder")
+    created = not out_dir.exists()
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        where = f" ({e.filename})" if e.filename and str(e.filename) != str(out_dir) else ""
+        raise SimError(f"{out_dir}: cannot create the output folder: {e.strerror or e}{where}") from None
+    if _entries(out_dir) and not (out_dir / OWNER).is_file():
+        raise SimError(f"{out_dir}: folder is not empty and was not written by vo-testbed (no {OWNER} marker); "
+                       f"refusing to {'delete' if overwrite else 'write into'} it")
+    lock = FolderLock(out_dir / LOCK_NAME, f"output folder {out_dir}").acquire(wait=False)
+    try:
+        if overwrite:
+            for p in _entries(out_dir):
+                shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
+        if not (out_dir / OWNER).is_file():
+            (out_dir / OWNER).write_text(OWNER_TEXT)
+    except BaseException:
+        lock.release()
+        raise
+    return ClaimedFolder(out_dir, lock, created)
 
 
 def fmt_float(v) -> str:
@@ -63,14 +131,17 @@ def prepare_folder(out_dir, metadata: dict, overwrite: bool) -> tuple[Path, bool
     if out_dir.exists() and not out_dir.is_dir():
         raise SimError(f"{out_dir}: output path exists and is not a folder")
     h = config_hash(metadata)
-    entries = list(out_dir.iterdir()) if out_dir.is_dir() else []
+    entries = _entries(out_dir)
     is_ours = (out_dir / MARKER).exists() or (out_dir / METADATA).exists()
     resuming = False
     if entries and not is_ours:
         raise SimError(f"{out_dir}: folder is not empty and holds no dataset (no {METADATA} or {MARKER}); "
                        f"refusing to write into it")
     if entries and overwrite:
-        shutil.rmtree(out_dir)
+        if not is_owned(out_dir):
+            raise SimError(f"{out_dir}: not written by vo-testbed (no {OWNER} marker); refusing to delete it")
+        for p in entries:
+            shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
     elif entries and (out_dir / MARKER).exists():
         if marker_hash(out_dir) != h:
             raise SimError(f"{out_dir}: incomplete folder was started with a different configuration; "
@@ -80,23 +151,34 @@ def prepare_folder(out_dir, metadata: dict, overwrite: bool) -> tuple[Path, bool
         raise SimError(f"{out_dir}: a complete dataset is already there; pass --overwrite (overwrite=True) to replace it")
     out_dir.mkdir(parents=True, exist_ok=True)
     write_marker(out_dir, h, "writing started")
+    if not (out_dir / OWNER).is_file():
+        (out_dir / OWNER).write_text(OWNER_TEXT)
     if (out_dir / METADATA).exists():          # stale metadata of a wiped/resumed run
         (out_dir / METADATA).unlink()
     return out_dir, resuming
 
 
-def finalize_folder(out_dir: Path, metadata: dict, counts: dict, rig) -> None:
-    """Write ``metadata.yaml`` (caller config + ``rig`` as rig_to_dict unless the caller gave one +
-    counts + ``status: complete``), then drop the marker."""
-    from rigs.config_io import dump_yaml
+def final_metadata(metadata: dict, counts: dict, rig) -> dict:
+    """``metadata.yaml`` content: caller config + ``rig`` as rig_to_dict unless the caller gave one +
+    counts + ``status: complete``."""
     from rigs.rig_yaml import rig_to_dict
     meta = dict(_plain(metadata))
     if "rig" not in meta:
         meta["rig"] = rig_to_dict(rig)
     meta.update({k: int(v) for k, v in counts.items()})
     meta["status"] = "complete"
+    return meta
+
+
+def commit_folder(out_dir: Path, meta: dict) -> None:
+    """The last step of a dataset, after every other file: write ``metadata.yaml`` (``meta``), then
+    ``manifest.json`` over the whole folder, then drop the ``INCOMPLETE`` marker."""
+    from rigs.config_io import dump_yaml
+    from sim.dataset.manifest import write_manifest
     atomic_write_text(out_dir / METADATA, dump_yaml(meta))
+    write_manifest(out_dir)
     (out_dir / MARKER).unlink()
+
 
 
 def _plain(obj):

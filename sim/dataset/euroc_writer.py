@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from rigs.atomic_io import atomic_write_npy
-from sim.dataset.common import (CsvStream, PngOptions, config_hash, finalize_folder, fmt_float,
+from sim.dataset.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
                                 prepare_folder, write_marker, write_png)
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
@@ -220,7 +220,7 @@ class EurocWriter:
 
     def add_imu(self, t_ns, gyro=None, accel=None) -> None:
         """Append IMU samples: ``t_ns`` (N,), ``gyro``/``accel`` (N,3) in the IMU frame; or one
-        object with ``.t_ns, .gyro, .accel`` (ImuSamples/ImuData). Chunks may follow each other."""
+        object with ``.t_ns, .gyro, .accel`` (rigs.records.ImuSamples). Chunks may follow each other."""
         if gyro is None and hasattr(t_ns, "gyro"):
             t_ns, gyro, accel = t_ns.t_ns, t_ns.gyro, t_ns.accel
         t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
@@ -260,8 +260,10 @@ class EurocWriter:
         self._gcps.extend(gcps)
 
     # ------------------------------------------------------------------ finish
-    def finalize(self) -> Path:
-        """Write gcps.csv, groundtruth_tum.txt and metadata.yaml, then remove INCOMPLETE."""
+    def finalize(self, commit: bool = True) -> Path:
+        """Write gcps.csv and groundtruth_tum.txt; with ``commit`` also :meth:`commit` (metadata.yaml,
+        manifest, INCOMPLETE removed). A caller that writes more files into the folder first passes
+        ``commit=False`` and calls :meth:`commit` after them."""
         for s in (*self._cams, self._imu, self._gt, self._c0):
             s.close()
         gcp_note = write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
@@ -272,14 +274,20 @@ class EurocWriter:
                     calibration=calibration_note(self.rig))
         if self.depth:
             meta["depth_format"] = self.depth_format
-        finalize_folder(self.out_dir, meta, counts, self.rig)
-        self.finalized = True
+        self.final_meta = final_metadata(meta, counts, self.rig)
+        if commit:
+            self.commit()
         return self.out_dir
+
+    def commit(self) -> None:
+        """The last step: metadata.yaml (``status: complete``), manifest.json, then INCOMPLETE removed."""
+        commit_folder(self.out_dir, self.final_meta)
+        self.finalized = True
 
     def _write_tum(self) -> None:
         """groundtruth_tum.txt from the streamed cam0 truth (T_w_c0), then drop the helper csv."""
-        from vo.trajfile import write_tum
-        from vo.trajectory import Trajectory
+        from rigs.trajfile import write_tum
+        from rigs.trajectory import Trajectory
         rows = [ln.split(",") for ln in self._c0.path.read_text().splitlines()[1:] if ln.strip()]
         if rows:
             t = np.array([int(r[0]) for r in rows], dtype=np.int64)

@@ -29,8 +29,8 @@ def output_paths(out_dir, fmt: str) -> list:
 
 
 def write_tum_groundtruth(path, traj) -> None:
-    """Write a ``vo.trajectory.Trajectory`` as a TUM file (seconds, x y z, qx qy qz qw)."""
-    from vo.trajfile import write_tum
+    """Write a ``rigs.trajectory.Trajectory`` as a TUM file (seconds, x y z, qx qy qz qw)."""
+    from rigs.trajfile import write_tum
     write_tum(Path(path), traj)
 
 
@@ -129,8 +129,9 @@ class DatasetWriters:
 
     def finalize(self) -> list:
         """Finalize every writer; a bag format then converts the EuRoC folder (a bag left by an
-        interrupted conversion is replaced)."""
-        folders = [w.finalize() for w in self.writers]
+        interrupted conversion is replaced); only then is every folder committed (metadata.yaml,
+        manifest, ``INCOMPLETE`` removed), so an interruption anywhere before leaves a folder that resumes."""
+        folders = [w.finalize(commit=False) for w in self.writers]
         if self.fmt in BAG_NAMES:
             import shutil
             from sim.dataset.rosbag_writer import export_rosbag
@@ -139,6 +140,8 @@ class DatasetWriters:
                 shutil.rmtree(bag)
             elif bag.exists():
                 bag.unlink()
-            export_rosbag(self.out_dir, bag, kind=self.fmt, storage="mcap")
+            export_rosbag(self.out_dir, bag, kind=self.fmt, storage="mcap", allow_incomplete=True)
             folders.append(bag)
+        for w in self.writers:
+            w.commit()
         return folders

@@ -21,11 +21,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from sim.dataset.common import (CsvStream, PngOptions, config_hash, finalize_folder, fmt_float,
+from rigs.image import to_gray
+from sim.dataset.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
                                 prepare_folder, write_marker, write_png)
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
-from vo.frontend.image import to_gray
 
 FRAMES_HEADER = "#timestamp [ns],index"
 TRUTH_HEADER = "#timestamp [ns],T_w_c0 row-major 3x4 (12 numbers)"
@@ -124,8 +124,9 @@ class KittiWriter:
     def add_gcps(self, gcps) -> None:
         self._gcps.extend(gcps)
 
-    def finalize(self) -> Path:
-        """Write times.txt, times_ns.txt, poses/NN.txt, gcps.csv, metadata.yaml; remove INCOMPLETE."""
+    def finalize(self, commit: bool = True) -> Path:
+        """Write times.txt, times_ns.txt, poses/NN.txt, gcps.csv; with ``commit`` also :meth:`commit`
+        (metadata.yaml, manifest, INCOMPLETE removed)."""
         from sim.dataset.euroc_writer import write_gcps_csv
         from rigs.atomic_io import atomic_write_text
         self._frames.close()
@@ -140,16 +141,22 @@ class KittiWriter:
         self._truth.path.unlink()
         meta = dict(self.metadata, **self.extra_metadata, format="kitti",
                     kitti={"sequence": self.sequence, "t0_ns": t0}, gcps=gcp_note)
-        finalize_folder(self.out_dir, meta, {"n_frames": len(t_frames), "n_poses": n_poses,
-                                             "n_gcps": len(self._gcps)}, self.rig)
-        self.finalized = True
+        self.final_meta = final_metadata(meta, {"n_frames": len(t_frames), "n_poses": n_poses,
+                                                "n_gcps": len(self._gcps)}, self.rig)
+        if commit:
+            self.commit()
         return self.out_dir
+
+    def commit(self) -> None:
+        """The last step: metadata.yaml (``status: complete``), manifest.json, then INCOMPLETE removed."""
+        commit_folder(self.out_dir, self.final_meta)
+        self.finalized = True
 
     def _write_poses(self, t_frames: np.ndarray) -> int:
         """poses/NN.txt with one pose per frame (all frames need a cam0 truth at the same time)."""
         from rigs.geometry import inv_T, make_T
-        from vo.trajfile import write_kitti
-        from vo.trajectory import Trajectory
+        from rigs.trajfile import write_kitti
+        from rigs.trajectory import Trajectory
         rows = [ln.split(",") for ln in self._truth.path.read_text().splitlines()[1:] if ln.strip()]
         if not rows:
             return 0

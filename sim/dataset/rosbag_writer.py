@@ -53,10 +53,12 @@ def check_kind(kind: str, storage: str) -> None:
         raise SimError(f"--storage: unknown ROS 2 storage {storage!r}; valid: {', '.join(STORAGES)}")
 
 
-def export_rosbag(dataset_dir, out_path, kind: str = "rosbag1", storage: str = "mcap") -> ExportResult:
+def export_rosbag(dataset_dir, out_path, kind: str = "rosbag1", storage: str = "mcap",
+                  allow_incomplete: bool = False) -> ExportResult:
     """Write the dataset in ``dataset_dir`` as a bag at ``out_path`` (a ``.bag`` file for rosbag1,
     a new folder for rosbag2; ``storage`` applies to rosbag2 only). ``out_path`` must not exist.
-    A failed export removes what it wrote."""
+    A failed export removes what it wrote. ``allow_incomplete``: the generator's own bag step, which
+    converts its folder before marking it complete."""
     from vo.dataset import open_dataset
     check_kind(kind, storage)
     out_path = Path(out_path)
@@ -67,7 +69,7 @@ def export_rosbag(dataset_dir, out_path, kind: str = "rosbag1", storage: str = "
     if (out_path.suffix == ".bag") != (kind == "rosbag1"):     # readers (rosbags' AnyReader) go by the suffix
         raise SimError(f"--out: {out_path}: a rosbag1 bag is a file named *.bag, a rosbag2 bag a folder not "
                        f"named *.bag")
-    ds = open_dataset(dataset_dir)
+    ds = open_dataset(dataset_dir, allow_incomplete=allow_incomplete)
     try:
         counts = _write(ds, out_path, kind, storage)
     except BaseException:

@@ -33,10 +33,19 @@ DR_RATE_HZ = 20.0
 def generate_traverse(config, tcfg, out_dir, progress: bool = True, overwrite: bool = False) -> dict:
     """Plan, simulate and write the traverse of ``config`` (GenerateConfig) with ``tcfg``
     (:class:`sim.traverse.TraverseConfig`) into ``out_dir``; returns a summary dict."""
-    from sim.traverse import plan
+    from sim.dataset.common import claim_folder
     out = Path(out_dir)
-    if (out / "metadata.yaml").exists() and not overwrite:
-        raise SimError(f"--out {out}: a dataset is already there; pass --overwrite to replace it")
+    with claim_folder(out, overwrite):        # locked; --overwrite deletes only a folder of ours
+        if (out / "metadata.yaml").exists():
+            raise SimError(f"--out {out}: a dataset is already there; pass --overwrite to replace it")
+        return _generate_traverse(config, tcfg, out, progress)
+
+
+def _generate_traverse(config, tcfg, out: Path, progress: bool) -> dict:
+    """:func:`generate_traverse` in a claimed folder; ``metadata.yaml`` is written last (atomically), so a
+    folder without it is incomplete and a rerun writes it again."""
+    from rigs.atomic_io import atomic_write_text
+    from sim.traverse import plan
     (out / "sites").mkdir(parents=True, exist_ok=True)
     (out / "drive").mkdir(parents=True, exist_ok=True)
     tp = plan(config, tcfg)
@@ -47,7 +56,7 @@ def generate_traverse(config, tcfg, out_dir, progress: bool = True, overwrite: b
     _write_tum(out / "sites" / "dead_reckoning_tum.txt", tp.site_t_ns, T_dr)
     write_map(out / "map.png", tp, T_dr)
     meta = _metadata(config, tcfg, tp)
-    (out / "metadata.yaml").write_text(yaml.safe_dump(_plain(meta), sort_keys=False))
+    atomic_write_text(out / "metadata.yaml", yaml.safe_dump(_plain(meta), sort_keys=False))
     return {"out_dir": str(out), "n_sites": len(tp.site_t_ns), "n_pairs": len(tp.captures),
             "path_length_m": float(tp.site_s_m[-1]), "duration_s": (tp.trajectory.t1_ns - tp.trajectory.t0_ns) * 1e-9,
             "map_png": str(out / "map.png")}
@@ -104,7 +113,7 @@ def _dead_reckoning(tp, tcfg, config, imu):
     the random part of the slip model (``traverse.slip_random_std``); the mean slip is not corrected
     (an on-board filter does not know it) but is in its covariance: a slip-bias state of prior std
     ``traverse.slip`` (at least 0.02); the gyro and accelerometer bias random walks are the rig IMU's."""
-    from sim.sensors.imu import ImuSamples
+    from rigs.records import ImuSamples
     from vo.deadreckoning import DeadReckoningConfig, dead_reckon
     n = max(1, int(round(config.rig.imu.rate_hz / DR_RATE_HZ)))
     m = (len(imu.t_ns) - 1) // n * n + 1
@@ -127,7 +136,7 @@ def _write_sites(out: Path, tp, config, T_dr, C_dr, progress: bool) -> None:
     from sim.render import StereoRenderer
     from sim.sensors.camera import add_noise
     from sim.world import build_world
-    from vo.frontend.image import to_gray
+    from rigs.image import to_gray
     from sim.vehicles.rover import MastHead
     head = MastHead.from_rig(config.rig)
     sigma = 0.0 if config.ideal else config.noise.image_sigma
@@ -161,8 +170,8 @@ def _write_sites(out: Path, tp, config, T_dr, C_dr, progress: bool) -> None:
 
 
 def _write_tum(path: Path, t_ns, T) -> None:
-    from vo.trajectory import Trajectory
-    from vo.trajfile import write_tum
+    from rigs.trajectory import Trajectory
+    from rigs.trajfile import write_tum
     write_tum(path, Trajectory(np.asarray(t_ns, np.int64), np.asarray(T), ref="w", frame="b"))
 
 
@@ -172,7 +181,7 @@ def write_map(path: Path, tp, T_dr=None, extra: dict = None) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from vo.eval.plots import save_figure
+    from rigs.figures import save_figure
     sc = tp.scene
     xmin, xmax, ymin, ymax = sc.extent_xy()
     gy, gx = np.gradient(sc.z, getattr(sc, "res_m", 0.25))

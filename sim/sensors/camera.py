@@ -32,7 +32,7 @@ class StereoCamera:
         """Clean stereo measurement at body pose ``T_w_b`` (4,4), the scene's actors at ``dynamic_state``
         (``{mocap body: T_w_x}``, :meth:`scenes.base.Scene.actor_states`): ``(images [left, right], depth,
         seg)``, lens distortion applied by the renderer (exact inverse map)."""
-        from vo.frontend.image import to_gray
+        from rigs.image import to_gray
         fr = self._renderer.render(T_w_b, dynamic_state)
         images = [img if img.ndim == 2 or self.rgb else to_gray(img) for img in fr.images[:2]]
         return images, fr.depth, fr.seg

@@ -9,27 +9,15 @@ body frame; checked against the analytic formula in ``tests/test_imu_exact.py``)
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from sim.errors import SimError
 from rigs.geometry import R_from_quat_wxyz, quat_wxyz_from_R
+from rigs.records import ImuSamples
 
 G_W = np.array([0.0, 0.0, -9.81])
-
-
-@dataclass(frozen=True)
-class ImuSamples:
-    """``t_ns`` (N,) int64; ``gyro`` (N,3) rad/s and ``accel`` (N,3) m/s^2 in the IMU frame i."""
-
-    t_ns: np.ndarray
-    gyro: np.ndarray
-    accel: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.t_ns.shape[0])
 
 
 def imu_times_ns(t0_ns: int, t1_ns: int, rate_hz: float) -> np.ndarray:

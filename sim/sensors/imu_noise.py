@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim.errors import SimError
-from sim.sensors.imu import ImuSamples
+from rigs.records import ImuSamples
 
 
 @dataclass(frozen=True)

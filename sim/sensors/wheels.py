@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rigs.records import WheelSamples
 from sim.errors import SimError
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(5)
@@ -28,15 +29,6 @@ class WheelTravel:
 
     t_ns: np.ndarray
     dist_m: np.ndarray
-
-
-@dataclass(frozen=True)
-class WheelSamples:
-    """``t_ns`` (N,) int64; cumulative ``left_ticks``, ``right_ticks`` (N,) int64."""
-
-    t_ns: np.ndarray
-    left_ticks: np.ndarray
-    right_ticks: np.ndarray
 
 
 def wheel_speeds(states, track_m: float) -> np.ndarray:

@@ -57,6 +57,9 @@ class Dataset:
         self._image_paths = image_paths          # list of (left Path, right Path)
         self.warnings = list(warnings or [])
         _check_listed_images(image_paths)
+        if image_paths:
+            for k, p in enumerate(image_paths[0]):
+                self._check_size(k, p, load_gray(p))
 
     def __len__(self) -> int:
         return int(self.frame_times_ns.shape[0])
@@ -74,7 +77,17 @@ class Dataset:
             if not p.is_file():
                 raise DatasetError(f"{p}: image file not found (listed for frame {k}, missing from {p.parent}: "
                                    f"the image list and the folder disagree)")
-        return StereoFrame(index=k, t_ns=int(self.frame_times_ns[k]), left=load_gray(left), right=load_gray(right))
+        images = [self._check_size(c, p, load_gray(p)) for c, p in enumerate((left, right))]
+        return StereoFrame(index=k, t_ns=int(self.frame_times_ns[k]), left=images[0], right=images[1])
+
+    def _check_size(self, cam: int, path: Path, image: np.ndarray) -> np.ndarray:
+        """``image`` of camera ``cam`` read from ``path``; one line naming the file and both sizes when it is
+        not the size the rig gives that camera."""
+        c = self.rig.cameras[cam]
+        if image.shape[:2] != (c.height, c.width):
+            raise DatasetError(f"{path}: image is {image.shape[1]}x{image.shape[0]} px, the rig's cam{cam} "
+                               f"({c.name}) is {c.width}x{c.height} px; images and calibration disagree")
+        return image
 
     def frames(self, start: int = 0, stop: Optional[int] = None, step: int = 1) -> Iterator[StereoFrame]:
         for k in range(*slice(start, stop, step).indices(len(self))):

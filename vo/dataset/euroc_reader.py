@@ -30,6 +30,11 @@ def pair_cameras(mav0: Path) -> tuple[np.ndarray, list, list]:
     t0, f0 = read_image_list(mav0 / "cam0" / "data.csv")
     t1, f1 = read_image_list(mav0 / "cam1" / "data.csv")
     common, i0, i1 = np.intersect1d(t0, t1, assume_unique=True, return_indices=True)
+    if len(t0) and len(t1) and not len(common):
+        raise DatasetError(f"{mav0 / 'cam0' / 'data.csv'} and {mav0 / 'cam1' / 'data.csv'}: the cameras' timestamps "
+                           f"do not pair: none of the {len(t0)} cam0 stamps equals one of the {len(t1)} cam1 stamps "
+                           f"(first {t0[0]} and {t1[0]}, {int(t1[0]) - int(t0[0])} ns apart); a stereo frame needs "
+                           f"the same timestamp on both cameras")
     warnings = []
     if len(common) < max(len(t0), len(t1)):
         warnings.append(f"dropped {len(t0) - len(common)} cam0 and {len(t1) - len(common)} cam1 frames "

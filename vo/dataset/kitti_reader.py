@@ -28,19 +28,27 @@ def kitti_times_ns(seq: Path, t0_ns: int) -> np.ndarray:
 
 
 def pair_images(seq: Path, n_times: int) -> tuple[list, list]:
-    """Indices ``k < n_times`` with both image_0/k and image_1/k present -> (indices, warnings)."""
+    """Indices ``0 .. n_times-1``, each with both ``image_0/k`` and ``image_1/k`` -> (indices, warnings).
+
+    As for EuRoC, a dataset whose files disagree is refused (one line naming the file): an image listed
+    by ``times.txt`` but missing from ``image_0``/``image_1``, or more images than times (a truncated
+    ``times.txt``)."""
     names = {}
     for k in (0, 1):
         folder = seq / f"image_{k}"
         if not folder.is_dir():
             raise DatasetError(f"{folder}: image folder not found")
         names[k] = {p.name for p in folder.iterdir() if p.suffix == ".png"}
-    keep = [k for k in range(n_times) if f"{k:06d}.png" in names[0] and f"{k:06d}.png" in names[1]]
-    warnings = []
-    if len(keep) < n_times or len(keep) < max(len(names[0]), len(names[1])):
-        warnings.append(f"{len(keep)} stereo pairs for {n_times} times, {len(names[0])} left and "
-                        f"{len(names[1])} right images; unpaired frames dropped")
-    return keep, warnings
+    times = seq / "times.txt"
+    for k in (0, 1):
+        missing = [j for j in range(n_times) if f"{j:06d}.png" not in names[k]]
+        if missing:
+            raise DatasetError(f"{seq / f'image_{k}' / f'{missing[0]:06d}.png'}: image file not found "
+                               f"({len(missing)} of the {n_times} frames in {times.name} have no image_{k} file)")
+        if len(names[k]) > n_times:
+            raise DatasetError(f"{times}: {n_times} frame times for {len(names[k])} images in image_{k}; "
+                               f"a truncated {times.name} (or extra images)")
+    return list(range(n_times)), []
 
 
 class KittiDataset(Dataset):

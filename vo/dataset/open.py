@@ -16,8 +16,8 @@ MARKER = "INCOMPLETE"
 _ANNOUNCED: set = set()
 
 
-def _refuse_incomplete(*folders: Path) -> None:
-    for f in folders:
+def _refuse_incomplete(*folders: Path, allow: bool = False) -> None:
+    for f in folders if not allow else ():
         if (f / MARKER).exists():
             raise DatasetError(f"{f}: dataset is incomplete (INCOMPLETE marker: writing was interrupted); "
                                f"rerun the same generate command to resume it, or regenerate with overwrite")
@@ -55,8 +55,9 @@ def _both_root_to_euroc(path: Path) -> Path:
     return path / "euroc"
 
 
-def open_dataset(path):
-    """Open a dataset folder -> ``EurocDataset`` or ``KittiDataset`` (both :class:`Dataset`)."""
+def open_dataset(path, allow_incomplete: bool = False):
+    """Open a dataset folder -> ``EurocDataset`` or ``KittiDataset`` (both :class:`Dataset`).
+    ``allow_incomplete``: read a folder still marked ``INCOMPLETE`` (the generator's own bag step only)."""
     path = Path(path).expanduser()
     if not path.is_dir():
         raise DatasetError(f"{path}: dataset folder not found" if not path.exists() else
@@ -66,13 +67,13 @@ def open_dataset(path):
     path = _both_root_to_euroc(path)
     if (path / "mav0").is_dir():
         from vo.dataset.euroc_reader import EurocDataset
-        _refuse_incomplete(path)
+        _refuse_incomplete(path, allow=allow_incomplete)
         return EurocDataset(path / "mav0", path, ours=_is_ours(path))
     seq = _kitti_sequence(path)
     if seq is not None:
         from vo.dataset.kitti_reader import KittiDataset
         root = seq.parent.parent
-        _refuse_incomplete(path, root)
+        _refuse_incomplete(path, root, allow=allow_incomplete)
         return KittiDataset(seq, root, ours=_is_ours(root))
     _refuse_incomplete(path)
     raise DatasetError(f"{path}: not a recognised dataset (expected mav0/ for EuRoC, or sequences/NN or "

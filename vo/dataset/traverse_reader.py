@@ -78,6 +78,21 @@ def stereo_cal(meta: dict, T_head_c: np.ndarray, where: str):
     return StereoCal(K, T_c0_c1, W, H)
 
 
+def describe_non_traverse(root: Path, meta: dict) -> str:
+    """What a dataset folder that is not a traverse holds, in a few words (for the error of a reader)."""
+    if meta.get("kind") is not None:
+        return f"a dataset of kind {meta.get('kind')!r}"
+    fmt = meta.get("format") or ("euroc" if (root / "mav0").is_dir() else "kitti" if (root / "sequences").is_dir()
+                                 else None)
+    if fmt is None:
+        return "a folder whose metadata.yaml names no dataset kind"
+    scene = meta.get("scene")
+    scene = scene.get("name") if isinstance(scene, dict) else scene
+    n = meta.get("n_frames")
+    return (f"a {fmt.upper() if fmt == 'kitti' else 'EuRoC'} stereo sequence" + (f" of {n} frames" if n else "")
+            + (f" ({scene})" if scene else ""))
+
+
 def read_traverse(path, angles: str = "commanded", max_sites: int = 0) -> Traverse:
     """The traverse at ``path``; ``angles`` "commanded" (default) or "true" for each pair's ``T_b_c0``."""
     import cv2
@@ -87,7 +102,9 @@ def read_traverse(path, angles: str = "commanded", max_sites: int = 0) -> Traver
         raise DatasetError(f"traverse angles: {angles!r}; valid: commanded, true")
     meta = _yaml(root / "metadata.yaml")
     if meta.get("kind") != "traverse":
-        raise DatasetError(f"{root / 'metadata.yaml'}: kind is {meta.get('kind')!r}, not 'traverse'")
+        raise DatasetError(f"{root}: {describe_non_traverse(root, meta)}, not a stop-and-go traverse; "
+                           f"localize needs per-site panoramas (sites/site_NN/) made by "
+                           f"`vo-testbed generate --scenario yutu-traverse --out DIR`")
     T_b_mast, T_head_c = mast_model(meta, str(root / "metadata.yaml"))
     cal = stereo_cal(meta, T_head_c, str(root / "metadata.yaml"))
     n = int(meta.get("n_sites", 0))

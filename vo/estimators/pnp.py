@@ -74,26 +74,34 @@ class _StereoPnpEstimator(Estimator):
         return res
 
     def _try_init(self, t_ns, left, right, timings) -> FrameResult:
-        if self._initialized:
-            self._coast_pose()
+        """Build a keyframe at the current pose: the first one defines ``o`` (its identity pose is the origin,
+        class ok); a later one sits at the coasted pose (class coasting, or lost once the pose is held). Before
+        the first keyframe the identity is a placeholder (class init)."""
+        pose_class = self._coast_pose() if self._initialized else "init"
         n_lm = self._initialize(left, right, timings)
         if n_lm < self.pnp_config.min_init_landmarks:
             return self._result(t_ns, "few_features", n_lm, 0,
-                                f"{n_lm} stereo landmarks < {self.pnp_config.min_init_landmarks}: blank or textureless view?")
+                                f"{n_lm} stereo landmarks < {self.pnp_config.min_init_landmarks}: blank or "
+                                f"textureless view?", pose_class)
         status = "reinit" if self._initialized else "init"
         self._initialized, self._need_init, self._coast = True, False, 0
-        return self._result(t_ns, status, n_lm, n_lm, f"keyframe with {n_lm} landmarks")
+        return self._result(t_ns, status, n_lm, n_lm, f"keyframe with {n_lm} landmarks",
+                            pose_class if status == "reinit" else "ok")
 
     def _fail(self, t_ns, status, n_feat, n_inl, message) -> FrameResult:
         """Tracking failed this frame: coast the pose and re-initialise on the next frame."""
-        self._coast_pose()
+        pose_class = self._coast_pose()
         self._need_init = True
-        return self._result(t_ns, status, n_feat, n_inl, message)
+        return self._result(t_ns, status, n_feat, n_inl, message, pose_class)
 
-    def _coast_pose(self) -> None:
-        if self._coast < MAX_COAST_FRAMES:
+    def _coast_pose(self) -> str:
+        """Extrapolate the pose at constant velocity (-> "coasting"), or hold it after
+        :data:`MAX_COAST_FRAMES` failed frames (-> "lost")."""
+        coast = self._coast < MAX_COAST_FRAMES
+        if coast:
             self.T_o_c0 = self.T_o_c0 @ self._T_prev_curr
         self._coast += 1
+        return "coasting" if coast else "lost"
 
     def _accept_pose(self, T_o_c0_new) -> bool:
         """Update pose and velocity unless the step is implausibly large."""
@@ -115,8 +123,9 @@ class _StereoPnpEstimator(Estimator):
         p_c0, ok = triangulate(self.rig, p_left, p_right, c.max_depth, c.max_triangulation_px)
         return transform_points(self.T_o_c0, p_c0), ok
 
-    def _result(self, t_ns, status, n_feat, n_inl, message="") -> FrameResult:
-        return FrameResult(int(t_ns), self.T_o_c0.copy(), status, int(n_feat), int(n_inl), None, message)
+    def _result(self, t_ns, status, n_feat, n_inl, message="", pose_class="ok") -> FrameResult:
+        return FrameResult(int(t_ns), self.T_o_c0.copy(), status, int(n_feat), int(n_inl), None, message,
+                           pose_class=pose_class)
 
 
 class KltPnpEstimator(_StereoPnpEstimator):

@@ -2,17 +2,14 @@
 
 Accepted specs: a registered name (:data:`ESTIMATORS`), ``"package.module:Class"`` (a subclass of
 :class:`vo.estimators.base.Estimator`), or ``"cmd:<template>"`` for an external program (see
-:class:`ExternalCommand`).
+:mod:`vo.estimators.external`). An estimator that reads ground truth declares it (:func:`is_oracle`).
 """
 from __future__ import annotations
-
-import shlex
-import subprocess
-from pathlib import Path
 
 from rigs.plugins import load_plugin_class
 from vo.errors import EstimatorError
 from vo.estimators.base import Estimator
+from vo.estimators.external import ExternalCommand, ExternalCommandError  # noqa: F401 - part of this API
 
 ESTIMATORS = {
     "rop": "vo.rop.estimator:RopEstimator",
@@ -54,14 +51,6 @@ def load_class(path: str) -> type:
     return load_plugin_class(path, Estimator, "estimator", EstimatorError)
 
 
-class ExternalCommandError(EstimatorError):
-    """An external program failed; ``stderr`` holds what it printed there."""
-
-    def __init__(self, message: str, stderr: str = ""):
-        super().__init__(message)
-        self.stderr = stderr
-
-
 def check_spec(spec: str) -> None:
     """Raise EstimatorError now, before any work, when ``spec`` names no estimator we could run."""
     if is_external(spec):
@@ -91,46 +80,8 @@ def make_estimator(spec: str, rig, **options) -> Estimator:
     return load_class(spec)(rig, **options)
 
 
-class ExternalCommand:
-    """An external VO program: ``cmd_template`` holds ``{dataset}`` and ``{out}``, e.g.
-    ``"my_vo --data {dataset} --traj {out}"``; the program must write a TUM trajectory of ``T_o_c0`` to ``{out}``.
-
-    Run without a shell (``shlex.split``) unless ``shell=True``.
-    """
-
-    def __init__(self, cmd_template: str, shell: bool = False, timeout_s: float | None = None):
-        if cmd_template.startswith("cmd:"):
-            cmd_template = cmd_template[4:]
-        for key in ("{dataset}", "{out}"):
-            if key not in cmd_template:
-                raise EstimatorError(f"external command {cmd_template!r}: template must contain {key} (and "
-                                     "{dataset}, {out})")
-        self.cmd_template, self.shell, self.timeout_s = cmd_template.strip(), shell, timeout_s
-        self.name = "cmd:" + (shlex.split(self.cmd_template) or ["?"])[0]
-
-    def command(self, dataset_path, out_path):
-        """The argument list (or shell string) for one run."""
-        if self.shell:
-            return self.cmd_template.format(dataset=shlex.quote(str(dataset_path)), out=shlex.quote(str(out_path)))
-        return [a.format(dataset=str(dataset_path), out=str(out_path)) for a in shlex.split(self.cmd_template)]
-
-    def run(self, dataset_path, out_path) -> Path:
-        """Run once; returns ``out_path`` (what the program wrote to stderr is kept in ``self.stderr``).
-        Failure -> ExternalCommandError with exit code and last stderr line (all of it in ``.stderr``)."""
-        cmd = self.command(dataset_path, out_path)
-        self.stderr = ""
-        try:
-            proc = subprocess.run(cmd, shell=self.shell, capture_output=True, text=True, timeout=self.timeout_s)
-        except FileNotFoundError as e:
-            raise EstimatorError(f"external command {self.cmd_template!r}: program not found ({e.filename})") from None
-        except subprocess.TimeoutExpired:
-            raise EstimatorError(f"external command {self.cmd_template!r}: timed out after {self.timeout_s} s") from None
-        self.stderr = proc.stderr
-        if proc.returncode != 0:
-            last = next((l for l in reversed(proc.stderr.splitlines()) if l.strip()), "")
-            raise ExternalCommandError(f"external command {self.cmd_template!r} failed with exit code "
-                                       f"{proc.returncode}: {last}", proc.stderr)
-        if not Path(out_path).is_file():
-            raise ExternalCommandError(f"external command {self.cmd_template!r}: exit 0 but wrote no trajectory "
-                                       f"to {{out}}", proc.stderr)
-        return Path(out_path)
+def is_oracle(spec: str, options: dict | None = None) -> bool:
+    """True when in-process estimator ``spec`` with ``options`` reads ground truth (its class's ``is_oracle``)."""
+    if is_external(spec):
+        return False
+    return bool(load_class(ESTIMATORS.get(spec, spec)).is_oracle(dict(options or {})))

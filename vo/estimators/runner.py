@@ -1,31 +1,33 @@
 """Run an estimator over a dataset (reader API) and save its trajectory, per-frame log and summary."""
 from __future__ import annotations
 
-import csv
-import io
-import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from rigs.atomic_io import atomic_write_json, atomic_write_text as _atomic_write
 from vo.errors import EstimatorError, VoError
-from vo.estimators.base import STATUSES, FrameResult
-from vo.estimators.registry import ExternalCommand, ExternalCommandError, is_external, make_estimator
+from vo.estimators.base import FRAME_CLASSES, PRODUCED_CLASSES, STATUSES, FrameResult, frame_class
+from vo.estimators.framelog import LOG_NAME, frames_csv
+from vo.estimators.progress import progress_iter
+from vo.estimators.external import run_external
+from vo.estimators.registry import is_external, make_estimator
+from vo.estimators.sensor_dataset import SensorDataset
 from vo.trajectory import Trajectory
-from vo.trajfile import read_tum, write_kitti, write_tum
+from vo.trajfile import write_kitti, write_tum
 
 LOST_STATUSES = ("few_features", "lost")
-STAGES = ("detect", "track", "stereo", "pnp", "total")
 
 
 @dataclass
 class RunResult:
     """``trajectory`` of ``T_o_c0`` (ref "o", frame "c0"); ``frames`` per-frame results (empty for external
-    commands); ``timings_ms`` mean ms per stage over frames; ``n_lost`` frames with status few_features/lost."""
+    commands); ``timings_ms`` mean ms per stage over frames; ``n_lost`` frames with status few_features/lost.
+    Each pose has a class (:data:`~vo.estimators.base.FRAME_CLASSES`); evaluation uses the produced ones
+    (:meth:`estimated`), a placeholder (init, lost) counts as not covered."""
 
     name: str
     trajectory: Trajectory
@@ -33,14 +35,31 @@ class RunResult:
     timings_ms: dict = field(default_factory=dict)
     n_lost: int = 0
     wall_time_s: float = 0.0
-    stderr: str = ""             # what an external program printed on stderr
+    stderr: str = ""             # what an external program printed on stderr (its tail)
+    isolation: str = ""          # an external program's: "namespace" or "view only"
+
+    def pose_classes(self) -> np.ndarray:
+        """(N,) class of each trajectory pose; every pose of an external program (no frame log) is ok."""
+        if not self.frames:
+            return np.full(len(self.trajectory), "ok", dtype=object)
+        return np.array([frame_class(f) for f in self.frames], dtype=object)
+
+    def class_counts(self) -> dict:
+        """``{"ok": n, "coasting": n, "init": n, "lost": n}`` over the frames."""
+        classes = list(self.pose_classes())
+        return {c: classes.count(c) for c in FRAME_CLASSES}
+
+    def estimated(self) -> Trajectory:
+        """The poses the estimator produced (classes ok and coasting): what evaluation and the gate score."""
+        return self.trajectory.subset(np.isin(self.pose_classes(), PRODUCED_CLASSES))
 
     def summary(self) -> dict:
         counts = {s: 0 for s in STATUSES}
         for f in self.frames:
             counts[f.status] = counts.get(f.status, 0) + 1
         return {"estimator": self.name, "n_frames": len(self.trajectory), "n_lost": self.n_lost,
-                "status_counts": counts, "mean_ms": {k: round(v, 3) for k, v in self.timings_ms.items()},
+                "status_counts": counts, "frames_by_status": self.class_counts(),
+                "mean_ms": {k: round(v, 3) for k, v in self.timings_ms.items()},
                 "wall_time_s": round(self.wall_time_s, 3), "path_length_m": round(self.trajectory.path_length, 4)}
 
     def save(self, out_dir) -> Path:
@@ -50,36 +69,33 @@ class RunResult:
         out.mkdir(parents=True, exist_ok=True)
         write_tum(out / "trajectory_tum.txt", self.trajectory)
         write_kitti(out / "trajectory_kitti.txt", self.trajectory, times_path=out / "times.txt")
-        _atomic_write(out / "frames.csv", self._frames_csv())
+        _atomic_write(out / LOG_NAME, frames_csv(self.frames))
         atomic_write_json(out / "summary.json", self.summary())
         return out
 
-    def _frames_csv(self) -> str:
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        extra = sorted({k for f in self.frames for k in f.timings_ms} - set(STAGES))
-        stages = [s for s in STAGES if s != "total"] + extra + ["total"]     # every stage any frame reported
-        w.writerow(["t_ns", "status", "n_features", "n_inliers", "message"] + [f"{s}_ms" for s in stages])
-        for f in self.frames:
-            w.writerow([f.t_ns, f.status, f.n_features, f.n_inliers, f.message]
-                       + [f"{f.timings_ms.get(s, 0.0):.3f}" for s in stages])
-        return buf.getvalue()
-
 
 def run_estimator(spec: str, dataset, options: dict | None = None, progress: bool = True,
-                  max_frames: int | None = None) -> RunResult:
-    """Run ``spec`` (name, ``module:Class`` or ``cmd:...``) on ``dataset`` -> :class:`RunResult`."""
+                  max_frames: int | None = None, seed: int = 0, timeout_s: float | None = None,
+                  isolation: str = "auto") -> RunResult:
+    """Run ``spec`` (name, ``module:Class`` or ``cmd:...``) on ``dataset`` -> :class:`RunResult`.
+    ``timeout_s`` and ``isolation`` apply to external programs (:func:`vo.estimators.external.run_external`).
+
+    OpenCV's global RNG is seeded with ``seed`` before the estimator is made, so a run does not depend on
+    what ran before it in the process. Progress: a bar on a terminal, a line per 10 % otherwise."""
     if max_frames is not None and max_frames < 1:
         raise EstimatorError(f"max_frames: must be >= 1, got {max_frames!r}")
     if is_external(spec):
-        return _run_external(spec, dataset)
+        ext = run_external(spec, dataset, timeout_s, isolation)
+        return RunResult(ext.name, ext.trajectory, [], {"total": ext.wall_time_s * 1e3 / max(len(ext.trajectory), 1)},
+                         0, ext.wall_time_s, stderr=ext.stderr, isolation=ext.isolation)
     t0 = time.perf_counter()
+    cv2.setRNGSeed(int(seed))
     est = make_estimator(spec, dataset.rig, **(options or {}))
     est.set_imu(getattr(dataset, "imu", None))
-    est.set_dataset(dataset)
+    est.set_dataset(dataset if est.is_oracle(est.options) else SensorDataset(dataset))   # truth for oracles only
     n = len(dataset) if max_frames is None else min(len(dataset), max_frames)
     frames = []
-    for frame in _progress(dataset.frames(), n, progress, est.name or spec):
+    for frame in progress_iter(dataset.frames(), n, progress, est.name or spec):
         if len(frames) >= n:
             break
         frames.append(_checked(est, frame, frames[-1] if frames else None))
@@ -105,37 +121,9 @@ def _checked(est, frame, last: FrameResult | None) -> FrameResult:
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         res.T_o_c0 = last.T_o_c0.copy() if last is not None else np.eye(4)
         res.status, res.message = "lost", f"non-finite pose replaced by the last one; {res.message}"
+        res.pose_class = "lost"
     if res.status not in STATUSES:
         raise EstimatorError(f"{est.name}: status {res.status!r} unknown; valid: {', '.join(STATUSES)}")
+    if res.pose_class and res.pose_class not in FRAME_CLASSES:
+        raise EstimatorError(f"{est.name}: pose_class {res.pose_class!r} unknown; valid: {', '.join(FRAME_CLASSES)}")
     return res
-
-
-def _progress(it, total, enabled, desc):
-    if not enabled or not sys.stderr.isatty():
-        return it
-    from tqdm import tqdm
-    return tqdm(it, total=total, desc=desc, unit="frame")
-
-
-def _run_external(spec: str, dataset) -> RunResult:
-    """Run ``cmd:...`` on a sensor-only view of ``dataset`` (an opened Dataset or a folder to open):
-    the program never sees ground truth, and cannot change the dataset (:mod:`vo.estimators.sensor_view`)."""
-    from vo.dataset import open_dataset
-    from vo.estimators.sensor_view import SensorView
-    ds = open_dataset(dataset) if isinstance(dataset, (str, Path)) else dataset
-    if getattr(ds, "path", None) is None:
-        raise EstimatorError(f"{spec}: external commands need a dataset folder (dataset.path)")
-    cmd = ExternalCommand(spec)
-    t0 = time.perf_counter()
-    sensors = SensorView(ds)
-    with sensors as view, tempfile.TemporaryDirectory(prefix="vo_ext_") as tmp:
-        try:
-            out = cmd.run(view, Path(tmp) / "trajectory_tum.txt")
-        finally:
-            sensors.check_untouched(cmd.name)      # also after a crash: a written dataset file is worse
-        try:
-            traj = read_tum(out, ref="o", frame="c0")
-        except VoError as e:
-            raise ExternalCommandError(f"{cmd.name}: unreadable TUM output ({e})", cmd.stderr) from None
-    wall = time.perf_counter() - t0
-    return RunResult(cmd.name, traj, [], {"total": wall * 1e3 / max(len(traj), 1)}, 0, wall, stderr=cmd.stderr)

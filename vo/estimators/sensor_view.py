@@ -6,14 +6,14 @@ same layout holding only images, IMU, wheel ticks and calibration. Left out: gro
 ``gcps.csv``, ``metadata.yaml`` (it records the route), the sensor-effect truth (``rig_true.yaml``, the
 calibration the images were rendered with when the written one is perturbed; ``sensor_effects.yaml``;
 ``frame_effects.csv``) and plots. The view is an allow-list (``EUROC_*``, ``KITTI_*`` below): a file not
-listed there is never shown. Files are hard links into the
-dataset when the file system allows it (no copy of the images), copies otherwise; the folders of
-the view are read-only. A hard-linked file shares its bytes with the dataset, so after the run
-:meth:`SensorView.check_untouched` compares the size and modification time of every linked file
-with those before the run and raises when the program wrote to one.
+listed there is never shown. Every file is a read-only copy (never a hard link: a program running as root
+could write through one into the dataset), so the dataset and the scenario cache cannot be changed through
+the view. The SHA-256 of every file is taken while copying; :meth:`SensorView.check_untouched` hashes the
+view again after the run and raises, naming the file, when one was changed, removed or added.
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import shutil
 import stat
@@ -31,20 +31,26 @@ KITTI_SEQ_DIRS = ("image_0", "image_1", "image_2", "image_3")
 
 
 class SensorView:
-    """``with SensorView(dataset) as folder:`` -> the view's root (a :class:`pathlib.Path`).
+    """``with SensorView(dataset, root) as folder:`` -> the view's root (a :class:`pathlib.Path`), ``root`` when
+    given (a folder that must not exist yet), else a new temporary folder; removed on exit.
 
     ``dataset`` is an opened :class:`vo.dataset.base.Dataset` (EuRoC or KITTI, ours or real)."""
 
-    def __init__(self, dataset):
+    def __init__(self, dataset, root=None):
         self.dataset = dataset
+        self._given = Path(root) if root is not None else None
         self.root: Path | None = None
-        self._linked: dict = {}           # source path -> (size, mtime_ns) before the run
+        self.digests: dict = {}            # relative path -> SHA-256 of the copy as written
 
     def __enter__(self) -> Path:
-        self.root = Path(tempfile.mkdtemp(prefix="vo_sensors_"))
+        if self._given is not None:
+            self._given.mkdir()
+            self.root = self._given
+        else:
+            self.root = Path(tempfile.mkdtemp(prefix="vo_sensors_"))
         try:
             for src, rel in self._entries():
-                self._place(src, self.root / rel)
+                self.digests[str(rel)] = _copy_read_only(src, self.root / rel)
             _set_dirs_writable(self.root, False)
         except BaseException:
             self._remove()
@@ -55,12 +61,20 @@ class SensorView:
         self._remove()
 
     def check_untouched(self, who: str) -> None:
-        """Raise EstimatorError when ``who`` changed a dataset file through its hard link."""
-        for src, before in self._linked.items():
-            st = src.stat()
-            if (st.st_size, st.st_mtime_ns) != before:
-                raise EstimatorError(f"{who}: wrote to the dataset file {src} (hard-linked into its input "
-                                     f"folder); programs must treat their input as read-only")
+        """Raise EstimatorError naming the first file of the view that ``who`` changed, removed or added."""
+        now = {str(p.relative_to(self.root)) for p in self.root.rglob("*") if not p.is_dir()}
+        for rel, digest in self.digests.items():
+            if rel not in now:
+                raise EstimatorError(f"{who}: removed the sensor file {rel} from its input folder; programs must "
+                                     f"treat their input as read-only (the dataset itself is untouched)")
+            if _sha256(self.root / rel) != digest:
+                raise EstimatorError(f"{who}: changed the sensor file {rel} in its input folder (SHA-256 differs "
+                                     f"after the run); programs must treat their input as read-only (the dataset "
+                                     f"itself is untouched)")
+        added = sorted(now - set(self.digests))
+        if added:
+            raise EstimatorError(f"{who}: added {added[0]} to its input folder; programs must treat their input "
+                                 f"as read-only (write only to {{out}})")
 
     def _entries(self):
         ds = self.dataset
@@ -76,21 +90,30 @@ class SensorView:
         else:
             raise EstimatorError(f"{ds.path}: no sensor view for a {ds.kind!r} dataset")
 
-    def _place(self, src: Path, dst: Path) -> None:
-        dst.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            os.link(src, dst)
-        except OSError:                    # another file system, or links not allowed: copy
-            shutil.copyfile(src, dst)
-            os.chmod(dst, stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH)
-            return
-        st = src.stat()
-        self._linked[src] = (st.st_size, st.st_mtime_ns)
-
     def _remove(self) -> None:
         if self.root is not None and self.root.exists():
             _set_dirs_writable(self.root, True)
             shutil.rmtree(self.root, ignore_errors=True)
+
+
+def _copy_read_only(src: Path, dst: Path) -> str:
+    """Copy ``src`` to ``dst`` (mode 0444) -> the SHA-256 of the bytes written."""
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    h = hashlib.sha256()
+    with open(src, "rb") as fi, open(dst, "wb") as fo:
+        for block in iter(lambda: fi.read(1 << 20), b""):
+            h.update(block)
+            fo.write(block)
+    os.chmod(dst, stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH)
+    return h.hexdigest()
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def _files(base: Path, rel, names):

@@ -9,20 +9,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rigs.atomic_io import atomic_write  # noqa: E402
+from rigs.figures import save_figure  # noqa: E402
+from rigs.trajectory import Trajectory  # noqa: E402
 from vo.eval.associate import associate  # noqa: E402
 from vo.eval.rpe import RpeResult  # noqa: E402
-from vo.trajectory import Trajectory  # noqa: E402
-
-
-def save_figure(fig, path) -> Path:
-    """Save and close ``fig`` atomically (temp name, then rename); format from the suffix."""
-    path = Path(path)
-    try:
-        return atomic_write(path, lambda tmp: fig.savefig(tmp, format=(path.suffix.lstrip(".") or "png"), dpi=120,
-                                                           bbox_inches="tight"))
-    finally:
-        plt.close(fig)
 
 
 def plot_topdown(results: dict, gt: Trajectory, gcps=None, path="topdown.png") -> Path:

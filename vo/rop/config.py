@@ -20,7 +20,7 @@ from vo.rop.relative import LOSSES, METHODS
 from vo.rop.ropset import WEIGHTINGS
 from vo.rop.tracks import KltFourView
 
-COVS = ("propagated", "chain_bootstrap")      # vo.rop.uncertainty.make_uncertainty
+COVS = ("propagated", "chain_bootstrap")      # vo.rop.cov_models.make_uncertainty
 MOVING = ("prior", "none")                    # vo.rop.moving
 MOVING_PRIORS = ("pnp", "velocity")           # vo.rop.estimator: prediction that selects the motion
 

@@ -52,13 +52,14 @@ from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.config import RopConfig
 from vo.rop.consensus import predicted_rops, rotation_consensus, solve_rops
+from vo.rop.cov_models import make_uncertainty
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial import initial_eops
 from vo.rop.moving import TrackFilter, filter_tracks
 from vo.rop.ropset import PAIRS
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
-from vo.rop.uncertainty import Step, UncertaintyModel, make_uncertainty
+from vo.rop.uncertainty import Step, UncertaintyModel
 
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MIN_COAST_PNP_INLIERS = 20  # PnP inliers of the track filter's motion for it to give a failed frame's pose
@@ -226,16 +227,17 @@ class RopEstimator(Estimator):
         self.epochs.append(EpochRecord(self._t_kf, t_ns, kind, T_init, T_kf_c.copy(), T_min, n, rops))
 
     # ------------------------------------------------------------------------------- frames
-    def _result(self, frame, status, n_feat, n_inl, msg, timings, t0) -> FrameResult:
+    def _result(self, frame, status, n_feat, n_inl, msg, timings, t0, pose_class="ok") -> FrameResult:
         timings["total"] = (time.perf_counter() - t0) * 1e3
         return FrameResult(frame.t_ns, self.T_o_c0.copy(), status, int(n_feat), int(n_inl), self.cov.copy(), msg,
-                           timings)
+                           timings, pose_class)
 
     def _fail(self, frame, left, right, status, n_feat, msg, timings, t0, R_1_3=None,
               keep_tracks=False) -> FrameResult:
         """The track filter's PnP pose when it may stand for the frame's (:meth:`_pnp_pose`); else coast: the
         rotation-only fit's rotation when there was one (tracks survive a failed ROP solve), the translation
-        held or, with ``constant_velocity``, extrapolated; then a fresh keyframe."""
+        held or, with ``constant_velocity``, extrapolated; then a fresh keyframe. The pose's class
+        (:data:`~vo.estimators.base.FRAME_CLASSES`): ok from PnP, coasting when extrapolated, lost when held."""
         T_prev = self.T_o_c0
         coast = self.config.constant_velocity and self._n_coast < MAX_COAST_FRAMES
         T_step = self._T_kf_cur @ self._last_motion if coast else self._T_kf_cur.copy()
@@ -258,7 +260,8 @@ class RopEstimator(Estimator):
         else:
             msg += ("; rotation from the rotation-only fit" if R_1_3 is not None else "") + "; translation " + \
                    ("extrapolated (constant velocity)" if coast else "held") + ", re-initialising from this frame"
-        return self._result(frame, status, n_feat, 0, msg, timings, t0)
+        pose_class = "ok" if T_pnp is not None else ("coasting" if coast else "lost")
+        return self._result(frame, status, n_feat, 0, msg, timings, t0, pose_class)
 
     def process(self, frame: StereoFrame) -> FrameResult:
         t0 = time.perf_counter()

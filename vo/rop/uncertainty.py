@@ -3,7 +3,7 @@
 The estimator (:mod:`vo.rop.estimator`) computes poses; an uncertainty model turns every solved frame
 (a :class:`Step`) into the (6,6) covariance of ``[rotvec, position]`` of ``T_o_c0`` (left perturbation,
 as ``FrameResult.cov``). Models shipped: :class:`PropagatedCovariance` (default) and
-:class:`vo.rop.chain_bootstrap.ChainBootstrap`; :func:`make_uncertainty` picks one from
+:class:`vo.rop.chain_bootstrap.ChainBootstrap`; :func:`vo.rop.cov_models.make_uncertainty` picks one from
 ``RopConfig.cov``. Any object with the two methods below can be passed as
 ``RopEstimator(rig, config, uncertainty=model)`` (docs/studies/ plugs its study models in that way).
 
@@ -83,11 +83,3 @@ class PropagatedCovariance:
 
     def reset(self, T_o_c: np.ndarray, cov: np.ndarray) -> None:
         """Nothing to restart: the next step chains onto the estimator's keyframe covariance."""
-
-
-def make_uncertainty(config, adjustment_config, focal: float) -> UncertaintyModel:
-    """The model named by ``config.cov`` (:class:`~vo.rop.config.RopConfig`)."""
-    if config.cov == "chain_bootstrap":
-        from vo.rop.chain_bootstrap import ChainBootstrap
-        return ChainBootstrap(config, adjustment_config, focal)
-    return PropagatedCovariance()

@@ -60,8 +60,14 @@ class VinsEstimator(Estimator):
     def set_imu(self, imu) -> None:
         self.stream = ImuStream(imu)
 
+    @classmethod
+    def is_oracle(cls, options: dict) -> bool:
+        """``vins-oracle`` (true segmentation) and ``init=truth`` (true start) read ground truth."""
+        return cls.remove_dynamic or VinsConfig.from_options(cls.preset, options).init == "truth"
+
     def set_dataset(self, dataset) -> None:
-        """Read the true segmentation when the dataset has it (diagnostics; required by ``vins-oracle``)."""
+        """Read the true segmentation when the dataset has it (diagnostics; required by ``vins-oracle``); the
+        runner passes the whole dataset only to an oracle (:meth:`is_oracle`), a sensor-only one otherwise."""
         self.labels = FeatureLabels.of(dataset)
         if self.config.init == "truth":
             self.truth = Truth(dataset)
@@ -223,11 +229,13 @@ class VinsEstimator(Estimator):
             w.optimize()
         except RuntimeError as e:                      # gtsam: indeterminant system, cheirality, ...
             self._reset()
-            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit", message=f"optimizer failed: {e}")
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit",
+                               message=f"optimizer failed: {e}", pose_class="lost")      # the last pose held
         T = self.T_o_w @ w.T_w_c(w.states[-1])
         if not np.all(np.isfinite(T)):
             self._reset()
-            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit", message="non-finite estimate")
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), "reinit",
+                               message="non-finite estimate", pose_class="lost")
         return FrameResult(frame.t_ns, T, "keyframe" if is_kf else "ok", n_inliers=len(w.lm))
 
     def _triangulate_new(self) -> None:

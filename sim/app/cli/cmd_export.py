@@ -16,10 +16,15 @@ from sim.app.cli.options import echo_json, json_option
 @click.option("--out", "out_path", required=True, type=click.Path(),
               help="Bag to create (rosbag1: a file such as run.bag; rosbag2: a new folder). Must not exist.")
 @json_option
-def export(dataset_dir, kind, storage, out_path, as_json):
+@click.pass_context
+def export(ctx, dataset_dir, kind, storage, out_path, as_json):
     """Export DATASET as a bag: /cam0/image_raw, /cam1/image_raw, /camK/camera_info, /imu0, /tf_static,
     /groundtruth/pose, /groundtruth/cam0 (and /wheels); timestamps are the dataset's own."""
+    from click.core import ParameterSource
     from sim.dataset.rosbag_writer import export_rosbag
+    if kind == "rosbag1" and ctx.get_parameter_source("storage") == ParameterSource.COMMANDLINE:
+        raise click.UsageError(f"--storage {storage}: applies to --to rosbag2 only (a rosbag1 bag is one .bag "
+                               f"file in bag format 2.0, with no storage plugin); leave it out")
     res = export_rosbag(dataset_dir, out_path, kind=kind, storage=storage)
     if as_json:
         echo_json(res.to_dict())

@@ -68,6 +68,8 @@ def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, worker
     devices = tuple(d.strip() for d in egl_devices.split(",") if d.strip()) if egl_devices else ()
     res = run(cfg, out_dir, progress=not no_progress and not as_json, overwrite=overwrite, threads=threads,
               workers=workers, scheduler=scheduler, egl_devices=devices)
+    for note in res.notes:
+        click.echo(f"warning: {note}", err=True)
     if as_json:
         echo_json(res.to_dict())
     else:

@@ -36,13 +36,13 @@ class NoisyDataset(ImageNoiseDataset):
         if self._imu_model is None or self._base.imu is None:
             return self._base.imu
         if self._imu is None:
-            from sim.sensors.imu import ImuSamples
+            from rigs.records import ImuSamples
             from sim.sensors.imu_noise import add_imu_noise
-            from vo.dataset.types import ImuData
+            from rigs.records import ImuSamples
             clean = self._base.imu
             noisy, _ = add_imu_noise(ImuSamples(clean.t_ns, clean.gyro, clean.accel), self._imu_model,
                                      stream(self._seed, "imu_white"), stream(self._seed, "imu_bias"))
-            self._imu = ImuData(noisy.t_ns, noisy.gyro, noisy.accel)
+            self._imu = ImuSamples(noisy.t_ns, noisy.gyro, noisy.accel)
         return self._imu
 
 

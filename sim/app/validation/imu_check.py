@@ -81,7 +81,7 @@ def allan_check(imu_name: str = "euroc-adis16448", hours: float = 2.0, seed: int
     import dataclasses
     from rigs.imu_models import get_imu_model
     from sim.allan import allan_deviation, density_at_1s, fit_white_and_walk, loglog_slope
-    from sim.sensors.imu import ImuSamples
+    from rigs.records import ImuSamples
     from sim.sensors.imu_noise import add_imu_noise
 
     imu = get_imu_model(imu_name)
