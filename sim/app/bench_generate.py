@@ -156,6 +156,26 @@ def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -
     return rows
 
 
+def noise_cost(width: int = 752, height: int = 480, sigma: float = 1.0, pairs: int = 50) -> dict:
+    """CPU ms per stereo pair of ``width x height`` grey images for the camera's noise step
+    (:func:`vo.dataset.image_noise.add_quantized_noise`) and for the Gaussian sum in float32 and float64
+    (:func:`vo.dataset.image_noise.add_image_noise`), each frame from its own indexed stream, one thread."""
+    from sim.rng import indexed_stream
+    from vo.dataset.image_noise import add_image_noise, add_quantized_noise
+    img = np.random.default_rng(0).integers(0, 256, (height, width), dtype=np.uint8)
+    draws = {"quantized offsets (camera)": add_quantized_noise,
+             "gaussian sum, float32": lambda im, s, rng: add_image_noise(im, s, rng, np.float32),
+             "gaussian sum, float64": lambda im, s, rng: add_image_noise(im, s, rng, np.float64)}
+    out = {}
+    for name, draw in draws.items():
+        t0 = time.process_time()
+        for k in range(pairs):
+            rng = indexed_stream(0, "image_noise", k)
+            draw(img, sigma, rng), draw(img, sigma, rng)
+        out[name] = 1e3 * (time.process_time() - t0) / pairs
+    return out
+
+
 def format_bench(b: GenerateBench) -> str:
     lines = [f"scenario {b.scenario}: {b.frames} pairs, {b.workers} render process(es), {b.threads} worker threads, "
              f"PNG {b.png}, "

@@ -92,12 +92,18 @@ def localize_cmd(dataset, mode, max_sites, pairs, poses, items, as_json):
 @click.option("--repeat", type=click.IntRange(min=1), default=1, show_default=True,
               help="Alternate render-only and end-to-end runs N times; the best of each is kept.")
 @click.option("--png-levels", is_flag=True, help="Instead: PNG size and encoding time at zlib levels 0-9.")
+@click.option("--noise", is_flag=True, help="Instead: CPU ms per 752x480 pair of the image noise draws.")
 @set_option
 @json_option
-def generate_cmd(scenario, frames, threads, workers, scheduler, repeat, png_levels, overrides, as_json):
+def generate_cmd(scenario, frames, threads, workers, scheduler, repeat, png_levels, noise, overrides, as_json):
     """Render-only and end-to-end pairs/s, their ratio, ms per pair and stage, peak memory."""
     from sim.app.bench_generate import bench_generate, format_bench, format_levels
     from sim.app.bench_generate import png_levels as levels
+    if noise:
+        from sim.app.bench_generate import noise_cost
+        ms = noise_cost()
+        echo_json(ms) if as_json else click.echo("\n".join(f"{k:<28} {v:6.2f} CPU ms/pair" for k, v in ms.items()))
+        return
     if png_levels:
         rows = levels(scenario, frames=min(frames or 10, 10), overrides=overrides)
         echo_json(rows) if as_json else click.echo(format_levels(rows))
