@@ -35,6 +35,13 @@ from sim.errors import SimError
 from sim.motion import MotionConfig
 
 MAX_SUPERSAMPLE = 7
+PNG_COMPRESSION = 1        # zlib level of the written PNGs, chosen by measurement (docs/simulator.md)
+PngStrategy = Literal["default", "filtered", "huffman", "rle", "fixed"]
+PNG_STRATEGIES = get_args(PngStrategy)
+PNG_STRATEGY = "rle"       # zlib strategy of the written PNGs, chosen by measurement (docs/simulator.md)
+PngFilter = Literal["all", "fast", "paeth", "avg", "up", "sub", "none"]
+PNG_FILTERS = get_args(PngFilter)
+PNG_FILTER = "paeth"       # PNG row filter(s) tried, chosen by measurement (docs/simulator.md)
 Format = Literal["euroc", "kitti", "both", "rosbag1", "rosbag2"]
 DepthFormat = Literal["npy", "png16-mm", "tum", "png16"]   # png16: alias of png16-mm
 FORMATS = get_args(Format)
@@ -46,9 +53,15 @@ EFFECT_PIECES = ("camera", "imu_clock", "calib_error")   # left out of to_dict()
 @dataclass(frozen=True)
 class RenderConfig:
     """Rendering knobs (``render.<field>``). ``supersample``: odd, so every output pixel centre is the
-    centre of one rendered sub-pixel and depth and segmentation stay exact (:mod:`sim.render`)."""
+    centre of one rendered sub-pixel and depth and segmentation stay exact (:mod:`sim.render`).
+    ``png_compression``: zlib level of every PNG written (0 none, 9 smallest; the pixels are the same);
+    ``png_strategy``: zlib's strategy (``huffman``: no string matching, ``rle``: runs only; ``default``);
+    ``png_filter``: the PNG row filter(s) libpng chooses from (``all`` five per row, ``fast``, or one)."""
 
     supersample: int = knob(1, ge=1, le=MAX_SUPERSAMPLE, odd=True)
+    png_compression: int = knob(PNG_COMPRESSION, ge=0, le=9, doc="zlib level of the written PNGs")
+    png_strategy: PngStrategy = knob(PNG_STRATEGY, doc="zlib strategy of the written PNGs")
+    png_filter: PngFilter = knob(PNG_FILTER, doc="PNG row filter(s) of the written PNGs")
 
     def __post_init__(self):
         check_fields(self, SimError, "render.")

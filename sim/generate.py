@@ -6,6 +6,7 @@ separate per sensor (``sim.rng``), so turning images off does not change the IMU
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -168,55 +169,120 @@ def _formats(fmt: str) -> tuple:
     return ("euroc", "kitti") if fmt == "both" else (fmt,)
 
 
-def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, start: int = 0):
+def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, start: int = 0,
+                  threads: int | None = None, timer=None, workers: int = 1, scheduler: str | None = None,
+                  egl_devices=()):
     """Measure every stereo frame at ``T_w_b_frames`` (N,4,4) with the camera sensor, add frame ``k``'s
     image noise (stream ``image_noise``, index k), stream to the writers from frame ``start`` on, stamped
     ``setup.frame_stamp_ns``. With image effects (``camera.*``) frames go through
-    :class:`sim.sensors.camera.FrameExposer`; returns the auto exposure gains then (None otherwise)."""
-    from tqdm import tqdm
-    from sim.sensors.camera import StereoCamera, add_noise
+    :class:`sim.sensors.camera.FrameExposer`; returns the auto exposure gains then (None otherwise).
 
-    if setup.config.camera.image_effects:
-        return _render_with_effects(setup, writers, progress, start)
+    Rendering runs on this thread (it owns the GL context); each frame's noise, effects after the
+    auto exposure, PNG encoding and writing run in a :class:`sim.frame_pipeline.FramePipeline` of
+    ``threads`` workers (None: one per CPU; 0: inline), committed in frame order: the bytes do not depend
+    on ``threads``. ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``render`` (with
+    read-back), ``read-back``, ``noise/effects``, ``rectify`` (KITTI), ``encode`` and ``write``, and ``frame loop`` and
+    ``frame loop CPU``, the loop's elapsed and process CPU time.
+
+    ``workers > 1`` or a Dask ``scheduler``: frame ranges are rendered (noise and effects included) in
+    other processes, each with its own GL context (:mod:`sim.render_workers`; ``egl_devices`` spread them
+    over GPUs), and written here in order, byte-identical. ``metadata.yaml`` records under ``rendering``
+    the GL renderer(s) that drew the frames of this run."""
+    if workers > 1 or scheduler:
+        return _render_frames_in_workers(setup, writers, progress, start, threads, timer, workers, scheduler,
+                                         egl_devices)
+    from tqdm import tqdm
+    from sim.frame_pipeline import FramePipeline
+    from sim.render_workers import device_label
+    from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
+    from sim.stage_timer import NO_TIMER
 
     c = setup.config
+    timer = timer or NO_TIMER
+    effects = c.camera.image_effects
+    first = 0 if effects and c.camera.auto_exposure else start   # auto exposure: gains from frame 0 on
+    gains = [1.0] * len(setup.frame_t_ns)
+    pose_at = lambda t_ns: setup.trajectory.states(t_ns).T_w_b  # noqa: E731
     with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
-                      supersample=setup.supersample, rgb=c.rgb) as camera:
+                      supersample=setup.supersample, rgb=c.rgb, timer=timer) as camera, \
+            FramePipeline(threads) as pipeline:
         if c.segmentation:
             writers.add_segmentation_ids(setup.scene.segmentation_rows(camera.geom_names()))
+        writers.add_metadata({"rendering": [device_label(camera.gl_renderer)]})
+        exposer = FrameExposer(camera, setup.rig, c.camera, 1.0 / setup.rig.camera_rate_hz, c.seed,
+                               setup.image_noise, noisy=not c.ideal) if effects else None
         bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
                    disable=not progress, dynamic_ncols=True)
-        for k in range(start, len(setup.frame_t_ns)):
-            images, depth, seg = camera.measure(T_w_b_frames[k], setup.scene.actor_states(int(setup.frame_t_ns[k])))
-            images = add_noise(images, setup.image_noise, indexed_stream(c.seed, "image_noise", k))
-            writers.add_frame(int(setup.frame_stamp_ns[k]), images, depth=depth, seg=seg)
-            bar.update(1)
+        t0, c0 = time.perf_counter(), time.process_time()
+        for k in range(first, len(setup.frame_t_ns)):
+            with timer.stage("render"):
+                if exposer is None:
+                    images, depth, seg = camera.measure(T_w_b_frames[k],
+                                                        setup.scene.actor_states(int(setup.frame_t_ns[k])))
+                else:
+                    images, depth, seg, gains[k] = exposer.render(k, int(setup.frame_t_ns[k]), pose_at,
+                                                                  setup.scene.actor_states)
+            if k < start:                   # on disk already (auto exposure replays from frame 0)
+                continue
+            t_ns = int(setup.frame_stamp_ns[k])
+
+            def work(k=k, t_ns=t_ns, images=images, depth=depth, seg=seg):
+                with timer.stage("noise/effects"):
+                    if exposer is None:
+                        out = add_noise(images, setup.image_noise, indexed_stream(c.seed, "image_noise", k))
+                    else:
+                        out = exposer.finish(k, images, gains[k])
+                writers.write_frame_files(k, t_ns, out, depth=depth, seg=seg, timer=timer)
+
+            def commit(_, t_ns=t_ns):
+                writers.add_frame(t_ns, files_written=True)
+                bar.update(1)
+            pipeline.submit(work, commit)
+        pipeline.drain()
+        timer.add("frame loop", time.perf_counter() - t0)
+        timer.add("frame loop CPU", time.process_time() - c0)
         bar.close()
-    return None
+    return gains if effects else None
 
 
-def _render_with_effects(setup: Setup, writers, progress: bool, start: int) -> list:
-    """:func:`render_frames` through the :class:`sim.sensors.camera.FrameExposer`; with auto exposure every
-    frame from 0 is exposed (its gain depends on earlier frames; the writers skip those already on disk)."""
+def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, timer, workers, scheduler,
+                              egl_devices) -> None:
+    """:func:`render_frames` with the frames rendered by :class:`sim.render_workers.ChunkSource`."""
     from tqdm import tqdm
-    from sim.sensors.camera import FrameExposer, StereoCamera
+    from sim.frame_pipeline import FramePipeline
+    from sim.render_workers import ChunkSource
+    from sim.stage_timer import NO_TIMER
 
     c = setup.config
-    start = 0 if c.camera.auto_exposure else start
-    pose_at = lambda t_ns: setup.trajectory.states(t_ns).T_w_b  # noqa: E731
-    gains = [1.0] * len(setup.frame_t_ns)
-    with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
-                      supersample=setup.supersample, rgb=c.rgb) as camera:
-        if c.segmentation:
-            writers.add_segmentation_ids(setup.scene.segmentation_rows(camera.geom_names()))
-        exposer = FrameExposer(camera, setup.rig, c.camera, 1.0 / setup.rig.camera_rate_hz, c.seed,
-                               setup.image_noise, noisy=not c.ideal)
-        for k in tqdm(range(start, len(setup.frame_t_ns)), total=len(setup.frame_t_ns), initial=start,
-                      desc="render", unit="pair", disable=not progress, dynamic_ncols=True):
-            images, depth, seg, gains[k] = exposer.expose(k, int(setup.frame_t_ns[k]), pose_at,
-                                                          setup.scene.actor_states)
-            writers.add_frame(int(setup.frame_stamp_ns[k]), images, depth=depth, seg=seg)
-    return gains
+    timer = timer or NO_TIMER
+    n = len(setup.frame_t_ns)
+    devices, ids_written = [], not c.segmentation
+    bar = tqdm(total=n, initial=start, desc="render", unit="pair", disable=not progress, dynamic_ncols=True)
+    t0, c0 = time.perf_counter(), time.process_time()
+    with ChunkSource(c, workers, scheduler, egl_devices) as source, FramePipeline(threads) as pipeline:
+        for chunk in source.chunks(start, n):
+            if not ids_written:
+                writers.add_segmentation_ids(setup.scene.segmentation_rows(chunk.geom_names))
+                ids_written = True
+            if chunk.device not in devices:
+                devices.append(chunk.device)
+            for j, (images, depth, seg) in enumerate(chunk.frames):
+                k = chunk.start + j
+                t_ns = int(setup.frame_stamp_ns[k])
+
+                def work(k=k, t_ns=t_ns, images=images, depth=depth, seg=seg):
+                    writers.write_frame_files(k, t_ns, images, depth=depth, seg=seg, timer=timer)
+
+                def commit(_, t_ns=t_ns):
+                    writers.add_frame(t_ns, files_written=True)
+                    bar.update(1)
+                pipeline.submit(work, commit)
+        pipeline.drain()
+    timer.add("frame loop", time.perf_counter() - t0)
+    timer.add("frame loop CPU", time.process_time() - c0)
+    bar.close()
+    writers.add_metadata({"rendering": sorted(devices)})
+    return None
 
 
 def wheel_odometry(setup: Setup, dims):
@@ -227,7 +293,9 @@ def wheel_odometry(setup: Setup, dims):
     return measure_wheels(setup.trajectory, dims, enc, t_ns, stream(setup.config.seed, "wheels"))
 
 
-def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: bool = False) -> GenerateResult:
+def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: bool = False,
+             threads: int | None = None, timer=None, workers: int = 1, scheduler: str | None = None,
+             egl_devices=()) -> GenerateResult:
     """Generate the dataset described by ``config`` into ``out_dir``.
 
     The folder is locked for the whole run (:func:`sim.dataset.common.claim_folder`): a second writer gets
@@ -235,15 +303,22 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     bags included; an interrupted run is resumed by calling ``generate`` again with the same config
     (frames already on disk are skipped; the result is byte-identical to an uninterrupted run).
     ``overwrite`` deletes a dataset of ours (marked :data:`sim.dataset.common.OWNER`), never anything else.
+    ``threads``, ``timer``, ``workers``, ``scheduler`` and ``egl_devices``: as :func:`render_frames` (the
+    bytes do not depend on them, but for ``metadata.yaml``'s ``rendering``, the renderer that drew the frames).
     """
     from sim.dataset.common import claim_folder
+    if workers > 1 or scheduler:
+        from sim.render_workers import check_splittable
+        check_splittable(config)                    # before anything is written
     with claim_folder(out_dir, overwrite):
-        return _generate(config, Path(out_dir), progress)
+        return _generate(config, Path(out_dir), progress, threads, timer, workers, scheduler, egl_devices)
 
 
-def _generate(config: GenerateConfig, out_dir: Path, progress: bool) -> GenerateResult:
+def _generate(config: GenerateConfig, out_dir: Path, progress: bool, threads=None, timer=None, workers: int = 1,
+              scheduler=None, egl_devices=()) -> GenerateResult:
     """:func:`generate` in a folder this process has claimed."""
     from sim.dataset import DatasetWriters
+    from sim.dataset.common import PngOptions
     from sim.sensors.calib_error import perturb_rig
     from sim.sensors.effects_truth import time_offset_ns, write_calibration_truth, write_frame_effects
     from sim.sensors.wheels import with_vehicle_geometry
@@ -260,7 +335,8 @@ def _generate(config: GenerateConfig, out_dir: Path, progress: bool) -> Generate
     # calib_error: the images use setup.rig, the files written for estimators the perturbed rig
     written_rig, calib_draws = perturb_rig(setup.rig, config.calib_error, stream(config.seed, "calib_error"))
     writers = DatasetWriters(out_dir, written_rig, metadata(setup), fmt=config.format, depth=config.depth,
-                             segmentation=config.segmentation, depth_format=config.depth_format)
+                             segmentation=config.segmentation, depth_format=config.depth_format,
+                             png=PngOptions.of(config.render))
     start = writers.resumed_frames      # > 0 when resuming an interrupted run of the same config
     # IMU and ground truth are replayed in full; the writers skip rows already on disk
     writers.add_imu(noisy.t_ns + time_offset_ns(config), noisy.gyro, noisy.accel)   # t_imu = t_cam + td
@@ -274,7 +350,9 @@ def _generate(config: GenerateConfig, out_dir: Path, progress: bool) -> Generate
     if setup.rig.wheels is not None:
         writers.add_wheels(wheel_odometry(setup, dims))
     if config.images:
-        gains = render_frames(setup, truth["T_w_b_frames"], writers, progress=progress, start=start)
+        gains = render_frames(setup, truth["T_w_b_frames"], writers, progress=progress, start=start,
+                              threads=threads, timer=timer, workers=workers, scheduler=scheduler,
+                              egl_devices=egl_devices)
         write_frame_effects(out_dir, setup, gains)
     png = str(out_dir / "topdown.png")
     write_topdown(setup, truth, png)

@@ -34,6 +34,7 @@ import numpy as np  # noqa: E402
 from rigs.model import Rig  # noqa: E402
 from sim.config import check_supersample  # noqa: E402
 from sim.errors import SimError  # noqa: E402
+from sim.stage_timer import NO_TIMER  # noqa: E402
 from sim.world import World  # noqa: E402
 from rigs.image import to_gray  # noqa: E402
 from sim.vehicles import VEHICLE_GROUP  # noqa: E402
@@ -86,8 +87,9 @@ class StereoRenderer:
 
     def __init__(self, world: World, rig: Optional[Rig] = None, depth: bool = False,
                  segmentation: bool = False, gray: bool = False, show_vehicle: bool = True,
-                 max_geom: int = 20000, supersample: int = 1):
+                 max_geom: int = 20000, supersample: int = 1, timer=NO_TIMER):
         self.world, self.rig = world, rig or world.rig
+        self.timer = timer          # sim.stage_timer.StageTimer: stage "read-back" (mjr_readPixels, flips)
         if self.rig != world.rig:
             raise SimError(f"StereoRenderer: rig {self.rig.name!r} is not the rig the world was built "
                            f"with ({world.rig.name!r}); build the world with this rig")
@@ -105,6 +107,7 @@ class StereoRenderer:
         self._ctx = mujoco.MjrContext(m, mujoco.mjtFontScale.mjFONTSCALE_100.value)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._ctx)
         self._ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self.gl_renderer = _gl_renderer()   # e.g. "llvmpipe (LLVM 15.0.6, 256 bits)", "NVIDIA H100 .../PCIe"
         self._scn = mujoco.MjvScene(m, maxgeom=max_geom)
         self._scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
         self._opt = self._make_option(show_vehicle)
@@ -180,8 +183,9 @@ class StereoRenderer:
         mujoco.mjv_updateScene(m, d, self._opt, None, cam_obj, mujoco.mjtCatBit.mjCAT_ALL.value, scn)
         rgb = np.empty((H, W, 3), np.uint8)
         mujoco.mjr_render(rect, scn, self._ctx)
-        mujoco.mjr_readPixels(rgb, None, rect, self._ctx)
-        rgb = np.ascontiguousarray(rgb[::-1])
+        with self.timer.stage("read-back"):
+            mujoco.mjr_readPixels(rgb, None, rect, self._ctx)
+            rgb = np.ascontiguousarray(rgb[::-1])
         depth = seg = None
         if self.depth or self.segmentation:
             ids, zbuf = self._id_pass(rect, W, H)
@@ -200,7 +204,8 @@ class StereoRenderer:
             ids = np.empty((H, W, 3), np.uint8)
             zbuf = np.empty((H, W), np.float32) if self.depth else None
             mujoco.mjr_render(rect, scn, self._ctx)
-            mujoco.mjr_readPixels(ids, zbuf, rect, self._ctx)
+            with self.timer.stage("read-back"):
+                mujoco.mjr_readPixels(ids, zbuf, rect, self._ctx)
         finally:
             np.copyto(scn.flags, flags)
         return ids, zbuf
@@ -222,3 +227,11 @@ class StereoRenderer:
             if g.segid >= 0 and g.objtype == mujoco.mjtObj.mjOBJ_GEOM:
                 lut[g.segid + 1] = (g.objid, self._dyn[g.objid])
         return lut[np.clip(segid, 0, scn.ngeom)]
+
+
+def _gl_renderer() -> str:
+    """``GL_RENDERER`` of the current context: the device that draws (PyOpenGL, which MuJoCo's EGL and
+    OSMesa back-ends use themselves)."""
+    from OpenGL import GL
+    name = GL.glGetString(GL.GL_RENDERER)
+    return name.decode(errors="replace") if name else ""

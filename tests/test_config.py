@@ -56,7 +56,7 @@ def test_unknown_key_lists_every_group():
         GenerateConfig().with_overrides(["baselin=0.12"])
     msg = str(e.value)
     assert msg.startswith("override 'baselin=0.12': baselin: unknown key; valid keys: ")
-    for group in ("scene.<name|seed|texture_richness|lighting|shadows", "motion.<start_time_ns|", "render.<supersample>",
+    for group in ("scene.<name|seed|texture_richness|lighting|shadows", "motion.<start_time_ns|", "render.<supersample|png_compression|png_strategy|png_filter>",
                   "noise.<image_sigma>", "image_noise", "seed", "duration_s", "baseline", "imu.<", "cam1.<", "wheels.<"):
         assert group in msg, group
 

@@ -22,14 +22,17 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from rigs.atomic_io import atomic_write, atomic_write_text
+from rigs.atomic_io import atomic_write, atomic_write_bytes, atomic_write_text
+from sim.config import PNG_COMPRESSION, PNG_FILTER, PNG_STRATEGY
 from sim.dataset.locking import LOCK_NAME, FolderLock
 from sim.errors import SimError
+from sim.stage_timer import NO_TIMER
 
 MARKER = "INCOMPLETE"
 METADATA = "metadata.yaml"
@@ -193,19 +196,56 @@ def _plain(obj):
     return obj
 
 
-def write_png(path: Path, image: np.ndarray, rgb: bool = True) -> None:
-    """Write ``image`` (H,W) or (H,W,3) RGB (uint8/uint16) as PNG; deterministic bytes.
 
-    Written to a temp name then renamed, so a file under the final name is always whole.
-    """
+
+_STRATEGY = {"default": cv2.IMWRITE_PNG_STRATEGY_DEFAULT, "filtered": cv2.IMWRITE_PNG_STRATEGY_FILTERED,
+             "huffman": cv2.IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY, "rle": cv2.IMWRITE_PNG_STRATEGY_RLE,
+             "fixed": cv2.IMWRITE_PNG_STRATEGY_FIXED}
+_FILTER = {"all": cv2.IMWRITE_PNG_ALL_FILTERS, "fast": cv2.IMWRITE_PNG_FAST_FILTERS,
+           "paeth": cv2.IMWRITE_PNG_FILTER_PAETH, "avg": cv2.IMWRITE_PNG_FILTER_AVG, "up": cv2.IMWRITE_PNG_FILTER_UP,
+           "sub": cv2.IMWRITE_PNG_FILTER_SUB, "none": cv2.IMWRITE_PNG_FILTER_NONE}
+
+
+@dataclass(frozen=True)
+class PngOptions:
+    """How PNGs are written (``render.png_*``, :class:`sim.config.RenderConfig`): zlib level
+    ``compression`` 0-9, zlib ``strategy`` and row ``filter`` (:data:`sim.config.PNG_STRATEGIES`,
+    :data:`sim.config.PNG_FILTERS`). The pixels are the same whatever the options."""
+    compression: int = PNG_COMPRESSION
+    strategy: str = PNG_STRATEGY
+    filter: str = PNG_FILTER
+
+    @classmethod
+    def of(cls, render) -> "PngOptions":
+        """The options of a :class:`sim.config.RenderConfig`."""
+        return cls(render.png_compression, render.png_strategy, render.png_filter)
+
+    def params(self) -> list:
+        return [cv2.IMWRITE_PNG_COMPRESSION, int(self.compression), cv2.IMWRITE_PNG_STRATEGY, _STRATEGY[self.strategy],
+                cv2.IMWRITE_PNG_FILTER, _FILTER[self.filter]]
+
+
+def encode_png(image: np.ndarray, rgb: bool = True, png: PngOptions = PngOptions()) -> bytes:
+    """``image`` (H,W) or (H,W,3) RGB (uint8/uint16) as PNG bytes written with ``png``; deterministic (the
+    bytes ``cv2.imwrite`` writes with these parameters)."""
     img = np.ascontiguousarray(image)
     if img.ndim == 3 and img.shape[2] == 3 and rgb:
         img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
+    ok, buf = cv2.imencode(".png", img, png.params())
+    if not ok:
+        raise SimError(f"cv2.imencode failed for an image of shape {img.shape} dtype {img.dtype}")
+    return buf.tobytes()
 
-    def imwrite(tmp: Path) -> None:
-        if not cv2.imwrite(str(tmp), img, [cv2.IMWRITE_PNG_COMPRESSION, 3]):
-            raise SimError(f"{path}: cv2.imwrite failed for an image of shape {img.shape} dtype {img.dtype}")
-    atomic_write(path, imwrite)
+
+def write_png(path: Path, image: np.ndarray, rgb: bool = True, png: PngOptions = PngOptions(),
+              timer=NO_TIMER) -> None:
+    """Write ``image`` as PNG (:func:`encode_png`); deterministic bytes. Written to a temp name then
+    renamed, so a file under the final name is always whole. Safe to call from several threads.
+    ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``encode`` and ``write``."""
+    with timer.stage("encode"):
+        data = encode_png(image, rgb, png)
+    with timer.stage("write"):
+        atomic_write_bytes(path, data)
 
 
 class CsvStream:

@@ -32,9 +32,10 @@ from pathlib import Path
 import numpy as np
 
 from rigs.atomic_io import atomic_write_npy
-from sim.dataset.common import (CsvStream, commit_folder, config_hash, final_metadata, fmt_float, prepare_folder,
-                                write_marker, write_png)
+from sim.dataset.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
+                                prepare_folder, write_marker, write_png)
 from sim.errors import SimError
+from sim.stage_timer import NO_TIMER
 
 CAM_HEADER = "#timestamp [ns],filename"
 IMU_HEADER = ("#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
@@ -111,17 +112,17 @@ class EurocWriter:
     """Stream a stereo-inertial sequence to disk in the EuRoC ASL layout (see module docstring).
 
     ``rig``: a stereo ``rigs.Rig``; ``metadata``: the fully resolved configuration (plain dict,
-    no wall-clock times). A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames
-    are already on disk, and replayed samples at or before each stream's last row are skipped.
+    no wall-clock times); ``png``: how PNGs are written (:class:`sim.dataset.common.PngOptions`).
+    A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames are already on disk, and replayed samples at or before each stream's last row are skipped.
     """
 
     def __init__(self, out_dir, rig, metadata: dict, depth: bool = False, segmentation: bool = False,
-                 overwrite: bool = False, depth_format: str = "npy"):
+                 overwrite: bool = False, depth_format: str = "npy", png: PngOptions = PngOptions()):
         if not rig.is_stereo:
             raise SimError(f"EurocWriter: rig {rig.name!r} has {len(rig.cameras)} camera(s); need 2")
         if depth_format not in DEPTH_FORMATS:
             raise SimError(f"depth_format: unknown {depth_format!r}; valid: {', '.join(DEPTH_FORMATS)}")
-        self.depth_format = depth_format
+        self.depth_format, self.png = depth_format, png
         self.rig, self.metadata = rig, dict(metadata)
         self.depth, self.segmentation = bool(depth), bool(segmentation)
         self.out_dir, resuming = prepare_folder(out_dir, self.metadata, overwrite)
@@ -137,6 +138,7 @@ class EurocWriter:
         self._c0 = CsvStream(self.out_dir / "cam0_truth.csv", CAM0_TRUTH_HEADER, resuming)
         self._gcps: list = []
         self.finalized = False
+        self.extra_metadata: dict = {}      # finalize() adds these keys to metadata.yaml
 
     # ------------------------------------------------------------------ static files
     def _write_static_files(self) -> None:
@@ -160,51 +162,66 @@ class EurocWriter:
         save_rig(self.rig, self.out_dir / "rig.yaml")
 
     # ------------------------------------------------------------------ streams
-    def add_frame(self, t_ns: int, images, depth=None, seg=None) -> None:
+    def add_frame(self, t_ns: int, images=None, depth=None, seg=None, files_written: bool = False) -> None:
         """Write one stereo epoch: ``images`` [left, right] (H,W) gray or (H,W,3) RGB uint8.
 
         ``depth``/``seg``: None, one (H,W) array for cam0, or a list per camera. ``seg`` is (H,W)
         object ids (-1 background) or (H,W,2) with channel 1 a dynamic-object mask.
+        ``files_written``: the epoch's files were written by :meth:`write_frame_files` (in a worker
+        thread); only the rows and the marker are added, so a frame counts once all its files exist.
         """
         t_ns = int(t_ns)
         if self._cams[0].resume_t is not None and t_ns <= self._cams[0].resume_t:
             return
+        if not files_written:
+            self.write_frame_files(t_ns, images, depth=depth, seg=seg)
+        for cam in self._cams:
+            cam.append(t_ns, [f"{t_ns}.png"])
+        write_marker(self.out_dir, self._hash, f"frames={self._cams[0].rows}")
+
+    def write_frame_files(self, t_ns: int, images, depth=None, seg=None, index: int | None = None,
+                          timer=NO_TIMER) -> None:
+        """The files of one epoch (images, depth, segmentation), as :meth:`add_frame`, without its rows:
+        safe from several threads at once (``index``, the frame number, is not needed by this layout)."""
+        t_ns = int(t_ns)
         if len(images) != 2:
             raise SimError(f"add_frame: expected 2 images (left, right), got {len(images)}")
         for k, d in enumerate(_per_camera(depth, 2, "depth")):
             if d is not None:
                 if not self.depth:
                     raise SimError("add_frame: depth given but the writer was created with depth=False")
-                self._write_depth(self.mav0 / f"cam{k}" / "depth", t_ns, np.asarray(d, dtype=np.float32))
+                self._write_depth(self.mav0 / f"cam{k}" / "depth", t_ns, np.asarray(d, dtype=np.float32), timer)
         for k, s in enumerate(_per_camera(seg, 2, "seg")):
             if s is not None:
                 if not self.segmentation:
                     raise SimError("add_frame: seg given but the writer was created with segmentation=False")
-                self._write_seg(k, t_ns, np.asarray(s))
+                self._write_seg(k, t_ns, np.asarray(s), timer)
         for k in (0, 1):
-            write_png(self.mav0 / f"cam{k}" / "data" / f"{t_ns}.png", images[k])
-        for cam in self._cams:
-            cam.append(t_ns, [f"{t_ns}.png"])
-        write_marker(self.out_dir, self._hash, f"frames={self._cams[0].rows}")
+            write_png(self.mav0 / f"cam{k}" / "data" / f"{t_ns}.png", images[k], png=self.png,
+                      timer=timer)
 
-    def _write_depth(self, folder: Path, t_ns: int, depth_m: np.ndarray) -> None:
+    def _write_depth(self, folder: Path, t_ns: int, depth_m: np.ndarray, timer=NO_TIMER) -> None:
         """``npy``: float32 m (inf = nothing drawn); ``png16-mm`` (alias ``png16``): uint16 mm; ``tum``: uint16
         at TUM RGB-D's 5000 per metre. PNG: 0 = no depth (sky, or beyond 65535 counts)."""
         if self.depth_format == "npy":
-            atomic_write_npy(folder / f"{t_ns}.npy", depth_m)
+            with timer.stage("write"):
+                atomic_write_npy(folder / f"{t_ns}.npy", depth_m)
             return
         counts = np.round(depth_m.astype(np.float64) * DEPTH_PNG_SCALE[self.depth_format])
         ok = np.isfinite(counts) & (counts <= DEPTH_PNG_MAX) & (counts >= 0)
-        write_png(folder / f"{t_ns}.png", np.where(ok, counts, 0).astype(np.uint16), rgb=False)
+        write_png(folder / f"{t_ns}.png", np.where(ok, counts, 0).astype(np.uint16), rgb=False,
+                  png=self.png, timer=timer)
 
-    def _write_seg(self, k: int, t_ns: int, seg: np.ndarray) -> None:
+    def _write_seg(self, k: int, t_ns: int, seg: np.ndarray, timer=NO_TIMER) -> None:
         folder = self.mav0 / f"cam{k}" / "segmentation"
         ids = seg[..., 0] if seg.ndim == 3 else seg
         if ids.min() < -1 or ids.max() > 65534:
             raise SimError(f"add_frame: segmentation ids must be in [-1, 65534], got [{ids.min()}, {ids.max()}]")
-        write_png(folder / f"{t_ns}.png", (ids.astype(np.int64) + 1).astype(np.uint16), rgb=False)
+        write_png(folder / f"{t_ns}.png", (ids.astype(np.int64) + 1).astype(np.uint16), rgb=False,
+                  png=self.png, timer=timer)
         if seg.ndim == 3:
-            write_png(folder / f"{t_ns}_dynamic.png", (seg[..., 1] != 0).astype(np.uint8), rgb=False)
+            write_png(folder / f"{t_ns}_dynamic.png", (seg[..., 1] != 0).astype(np.uint8), rgb=False,
+                      png=self.png, timer=timer)
 
     def add_imu(self, t_ns, gyro=None, accel=None) -> None:
         """Append IMU samples: ``t_ns`` (N,), ``gyro``/``accel`` (N,3) in the IMU frame; or one
@@ -258,7 +275,8 @@ class EurocWriter:
         self._write_tum()
         counts = {"n_frames": self._cams[0].rows, "n_imu": self._imu.rows, "n_groundtruth": self._gt.rows,
                   "n_gcps": len(self._gcps)}
-        meta = dict(self.metadata, format="euroc", gcps=gcp_note, calibration=calibration_note(self.rig))
+        meta = dict(self.metadata, **self.extra_metadata, format="euroc", gcps=gcp_note,
+                    calibration=calibration_note(self.rig))
         if self.depth:
             meta["depth_format"] = self.depth_format
         self.final_meta = final_metadata(meta, counts, self.rig)

@@ -10,7 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.dataset.common import PngOptions
 from sim.errors import SimError
+from sim.stage_timer import NO_TIMER
 
 FORMATS = ("euroc", "kitti", "both", "rosbag1", "rosbag2")
 BAG_NAMES = {"rosbag1": "dataset.bag", "rosbag2": "rosbag2"}
@@ -40,7 +42,8 @@ class DatasetWriters:
     """
 
     def __init__(self, out_dir, rig, metadata: dict, fmt: str = "euroc", depth: bool = False,
-                 segmentation: bool = False, overwrite: bool = False, depth_format: str = "npy"):
+                 segmentation: bool = False, overwrite: bool = False, depth_format: str = "npy",
+                 png: PngOptions = PngOptions()):
         from sim.dataset.euroc_writer import EurocWriter
         from sim.dataset.kitti_writer import KittiWriter
         if fmt not in FORMATS:
@@ -51,19 +54,32 @@ class DatasetWriters:
         if fmt in ("euroc", "both", *BAG_NAMES):
             self.writers.append(EurocWriter(out_dir / "euroc" if fmt == "both" else out_dir, rig, metadata,
                                             depth=depth, segmentation=segmentation, overwrite=overwrite,
-                                            depth_format=depth_format))
+                                            depth_format=depth_format, png=png))
         if fmt in ("kitti", "both"):
             self.writers.append(KittiWriter(out_dir / "kitti" if fmt == "both" else out_dir, rig, metadata,
-                                            overwrite=overwrite))
+                                            overwrite=overwrite, png=png))
 
     @property
     def resumed_frames(self) -> int:
         """Frames already complete in every writer (the caller skips this many)."""
         return min(w.resumed_frames for w in self.writers)
 
-    def add_frame(self, t_ns, images, depth=None, seg=None) -> None:
+    def add_frame(self, t_ns, images=None, depth=None, seg=None, files_written: bool = False) -> None:
+        """One stereo epoch to every writer; ``files_written``: :meth:`write_frame_files` wrote its files."""
         for w in self.writers:
-            w.add_frame(t_ns, images, depth=depth, seg=seg)
+            w.add_frame(t_ns, images, depth=depth, seg=seg, files_written=files_written)
+
+    def write_frame_files(self, index: int, t_ns, images, depth=None, seg=None, timer=NO_TIMER) -> None:
+        """The files of frame number ``index`` in every writer, without their rows (thread-safe); the
+        frame counts once :meth:`add_frame` ``(t_ns, files_written=True)`` follows, in frame order."""
+        for w in self.writers:
+            w.write_frame_files(t_ns, images, depth=depth, seg=seg, index=index, timer=timer)
+
+    def add_metadata(self, extra: dict) -> None:
+        """Keys added to every ``metadata.yaml`` at :meth:`finalize` (not part of the configuration hash that
+        a resumed run must match), e.g. ``rendering``: the device(s) that drew the frames."""
+        for w in self.writers:
+            w.extra_metadata.update(extra)
 
     def add_imu(self, *args, **kwargs) -> None:
         for w in self.writers:

@@ -21,10 +21,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from sim.dataset.common import (CsvStream, commit_folder, config_hash, final_metadata, fmt_float, prepare_folder,
-                                write_marker, write_png)
-from sim.errors import SimError
 from rigs.image import to_gray
+from sim.dataset.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
+                                prepare_folder, write_marker, write_png)
+from sim.errors import SimError
+from sim.stage_timer import NO_TIMER
 
 FRAMES_HEADER = "#timestamp [ns],index"
 TRUTH_HEADER = "#timestamp [ns],T_w_c0 row-major 3x4 (12 numbers)"
@@ -55,11 +56,13 @@ class KittiWriter:
     from ``add_cam0_truth(t_ns, T_w_c0)`` at frame times.
     """
 
-    def __init__(self, out_dir, rig, metadata: dict, sequence: str = "00", overwrite: bool = False):
+    def __init__(self, out_dir, rig, metadata: dict, sequence: str = "00", overwrite: bool = False,
+                 png: PngOptions = PngOptions()):
         from rigs.rectify import stereo_rectify
         if not (len(sequence) == 2 and sequence.isdigit()):
             raise SimError(f"KittiWriter: sequence must be two digits like '00', got {sequence!r}")
         self.rig, self.metadata, self.sequence = rig, dict(metadata), sequence
+        self.png = png
         self.out_dir, resuming = prepare_folder(out_dir, self.metadata, overwrite)
         self._hash = config_hash(self.metadata)
         self.seq_dir = self.out_dir / "sequences" / sequence
@@ -75,26 +78,36 @@ class KittiWriter:
         self._truth = CsvStream(self.out_dir / "kitti_cam0_truth.csv", TRUTH_HEADER, resuming)
         self._gcps: list = []
         self.finalized = False
+        self.extra_metadata: dict = {}      # finalize() adds these keys to metadata.yaml
 
     def T_r0_b(self) -> np.ndarray:
         """(4,4) body -> rectified left camera: ``inv(T_b_c0 @ T_c0_r0)``, ``T_c0_r0 = [R0_rect^T | 0]``."""
         from rigs.geometry import inv_T, make_T
         return inv_T(self.rig.cameras[0].T_b_c_array @ make_T(self.rect.R0_rect.T, np.zeros(3)))
 
-    def add_frame(self, t_ns: int, images, depth=None, seg=None) -> None:
-        """Rectify and write one stereo epoch (images as for EurocWriter; depth/seg ignored)."""
+    def add_frame(self, t_ns: int, images=None, depth=None, seg=None, files_written: bool = False) -> None:
+        """Rectify and write one stereo epoch (images as for EurocWriter; depth/seg ignored).
+        ``files_written``: :meth:`write_frame_files` wrote them already; only the log row is added."""
         t_ns = int(t_ns)
         if self._frames.resume_t is not None and t_ns <= self._frames.resume_t:
             return
-        if len(images) != 2:
-            raise SimError(f"add_frame: expected 2 images (left, right), got {len(images)}")
         index = self._frames.rows
-        for k in (0, 1):
-            gray = to_gray(images[k])
-            rect = cv2.remap(gray, *self._maps[k], interpolation=cv2.INTER_LINEAR)
-            write_png(self.seq_dir / f"image_{k}" / f"{index:06d}.png", rect, rgb=False)
+        if not files_written:
+            self.write_frame_files(t_ns, images, index=index)
         self._frames.append(t_ns, [index])
         write_marker(self.out_dir, self._hash, f"frames={self._frames.rows}")
+
+    def write_frame_files(self, t_ns: int, images, depth=None, seg=None, index: int | None = None,
+                          timer=NO_TIMER) -> None:
+        """The two rectified PNGs of frame number ``index`` (the files of :meth:`add_frame`, without its
+        log row); safe from several threads at once."""
+        if len(images) != 2:
+            raise SimError(f"add_frame: expected 2 images (left, right), got {len(images)}")
+        for k in (0, 1):
+            with timer.stage("rectify"):
+                rect = cv2.remap(to_gray(images[k]), *self._maps[k], interpolation=cv2.INTER_LINEAR)
+            write_png(self.seq_dir / f"image_{k}" / f"{int(index):06d}.png", rect, rgb=False,
+                      png=self.png, timer=timer)
 
     def add_cam0_truth(self, t_ns, T_w_c0) -> None:
         t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
@@ -126,7 +139,8 @@ class KittiWriter:
         gcp_note = write_gcps_csv(self.out_dir / "gcps.csv", self._gcps)
         self._frames.path.unlink()
         self._truth.path.unlink()
-        meta = dict(self.metadata, format="kitti", kitti={"sequence": self.sequence, "t0_ns": t0}, gcps=gcp_note)
+        meta = dict(self.metadata, **self.extra_metadata, format="kitti",
+                    kitti={"sequence": self.sequence, "t0_ns": t0}, gcps=gcp_note)
         self.final_meta = final_metadata(meta, {"n_frames": len(t_frames), "n_poses": n_poses,
                                                 "n_gcps": len(self._gcps)}, self.rig)
         if commit:

@@ -9,22 +9,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from vo.dataset.image_noise import add_image_noise
+from vo.dataset.image_noise import add_quantized_noise
 
 
 class StereoCamera:
     """The rig's first two cameras on ``vehicle`` in ``scene``. Images are 8-bit grey
     (:func:`vo.frontend.image.to_gray`) unless ``rgb``; ``depth`` / ``segmentation`` as :class:`sim.render.StereoRenderer`.
-    Use as a context manager (it owns an off-screen GL context)."""
+    Use as a context manager (it owns an off-screen GL context). ``timer``: a
+    :class:`sim.stage_timer.StageTimer` for the renderer's read-back (None: not timed)."""
 
     def __init__(self, scene, rig, vehicle: str = "cart", depth: bool = False, segmentation: bool = False,
-                 supersample: int = 1, rgb: bool = False):
+                 supersample: int = 1, rgb: bool = False, timer=None):
         from sim.render import StereoRenderer
+        from sim.stage_timer import NO_TIMER
         from sim.world import build_world
         self.world = build_world(scene, rig, vehicle=vehicle)
         self.rgb = bool(rgb)
         self._renderer = StereoRenderer(self.world, rig, depth=depth, segmentation=segmentation,
-                                        supersample=supersample)
+                                        supersample=supersample, timer=timer or NO_TIMER)
 
     def measure(self, T_w_b: np.ndarray, dynamic_state: dict | None = None):
         """Clean stereo measurement at body pose ``T_w_b`` (4,4), the scene's actors at ``dynamic_state``
@@ -34,6 +36,11 @@ class StereoCamera:
         fr = self._renderer.render(T_w_b, dynamic_state)
         images = [img if img.ndim == 2 or self.rgb else to_gray(img) for img in fr.images[:2]]
         return images, fr.depth, fr.seg
+
+    @property
+    def gl_renderer(self) -> str:
+        """The GL renderer that draws (``GL_RENDERER``), e.g. ``llvmpipe (LLVM 15.0.6, 256 bits)``."""
+        return self._renderer.gl_renderer
 
     def geom_names(self) -> list:
         """Name of every geom of the compiled world, by geom id ("" if unnamed)."""
@@ -52,9 +59,10 @@ class StereoCamera:
 
 
 def add_noise(images, sigma: float, rng: np.random.Generator) -> list:
-    """The camera's noise step: :func:`vo.dataset.image_noise.add_image_noise` on each image in order,
-    all from ``rng``; ``sigma = 0`` returns the images unchanged and draws nothing."""
-    return [add_image_noise(img, sigma, rng) for img in images]
+    """The camera's noise step: :func:`vo.dataset.image_noise.add_quantized_noise` (the rounded Gaussian
+    offsets drawn directly) on each image in order, all from ``rng``; ``sigma = 0`` returns the images
+    unchanged and draws nothing."""
+    return [add_quantized_noise(img, sigma, rng) for img in images]
 
 
 class FrameExposer:
@@ -84,10 +92,16 @@ class FrameExposer:
 
     def expose(self, k: int, t_ns: int, pose_at, actors_at) -> tuple:
         """``(images [left, right] uint8, depth, seg, gain)`` of frame ``k`` at (mid-exposure, centre-row)
-        time ``t_ns``; ``pose_at(times_ns) -> (N,4,4) T_w_b``, ``actors_at(t_ns) -> dynamic state``."""
-        from sim.rng import indexed_stream
+        time ``t_ns``; ``pose_at(times_ns) -> (N,4,4) T_w_b``, ``actors_at(t_ns) -> dynamic state``.
+        :meth:`render` then :meth:`finish`."""
+        images, depth, seg, gain = self.render(k, t_ns, pose_at, actors_at)
+        return self.finish(k, images, gain), depth, seg, gain
+
+    def render(self, k: int, t_ns: int, pose_at, actors_at) -> tuple:
+        """The in-order part of frame ``k`` (on the renderer's thread): ``(images [left, right] float,
+        depth, seg, gain)``, the renders assembled and vignetted, the auto exposure stepped; the images
+        are at unit gain."""
         from sim.sensors.effects_timing import assemble
-        from sim.sensors.photometric import quantize, sensor_noise
         plan = self.plan
         times = int(t_ns) + plan.offsets_ns
         T_w_b = pose_at(times)
@@ -100,12 +114,20 @@ class FrameExposer:
         if self.ae is not None:
             gain = self.ae.gain
             self.ae.update(float(images[0].mean()))
+        return images, depth, seg, gain
+
+    def finish(self, k: int, images, gain: float) -> list:
+        """The rest of frame ``k``, independent of other frames (any thread, any order): the gain, then
+        the noise step; ``images`` from :meth:`render`. Returns [left, right] uint8."""
+        from sim.rng import indexed_stream
+        from sim.sensors.photometric import quantize, sensor_noise
+        if self.ae is not None:
             images = [img * gain for img in images]
         e = self.effects
         if self.noisy and e.sensor_noise:
             rng = indexed_stream(self.seed, "sensor_noise", k)
-            return [sensor_noise(img, e.read_noise_dn, e.shot_noise_gain, rng) for img in images], depth, seg, gain
+            return [sensor_noise(img, e.read_noise_dn, e.shot_noise_gain, rng) for img in images]
         images = [quantize(img) for img in images]
         if self.noisy:
             images = add_noise(images, self.sigma, indexed_stream(self.seed, "image_noise", k))
-        return images, depth, seg, gain
+        return images

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts
+from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, set_option
 
 
 @click.group("bench")
@@ -99,3 +99,38 @@ def localize_cmd(dataset, mode, max_sites, pairs, poses, items, as_json):
                 for r in site_table(localize_dataset(dataset, cfg, max_sites, progress=not as_json))[1:]]
     keys = ("site", "status", "tie_points", "true_inliers", "ba_err_m", "time_s", "timings_s")
     echo_json([{k: r[k] for k in keys if k in r} for r in rows]) if as_json else click.echo(timing_table(rows))
+
+
+@bench.command("generate")
+@click.option("--scenario", default="campus-short", show_default=True, help="Scenario to generate.")
+@click.option("--frames", type=click.IntRange(min=0), default=100, show_default=True,
+              help="Its first N frames (0: the whole route).")
+@click.option("--threads", type=click.IntRange(min=0), default=None,
+              help="Worker threads of the frame pipeline (default: one per CPU; 0: the serial loop).")
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Render processes of the end-to-end run (generate --workers).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Render on this Dask cluster (generate --scheduler).")
+@click.option("--repeat", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Alternate render-only and end-to-end runs N times; the best of each is kept.")
+@click.option("--png-levels", is_flag=True, help="Instead: PNG size and encoding time at zlib levels 0-9.")
+@click.option("--noise", is_flag=True, help="Instead: CPU ms per 752x480 pair of the image noise draws.")
+@set_option
+@json_option
+def generate_cmd(scenario, frames, threads, workers, scheduler, repeat, png_levels, noise, overrides, as_json):
+    """Render-only and end-to-end pairs/s, their ratio, ms per pair and stage, peak memory."""
+    from sim.app.bench_generate import bench_generate, format_bench, format_levels
+    from sim.app.bench_generate import png_levels as levels
+    if noise:
+        from sim.app.bench_generate import noise_cost
+        ms = noise_cost()
+        echo_json(ms) if as_json else click.echo("\n".join(f"{k:<28} {v:6.2f} CPU ms/pair" for k, v in ms.items()))
+        return
+    if png_levels:
+        rows = levels(scenario, frames=min(frames or 10, 10), overrides=overrides)
+        echo_json(rows) if as_json else click.echo(format_levels(rows))
+        return
+    say = None if as_json else (lambda m: click.echo(m, err=True))
+    b = bench_generate(scenario, frames, threads, repeat, overrides, progress=say, workers=workers,
+                       scheduler=scheduler)
+    echo_json(b.to_dict()) if as_json else click.echo(format_bench(b))

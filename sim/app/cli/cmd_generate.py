@@ -47,10 +47,21 @@ FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "s
 @click.option("--rgb/--no-rgb", default=False, help="Write RGB images (default: 8-bit grey, as EuRoC and KITTI).")
 @click.option("--overwrite", is_flag=True, help="Replace a complete dataset already in --out.")
 @click.option("--no-progress", is_flag=True)
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Render frame ranges in N processes, each with its own GL context (same bytes as 1); "
+                   "not with camera.auto_exposure.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Render the frame ranges on the Dask cluster at ADDRESS (needs the sweep extra).")
+@click.option("--egl-devices", default=None, metavar="LIST",
+              help="With --workers: EGL devices (MUJOCO_EGL_DEVICE_ID) given out to the worker processes in "
+                   "turn, e.g. 0,1,2,3.")
+@click.option("--threads", type=click.IntRange(min=0), default=None,
+              help="Threads that add noise, encode and write frames (default: one per CPU; 0: serial).")
 @set_option
 @json_option
 @click.pass_context
-def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, overrides, as_json, **flags):
+def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, workers, scheduler, egl_devices, threads,
+             overrides, as_json, **flags):
     """Generate a dataset (EuRoC, KITTI or both) with exact ground truth, GCPs and a top-down PNG."""
     from sim.generate import generate as run
 
@@ -58,7 +69,9 @@ def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, overri
     if scenario in traverse_scenarios():
         return _traverse(ctx, scenario, config_file, out_dir, overwrite, no_progress, overrides, as_json, flags)
     cfg = build_config(ctx, scenario, config_file, flags, overrides)
-    res = run(cfg, out_dir, progress=not no_progress and not as_json, overwrite=overwrite)
+    devices = tuple(d.strip() for d in egl_devices.split(",") if d.strip()) if egl_devices else ()
+    res = run(cfg, out_dir, progress=not no_progress and not as_json, overwrite=overwrite, threads=threads,
+              workers=workers, scheduler=scheduler, egl_devices=devices)
     for note in res.notes:
         click.echo(f"warning: {note}", err=True)
     if as_json:

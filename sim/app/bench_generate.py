@@ -1,0 +1,196 @@
+"""``vo-testbed bench generate``: dataset generation speed against the renderer's, and its memory.
+
+One run of :func:`bench_generate` on a scenario's first ``frames`` frames, side by side:
+
+- *render only*: the same frames rendered in this process by the camera sensor
+  (:class:`sim.sensors.camera.StereoCamera`, the scenario's rig, scene, poses and actors) and dropped;
+- *end to end*: :func:`sim.generate.generate` into a temporary folder (render, noise and effects, PNG
+  encoding, writing), timed over its frame loop (scene building, IMU and truth files left out, as for
+  render only the GL context's creation); with ``workers > 1`` the frames are rendered by that many
+  processes (:mod:`sim.render_workers`), their start-up included.
+
+``repeat`` alternates the two and keeps each one's best run (the machine may be shared). Per-stage
+figures are thread-milliseconds per pair (:class:`sim.stage_timer.StageTimer`; the worker threads run
+concurrently, so they may add up to more than the elapsed time); ``render`` excludes ``read-back``
+(``mjr_readPixels``, which also waits for the renderer to finish). Peak memory is the process's peak
+resident set (``ru_maxrss``). :func:`png_levels` times PNG encoding of the scenario's noisy frames at
+every zlib level, strategy and row filter (``render.png_compression``, ``png_strategy``, ``png_filter``).
+"""
+from __future__ import annotations
+
+import os
+import resource
+import shutil
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+STAGES = ("render", "read-back", "noise/effects", "rectify", "encode", "write")
+
+
+@dataclass(frozen=True)
+class GenerateBench:
+    scenario: str
+    frames: int
+    threads: int
+    workers: int
+    png: str                                          # PNG options: level, strategy, filter
+    render_pairs_per_s: float
+    end_to_end_pairs_per_s: float
+    stage_ms: dict = field(default_factory=dict)     # thread-ms per pair and stage (STAGES)
+    peak_rss_mb: float = 0.0
+    render_cpu_ms: float = 0.0                        # process CPU ms per pair (all threads), render only
+    end_to_end_cpu_ms: float = 0.0                    # and end to end: robust to other load
+    cpus: int = 0
+    load_avg: tuple = ()                              # 1-minute load average before and after
+
+    @property
+    def ratio(self) -> float:
+        return self.end_to_end_pairs_per_s / self.render_pairs_per_s
+
+    def to_dict(self) -> dict:
+        return dict(asdict(self), ratio=self.ratio)
+
+
+def frames_config(scenario: str, frames: int | None, overrides=()):
+    """The scenario's config cut to its first ``frames`` frames (None or 0: the whole route)."""
+    from sim.scenarios import get_scenario
+    cfg = get_scenario(scenario, overrides)
+    if frames:
+        rate = cfg.rig.camera_rate_hz
+        cfg = cfg.with_value("duration_s", max(frames - 1, 1) / rate)
+    return cfg
+
+
+def render_only(setup, timer=None) -> tuple:
+    """``(pairs, seconds, CPU seconds)``: every frame of ``setup`` rendered by the camera sensor, nothing else."""
+    from sim.sensors.camera import StereoCamera
+    c = setup.config
+    T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
+    with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
+                      supersample=setup.supersample, rgb=c.rgb, timer=timer) as camera:
+        t0, c0 = time.perf_counter(), time.process_time()
+        for k, t_ns in enumerate(setup.frame_t_ns):
+            camera.measure(T_w_b[k], setup.scene.actor_states(int(t_ns)))
+        return len(setup.frame_t_ns), time.perf_counter() - t0, time.process_time() - c0
+
+
+def end_to_end(config, threads, workdir, workers: int = 1, scheduler=None) -> tuple:
+    """``(pairs, seconds of the frame loop, its CPU seconds, StageTimer)`` of one
+    :func:`sim.generate.generate` run."""
+    from sim.generate import generate
+    from sim.stage_timer import StageTimer
+    timer = StageTimer()
+    out = tempfile.mkdtemp(prefix="bench-generate-", dir=workdir)
+    try:
+        res = generate(config, os.path.join(out, "ds"), progress=False, threads=threads, timer=timer,
+                       workers=workers, scheduler=scheduler)
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    return res.n_frames, timer.seconds("frame loop"), timer.seconds("frame loop CPU"), timer
+
+
+def bench_generate(scenario: str = "campus-short", frames: int | None = 100, threads: int | None = None,
+                   repeat: int = 1, overrides=(), workdir=None, progress=None, workers: int = 1,
+                   scheduler=None) -> GenerateBench:
+    """Render-only and end-to-end pairs per second of ``scenario``'s first ``frames`` frames (module
+    docstring); ``threads``: the pipeline's workers (None: one per CPU), ``overrides``: ``--set`` items."""
+    from sim.frame_pipeline import default_threads
+    from sim.generate import resolve
+    config = frames_config(scenario, frames, overrides)
+    threads = default_threads() if threads is None else int(threads)
+    load0 = os.getloadavg()[0]
+    setup = resolve(config)
+    best_render, best_e2e, best_timer, n = (np.inf, np.inf), (np.inf, np.inf), None, 0
+    for r in range(max(1, repeat)):
+        n, dt, dc = render_only(setup)
+        best_render = min(best_render, (dt, dc))
+        n, dt, dc, timer = end_to_end(config, threads, workdir, workers, scheduler)
+        if dt < best_e2e[0]:
+            best_e2e, best_timer = (dt, dc), timer
+        if progress:
+            progress(f"run {r + 1}/{repeat}: render only {n / best_render[0]:.1f}, "
+                     f"end to end {n / best_e2e[0]:.1f} pairs/s")
+    tot = best_timer.totals()
+    stage_ms = {s: 1e3 * tot.get(s, 0.0) / n for s in STAGES}
+    stage_ms["render"] -= stage_ms["read-back"]
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    r = config.render
+    png = f"level {r.png_compression}, {r.png_strategy}, {r.png_filter} filter"
+    return GenerateBench(scenario, n, threads, workers, png, n / best_render[0],
+                         n / best_e2e[0], stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n,
+                         os.cpu_count() or 0,
+                         (round(load0, 2), round(os.getloadavg()[0], 2)))
+
+
+def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -> list:
+    """``[{strategy, level, filter, kb_per_image, encode_ms_per_image}]`` for every zlib strategy
+    (``render.png_strategy``) and level 0-9 (``render.png_compression``) with all row filters, then every
+    row filter (``render.png_filter``) at level 1, ``rle``, on ``frames`` frames of
+    ``scenario`` spread over its route, noisy unless ``ideal``; encoding time is CPU time (one thread)."""
+    from sim.config import PNG_FILTERS, PNG_STRATEGIES
+    from sim.dataset.common import PngOptions, encode_png
+    from sim.generate import resolve
+    from sim.rng import indexed_stream
+    from sim.sensors.camera import StereoCamera, add_noise
+    setup = resolve(frames_config(scenario, None, overrides))
+    c = setup.config
+    picks = np.linspace(0, len(setup.frame_t_ns) - 1, frames).astype(int)
+    T_w_b = setup.trajectory.states(setup.frame_t_ns[picks]).T_w_b
+    images = []
+    with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, rgb=c.rgb) as camera:
+        for j, k in enumerate(picks):
+            imgs, _, _ = camera.measure(T_w_b[j], setup.scene.actor_states(int(setup.frame_t_ns[k])))
+            images += add_noise(imgs, setup.image_noise, indexed_stream(c.seed, "image_noise", int(k)))
+    settings = [PngOptions(level, strategy, "all") for strategy in PNG_STRATEGIES for level in range(10)]
+    settings += [PngOptions(1, "rle", f) for f in PNG_FILTERS]
+    rows = []
+    for png in settings:
+        t0 = time.process_time()
+        sizes = [len(encode_png(img, png=png)) for img in images]
+        dt = time.process_time() - t0
+        rows.append({"strategy": png.strategy, "level": png.compression, "filter": png.filter,
+                     "kb_per_image": float(np.mean(sizes)) / 1024.0, "encode_ms_per_image": 1e3 * dt / len(images)})
+    return rows
+
+
+def noise_cost(width: int = 752, height: int = 480, sigma: float = 1.0, pairs: int = 50) -> dict:
+    """CPU ms per stereo pair of ``width x height`` grey images for the camera's noise step
+    (:func:`vo.dataset.image_noise.add_quantized_noise`) and for the Gaussian sum in float32 and float64
+    (:func:`vo.dataset.image_noise.add_image_noise`), each frame from its own indexed stream, one thread."""
+    from sim.rng import indexed_stream
+    from vo.dataset.image_noise import add_image_noise, add_quantized_noise
+    img = np.random.default_rng(0).integers(0, 256, (height, width), dtype=np.uint8)
+    draws = {"quantized offsets (camera)": add_quantized_noise,
+             "gaussian sum, float32": lambda im, s, rng: add_image_noise(im, s, rng, np.float32),
+             "gaussian sum, float64": lambda im, s, rng: add_image_noise(im, s, rng, np.float64)}
+    out = {}
+    for name, draw in draws.items():
+        t0 = time.process_time()
+        for k in range(pairs):
+            rng = indexed_stream(0, "image_noise", k)
+            draw(img, sigma, rng), draw(img, sigma, rng)
+        out[name] = 1e3 * (time.process_time() - t0) / pairs
+    return out
+
+
+def format_bench(b: GenerateBench) -> str:
+    lines = [f"scenario {b.scenario}: {b.frames} pairs, {b.workers} render process(es), {b.threads} worker threads, "
+             f"PNG {b.png}, "
+             f"{b.cpus} CPUs, load {b.load_avg[0]:.2f} -> {b.load_avg[1]:.2f}",
+             f"render only   {b.render_pairs_per_s:7.1f} pairs/s   (CPU {b.render_cpu_ms:.1f} ms/pair, all threads)",
+             f"end to end    {b.end_to_end_pairs_per_s:7.1f} pairs/s   "
+             f"(CPU {b.end_to_end_cpu_ms:.1f} ms/pair, all threads)",
+             f"ratio         {b.ratio:7.2f}",
+             "stage ms/pair " + "  ".join(f"{s} {b.stage_ms[s]:.1f}" for s in STAGES),
+             f"peak memory   {b.peak_rss_mb:7.0f} MB"]
+    return "\n".join(lines)
+
+
+def format_levels(rows: list) -> str:
+    out = [f"{'strategy':>8} {'level':>5} {'filter':>6} {'KB/image':>9} {'encode CPU ms/image':>20}"]
+    out += [f"{r['strategy']:>8} {r['level']:>5} {r['filter']:>6} {r['kb_per_image']:9.1f} "
+            f"{r['encode_ms_per_image']:20.2f}" for r in rows]
+    return "\n".join(out)
