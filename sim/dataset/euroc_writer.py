@@ -292,7 +292,7 @@ def timeshift_s(metadata: dict) -> float:
 
 
 def has_k3(rig) -> bool:
-    return any(float(c.dist[4]) != 0.0 for c in rig.cameras)
+    return any(not c.is_fisheye and float(c.dist[4]) != 0.0 for c in rig.cameras)
 
 
 def calibration_note(rig) -> str:
