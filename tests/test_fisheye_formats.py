@@ -87,3 +87,15 @@ def test_kitti_writer_rectifies_a_fisheye_pair(tmp_path):
     back = read_kitti_calib(tmp_path / "k" / "sequences" / "00" / "calib.txt", width=64, height=48)
     assert abs(back.baseline - s.rig.baseline) < 1e-9 and back.cameras[0].dist_model == "radtan"
     assert not back.cameras[0].has_distortion          # rectified pinhole: the lens is in rig.yaml only
+
+
+def test_too_wide_a_fisheye_is_refused_before_anything_is_written(tmp_path, capsys):
+    # f = 150 px on 640x480: the corners would see rays 153 deg off axis, beyond any pinhole canvas.
+    from test_bad_input_cli import assert_one_line_exit_2, vo_testbed
+    out = tmp_path / "g"
+    code, _, err = vo_testbed(capsys, "generate", "--rig", "fisheye150", "--set", "rig.cam0.fx=150",
+                              "--set", "rig.cam0.fy=150", "--scene", "indoor", "--duration", "0.2", "--out", out,
+                              "--no-progress")
+    assert_one_line_exit_2(code, err, "its image corners see rays more than 80 degrees off axis")
+    assert not out.exists()
+
