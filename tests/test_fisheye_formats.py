@@ -99,3 +99,4 @@ def test_too_wide_a_fisheye_is_refused_before_anything_is_written(tmp_path, caps
     assert_one_line_exit_2(code, err, "its image corners see rays more than 80 degrees off axis")
     assert not out.exists()
 
+
