@@ -7,9 +7,10 @@ import dataclasses
 
 import cv2
 import numpy as np
+import pytest
 import yaml
 
-from test_dataset_synth import Synth
+from test_dataset_synth import Synth, make_rig
 from test_rosbag_export import read_bag
 
 from rigs.calib_io import read_kalibr, read_kitti_calib
@@ -21,10 +22,11 @@ from vo.dataset import open_dataset
 K4 = (-0.01, 0.04, -0.04, 0.008)
 
 
-def fisheye_synth(n_frames=3):
-    """The synthetic dataset with its cameras made equidistant (64x48, f = 50 px: corners ~44 deg off axis)."""
+def fisheye_synth(n_frames=3, parallel=True):
+    """The synthetic dataset with its cameras made equidistant (64x48, f = 50 px: corners ~44 deg off axis);
+    ``parallel=False``: cam1 turned by 0.01 and -0.02 rad (cam0 and its truth unchanged)."""
     s = Synth(n_frames=n_frames)
-    cams = tuple(dataclasses.replace(c, dist=K4, dist_model="equidistant") for c in s.rig.cameras)
+    cams = tuple(dataclasses.replace(c, dist=K4, dist_model="equidistant") for c in make_rig(parallel).cameras)
     s.rig = dataclasses.replace(s.rig, cameras=cams)
     return s
 
@@ -100,3 +102,34 @@ def test_too_wide_a_fisheye_is_refused_before_anything_is_written(tmp_path, caps
     assert not out.exists()
 
 
+
+
+@pytest.mark.parametrize("parallel", [True, False])
+def test_estimators_get_the_cv2_fisheye_rectified_view(tmp_path, parallel):
+    # A fisheye dataset reaches the estimators rectified: pinhole rig, frames remapped by the cv2.fisheye
+    # maps, ground truth of the rectified left camera (the same centre, turned by R0_rect^T; R0_rect = I
+    # for a parallel pair).
+    from vo.dataset.fisheye_view import RectifiedFisheyeView, for_estimators
+    s = fisheye_synth(parallel=parallel)
+    s.write(EurocWriter(tmp_path / "ds", s.rig, s.metadata))
+    ds = open_dataset(tmp_path / "ds")
+    view = for_estimators(ds)
+    assert isinstance(view, RectifiedFisheyeView) and view.images_are_rectified
+    assert not any(c.has_distortion for c in view.rig.cameras)
+    assert abs(view.rig.baseline - s.rig.baseline) < 1e-9 and len(view) == len(ds)
+    raw, rect = ds.frame(1), view.frame(1)
+    (mx, my), _ = view.rectification.maps()
+    expect = cv2.remap(raw.left, mx, my, cv2.INTER_LINEAR)
+    assert np.array_equal(rect.left, expect) and rect.t_ns == raw.t_ns
+    assert (np.abs(view.rectification.R0_rect - np.eye(3)).max() > 1e-3) == (not parallel)
+    gt, gt_r = ds.groundtruth_cam0(), view.groundtruth_cam0()
+    np.testing.assert_allclose(gt_r.T[:, :3, 3], gt.T[:, :3, 3], atol=1e-12)
+    np.testing.assert_allclose(gt_r.T[:, :3, :3], gt.T[:, :3, :3] @ view.rectification.R0_rect.T, atol=1e-12)
+    radtan = open_dataset(_radtan_copy(tmp_path))
+    assert for_estimators(radtan) is radtan
+
+
+def _radtan_copy(tmp_path):
+    s = Synth(n_frames=2)
+    s.write(EurocWriter(tmp_path / "r", s.rig, s.metadata))
+    return tmp_path / "r"
