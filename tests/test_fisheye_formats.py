@@ -133,3 +133,26 @@ def _radtan_copy(tmp_path):
     s = Synth(n_frames=2)
     s.write(EurocWriter(tmp_path / "r", s.rig, s.metadata))
     return tmp_path / "r"
+
+
+def test_bag_with_an_unsupported_distortion_model_is_refused(tmp_path):
+    # A camera_info the reader cannot model (ROS "rational_polynomial") gets one line naming the topic,
+    # instead of its 8 coefficients being read as radtan ones.
+    import dataclasses as dc
+    from rosbags.highlevel import AnyReader
+    from rosbags.rosbag1 import Writer
+    from vo.errors import DatasetError
+    s = Synth(n_frames=2)
+    s.write(EurocWriter(tmp_path / "ds", s.rig, s.metadata))
+    export_rosbag(tmp_path / "ds", tmp_path / "ok.bag", kind="rosbag1")
+    with AnyReader([tmp_path / "ok.bag"]) as reader, Writer(tmp_path / "bad.bag") as writer:
+        conns = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=reader.typestore)
+                 for c in reader.connections}
+        for c, t, raw in reader.messages():
+            if c.topic.endswith("camera_info"):
+                msg = dc.replace(reader.deserialize(raw, c.msgtype), distortion_model="rational_polynomial")
+                raw = reader.typestore.serialize_ros1(msg, c.msgtype)
+            writer.write(conns[c.id], t, raw)
+    with pytest.raises(DatasetError, match=r"/cam0/camera_info: distortion_model: only plumb_bob, equidistant "
+                                           r"are supported, got 'rational_polynomial'"):
+        open_dataset(tmp_path / "bad.bag")
