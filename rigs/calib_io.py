@@ -7,13 +7,17 @@ Frame conventions at this boundary (``T_a_b`` maps points of b into a):
   Distortion ``radtan`` ``[k1, k2, r1, r2]`` = OpenCV ``(k1, k2, p1, p2)``. Kalibr has no ``k3``: a
   rig with ``k3 != 0`` cannot be expressed, the writer drops it and says so in a comment at the top
   of the file (our reader still accepts a fifth value, as older files of ours carry it).
+  Distortion ``equidistant`` ``[k1, k2, k3, k4]`` (Kalibr ``pinhole-equi``) = ``cv2.fisheye``'s
+  ``(k1, k2, k3, k4)`` = our ``dist_model: equidistant``; exact both ways.
   ``imu.yaml``'s ``T_i_b`` maps the vehicle body into the IMU frame (``inv(T_b_i)``); read back, the
   body frame is that frame (``T_b_c = inv(T_i_b) @ inv(T_cam_imu)``), the IMU frame without ``T_i_b``.
   ``timeshift_cam_imu`` [s]: ``t_imu = t_cam + shift`` (the convention of our ``imu_clock.time_offset_ms``).
 - EuRoC ``sensor.yaml``: ``T_BS`` = ``T_B_S`` (sensor S into body B; in EuRoC B is the IMU frame).
+  ``distortion_model: radial-tangential`` or ``equidistant`` (4 coefficients, as TUM-VI's EuRoC-layout files).
   Real files start with OpenCV's ``%YAML:1.0`` line, which the reader skips.
 - KITTI odometry ``calib.txt``: rectified ``P_k = K [I | t_k]`` (3x4, row-major), camera 0 the
-  reference, ``P1[0,3] = -fx * baseline``.
+  reference, ``P1[0,3] = -fx * baseline``. It has no distortion at all (neither radtan nor
+  equidistant): it describes rectified pinhole images only.
 
 All writers are atomic (temp file + ``os.replace``); readers raise one-line RigErrors naming
 the file and the field.
@@ -48,8 +52,13 @@ def _opencv_dist(values) -> tuple:
 
 
 def _file_dist(dist) -> list:
-    """OpenCV 5-tuple -> list of 4, plus k3 only if non-zero."""
-    return [float(x) for x in (dist if dist[4] != 0.0 else dist[:4])]
+    """OpenCV 5-tuple -> list of 4, plus k3 only if non-zero (an equidistant 4-tuple as it is)."""
+    return [float(x) for x in (dist if len(dist) == 5 and dist[4] != 0.0 else dist[:4])]
+
+
+def _radtan_k3(cam: Camera) -> float:
+    """The radtan ``k3`` of ``cam`` (0 for an equidistant camera, whose 4 coefficients every format holds)."""
+    return 0.0 if cam.is_fisheye else cam.dist[4]
 
 
 def _rigid(rows, source, path) -> tuple:
@@ -103,14 +112,14 @@ def k3_corner_error_px(cam: Camera) -> float:
 
 def dropped_k3_note(cam: Camera, label: str) -> str:
     """``"cam0: k3 = 0.0507 dropped (up to 8.0 px in the image corners)"``, or "" when ``k3 = 0``."""
-    if cam.dist[4] == 0.0:
+    if _radtan_k3(cam) == 0.0:
         return ""
     return f"{label}: k3 = {cam.dist[4]!r} dropped (up to {k3_corner_error_px(cam):.1f} px in the image corners)"
 
 
 def kalibr_dropped_k3(rig: Rig) -> list[str]:
     """One line per camera whose ``k3 != 0``, which Kalibr's 4-coefficient radtan cannot hold."""
-    return [dropped_k3_note(c, f"cam{k} ({c.name})") for k, c in enumerate(rig.cameras) if c.dist[4] != 0.0]
+    return [dropped_k3_note(c, f"cam{k} ({c.name})") for k, c in enumerate(rig.cameras) if _radtan_k3(c) != 0.0]
 
 
 def kalibr_camchain_dict(rig: Rig, timeshift_s: float = 0.0) -> dict:
@@ -123,7 +132,8 @@ def kalibr_camchain_dict(rig: Rig, timeshift_s: float = 0.0) -> dict:
     for k, cam in enumerate(rig.cameras):
         T_c_b = inv_T(cam.T_b_c_array)
         entry = {"camera_model": "pinhole", "intrinsics": [cam.fx, cam.fy, cam.cx, cam.cy],
-                 "distortion_model": "radtan", "distortion_coeffs": [float(x) for x in cam.dist[:4]],
+                 "distortion_model": "equidistant" if cam.is_fisheye else "radtan",
+                 "distortion_coeffs": [float(x) for x in cam.dist[:4]],
                  "resolution": [cam.width, cam.height], "T_cam_imu": _rows(T_c_b @ T_b_i)}
         if k > 0:
             entry["T_cn_cnm1"] = _rows(T_c_b @ rig.cameras[k - 1].T_b_c_array)
@@ -178,9 +188,12 @@ def _kalibr_camera(d, k, T_c_prev_b, source) -> Camera:
     """One ``camK`` entry -> Camera with ``T_b_c`` in the IMU (=body) frame."""
     p = f"cam{k}"
     check_keys(d, _KALIBR_CAM_REQ, _KALIBR_CAM_OPT, source, p)
-    for key, want in (("camera_model", "pinhole"), ("distortion_model", "radtan")):
-        if d[key] != want:
-            raise field_error(source, f"{p}.{key}", f"only {want!r} is supported, got {d[key]!r}")
+    if d["camera_model"] != "pinhole":
+        raise field_error(source, f"{p}.camera_model", f"only 'pinhole' is supported, got {d['camera_model']!r}")
+    if d["distortion_model"] not in ("radtan", "equidistant"):
+        raise field_error(source, f"{p}.distortion_model",
+                          f"only 'radtan' and 'equidistant' are supported, got {d['distortion_model']!r}")
+    fisheye = d["distortion_model"] == "equidistant"
     fu, fv, pu, pv = field_floats(d["intrinsics"], source, f"{p}.intrinsics", (4,))
     w, h = _resolution(d["resolution"], source, f"{p}.resolution")
     if "T_cam_imu" in d:
@@ -193,8 +206,10 @@ def _kalibr_camera(d, k, T_c_prev_b, source) -> Camera:
         T_b_c = np.eye(4)
     else:
         raise field_error(source, f"{p}.T_cam_imu", "missing field (and no T_cn_cnm1)")
+    coeffs = field_floats(d["distortion_coeffs"], source, f"{p}.distortion_coeffs", (4,) if fisheye else (4, 5))
     return Camera(name=p, width=w, height=h, fx=fu, fy=fv, cx=pu, cy=pv,
-                  dist=_opencv_dist(field_floats(d["distortion_coeffs"], source, f"{p}.distortion_coeffs", (4, 5))),
+                  dist=tuple(coeffs) if fisheye else _opencv_dist(coeffs),
+                  dist_model="equidistant" if fisheye else "radtan",
                   T_b_c=_rigid(T_b_c, source, f"{p}.T_cam_imu"))
 
 
@@ -285,9 +300,10 @@ def write_euroc_camera_yaml(path, camera: Camera, T_B_S, rate_hz: float, four: b
     d = {"sensor_type": "camera", "comment": f"simulated {camera.name}", "T_BS": _T_BS_dict(T_B_S),
          "rate_hz": int_if_integral(rate_hz), "resolution": [camera.width, camera.height], "camera_model": "pinhole",
          "intrinsics": [camera.fx, camera.fy, camera.cx, camera.cy],
-         "distortion_model": "radial-tangential", "distortion_coefficients": [float(x) for x in dist]}
+         "distortion_model": "equidistant" if camera.is_fisheye else "radial-tangential",
+         "distortion_coefficients": [float(x) for x in dist]}
     header = "General sensor definitions (EuRoC layout)."
-    if four and camera.dist[4] != 0.0:
+    if four and _radtan_k3(camera) != 0.0:
         header += ("\nNOT EXACT: EuRoC's radial-tangential has 4 coefficients; " + dropped_k3_note(camera, camera.name)
                    + ".\nrig.yaml at the dataset root holds the exact calibration (OpenCV k1 k2 p1 p2 k3).")
     atomic_write_text(path, "%YAML:1.0\n" + dump_yaml(d, header=header))
@@ -323,13 +339,18 @@ def read_euroc_camera_yaml(path, name: str = "cam0") -> tuple[Camera, float]:
     """EuRoC camera ``sensor.yaml`` -> (Camera with ``T_b_c = T_BS``, rate_hz)."""
     d, src = _read_sensor(path, "camera", ("sensor_type", "T_BS", "rate_hz", "resolution", "camera_model",
                                            "intrinsics", "distortion_model", "distortion_coefficients"), ("comment",))
-    for key, want in (("camera_model", "pinhole"), ("distortion_model", "radial-tangential")):
-        if d[key] != want:
-            raise field_error(src, key, f"only {want!r} is supported, got {d[key]!r}")
+    if d["camera_model"] != "pinhole":
+        raise field_error(src, "camera_model", f"only 'pinhole' is supported, got {d['camera_model']!r}")
+    if d["distortion_model"] not in ("radial-tangential", "equidistant"):
+        raise field_error(src, "distortion_model",
+                          f"only 'radial-tangential' and 'equidistant' are supported, got {d['distortion_model']!r}")
+    fisheye = d["distortion_model"] == "equidistant"
     fu, fv, cu, cv = field_floats(d["intrinsics"], src, "intrinsics", (4,))
     w, h = _resolution(d["resolution"], src, "resolution")
-    dist = _opencv_dist(field_floats(d["distortion_coefficients"], src, "distortion_coefficients", (4, 5)))
-    cam = Camera(name=name, width=w, height=h, fx=fu, fy=fv, cx=cu, cy=cv, dist=dist, T_b_c=_read_T_BS(d["T_BS"], src))
+    coeffs = field_floats(d["distortion_coefficients"], src, "distortion_coefficients", (4,) if fisheye else (4, 5))
+    cam = Camera(name=name, width=w, height=h, fx=fu, fy=fv, cx=cu, cy=cv,
+                 dist=tuple(coeffs) if fisheye else _opencv_dist(coeffs),
+                 dist_model="equidistant" if fisheye else "radtan", T_b_c=_read_T_BS(d["T_BS"], src))
     return cam, field_number(d["rate_hz"], src, "rate_hz", positive=True)
 
 

@@ -10,9 +10,12 @@ import math
 from dataclasses import dataclass, field
 from typing import Optional
 
+import cv2
 import numpy as np
 
 from rigs.errors import RigError
+
+DIST_MODELS = ("radtan", "equidistant")
 
 Matrix4 = tuple  # tuple of 4 tuples of 4 floats
 
@@ -54,7 +57,18 @@ def _nonneg(value, where: str) -> float:
 
 @dataclass(frozen=True)
 class Camera:
-    """Pinhole camera with OpenCV radial-tangential distortion ``(k1, k2, p1, p2, k3)``."""
+    """Pinhole camera with a lens model ``dist_model``:
+
+    - ``radtan`` (default): OpenCV radial-tangential ``dist = (k1, k2, p1, p2, k3)``;
+    - ``equidistant``: Kannala-Brandt fisheye, OpenCV ``cv2.fisheye``, Kalibr ``pinhole-equi``:
+      ``dist = (k1, k2, k3, k4)``, ``theta_d = theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8)``,
+      pixel = ``K [theta_d / r * x, theta_d / r * y, 1]`` for the ray ``(x, y, 1)``, ``r = |(x, y)|``,
+      ``theta = atan(r)``. Rays up to (not including) 90 degrees off the axis.
+
+    :meth:`project` / :meth:`undistort_normalized` dispatch on the model (``cv2.projectPoints`` /
+    ``cv2.fisheye.projectPoints`` and their inverses). :attr:`dist_coeffs` is the radtan vector and refuses
+    an equidistant camera, so code written for radtan fails loudly instead of misreading fisheye coefficients.
+    """
 
     name: str
     width: int
@@ -65,9 +79,12 @@ class Camera:
     cy: float
     dist: tuple = (0.0, 0.0, 0.0, 0.0, 0.0)
     T_b_c: Matrix4 = field(default_factory=lambda: tuple(tuple(r) for r in np.eye(4).tolist()))
+    dist_model: str = "radtan"
 
     def __post_init__(self):
         w = f"camera {self.name!r}"
+        if self.dist_model not in DIST_MODELS:
+            raise RigError(f"{w}.dist_model: expected one of {', '.join(DIST_MODELS)}, got {self.dist_model!r}")
         for f in ("width", "height"):
             v = getattr(self, f)
             if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v <= 0:
@@ -89,6 +106,12 @@ class Camera:
                                f"the camera's {'width' if f == 'cx' else 'height'})")
             object.__setattr__(self, f, v)
         d = tuple(float(x) for x in self.dist) if self.dist is not None else ()
+        if self.dist_model == "equidistant":
+            if len(d) != 4 or not all(math.isfinite(x) for x in d):
+                raise RigError(f"{w}.dist: expected 4 finite equidistant coefficients (k1 k2 k3 k4), got {self.dist!r}")
+            object.__setattr__(self, "dist", d)
+            object.__setattr__(self, "T_b_c", as_matrix4(self.T_b_c, f"{w}.T_b_c"))
+            return
         if len(d) == 4:
             d = d + (0.0,)
         if len(d) != 5 or not all(math.isfinite(x) for x in d):
@@ -102,13 +125,49 @@ class Camera:
         return np.array([[self.fx, 0, self.cx], [0, self.fy, self.cy], [0, 0, 1.0]])
 
     @property
+    def is_fisheye(self) -> bool:
+        return self.dist_model == "equidistant"
+
+    @property
     def dist_coeffs(self) -> np.ndarray:
-        """(5,) OpenCV distortion vector."""
+        """(5,) OpenCV radtan distortion vector; a RigError for an equidistant camera (use
+        :attr:`fisheye_coeffs`, :meth:`project`, :meth:`undistort_normalized`)."""
+        if self.is_fisheye:
+            raise RigError(f"camera {self.name!r}: an equidistant (fisheye) camera has no radtan coefficients; "
+                           f"this step supports radtan cameras only")
+        return np.array(self.dist, dtype=float)
+
+    @property
+    def fisheye_coeffs(self) -> np.ndarray:
+        """(4,) ``cv2.fisheye`` vector ``(k1, k2, k3, k4)`` of an equidistant camera."""
+        if not self.is_fisheye:
+            raise RigError(f"camera {self.name!r}: not an equidistant camera")
         return np.array(self.dist, dtype=float)
 
     @property
     def has_distortion(self) -> bool:
-        return any(abs(x) > 0 for x in self.dist)
+        """True when the image is not the pinhole image of ``K`` (always for an equidistant camera)."""
+        return self.is_fisheye or any(abs(x) > 0 for x in self.dist)
+
+    def project(self, p_c: np.ndarray) -> np.ndarray:
+        """(N,3) points in the camera frame (``z > 0``) -> (N,2) pixels through the lens model."""
+        p = np.ascontiguousarray(np.asarray(p_c, dtype=np.float64).reshape(-1, 1, 3))
+        if self.is_fisheye:
+            uv, _ = cv2.fisheye.projectPoints(p, np.zeros((3, 1)), np.zeros((3, 1)), self.K, self.fisheye_coeffs)
+        else:
+            uv, _ = cv2.projectPoints(p, np.zeros(3), np.zeros(3), self.K, self.dist_coeffs)
+        return uv.reshape(-1, 2)
+
+    def undistort_normalized(self, uv: np.ndarray, iters: int = 30) -> np.ndarray:
+        """(N,2) image pixels -> (N,2) normalised pinhole coordinates ``(x/z, y/z)`` (``cv2.undistortPoints`` /
+        ``cv2.fisheye.undistortPoints``, at most ``iters`` iterations, stopping at 1e-14)."""
+        p = np.ascontiguousarray(np.asarray(uv, dtype=np.float64).reshape(-1, 1, 2))
+        crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, iters, 1e-14)
+        if self.is_fisheye:
+            xy = cv2.fisheye.undistortPoints(p, self.K, self.fisheye_coeffs, criteria=crit)
+        else:
+            xy = cv2.undistortPoints(p, self.K, self.dist_coeffs, criteria=crit)
+        return xy.reshape(-1, 2)
 
     @property
     def T_b_c_array(self) -> np.ndarray:

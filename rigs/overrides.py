@@ -29,6 +29,7 @@ from rigs.model import Camera, Imu, Rig, Wheels
 from rigs.typed_config import KeyGrammar, coerce, field_types, init_fields, split_item
 
 DIST_INDEX = {"k1": 0, "k2": 1, "p1": 2, "p2": 3, "k3": 4}     # OpenCV order of Camera.dist
+EQUI_INDEX = {"k1": 0, "k2": 1, "k3": 2, "k4": 3}               # cv2.fisheye order (dist_model equidistant)
 SHORTHANDS = ("baseline", "imu", "wheels")
 _PLAIN = (str, int, float, bool)
 _CAM_RE = re.compile(r"cam(\d+)$")
@@ -45,7 +46,7 @@ def plain_rig_fields() -> tuple:
 
 
 def camera_keys() -> tuple:
-    return _names(Camera) + tuple(DIST_INDEX)
+    return _names(Camera) + tuple(DIST_INDEX) + ("k4",)
 
 
 def valid_keys(rig: Rig) -> list[str]:
@@ -92,9 +93,13 @@ def _replace_typed(obj, name: str, value, key: str):
 def _set_camera(rig, indices, name, value, key):
     cams = list(rig.cameras)
     for k in indices:
-        if name in DIST_INDEX:
+        if name in DIST_INDEX or name == "k4":
+            index = EQUI_INDEX if cams[k].is_fisheye else DIST_INDEX
+            if name not in index:
+                raise RigError(f"{key}: camera {cams[k].name!r} ({cams[k].dist_model}) has no coefficient {name}; "
+                               f"valid: {', '.join(index)}")
             dist = list(cams[k].dist)
-            dist[DIST_INDEX[name]] = coerce(value, float, key, RigError)
+            dist[index[name]] = coerce(value, float, key, RigError)
             cams[k] = dataclasses.replace(cams[k], dist=tuple(dist))
         elif name == "dist":                  # annotated a bare tuple in the model: numbers here
             cams[k] = dataclasses.replace(cams[k], dist=coerce(value, tuple[float, ...], key, RigError))

@@ -143,7 +143,26 @@ def build_kitti_like() -> Rig:
                        MAST_XYZ_CAR, 10.0, "euroc-adis16448", "car roof")
 
 
-_BUILDERS = {"cart27": build_cart27, "stereo27": build_stereo27, "yutu-navcam": build_yutu_navcam,
+FISHEYE150_SIZE = (640, 480)
+FISHEYE150_F = 315.0                 # px: the image corners see rays 75 deg off axis (150 deg diagonal FOV)
+FISHEYE150_K = (-0.01, 0.04, -0.04, 0.008)   # equidistant k1..k4, of the order of tracking-camera lenses
+FISHEYE150_BASELINE_M = 0.12
+
+
+def build_fisheye150() -> Rig:
+    """Two parallel equidistant (Kannala-Brandt) fisheye cameras, 640x480, f = 315 px, k1..k4 =
+    ``FISHEYE150_K``: the image corners see rays 75 deg off axis (150 deg diagonal field of view;
+    117 deg x 87 deg horizontally x vertically), baseline 0.12 m, 20 Hz, on the cart mast. Rendered
+    through a 1892x1420 pinhole canvas (:mod:`sim.distortion`)."""
+    w, h = FISHEYE150_SIZE
+    intr = dict(fx=FISHEYE150_F, fy=FISHEYE150_F, cx=(w - 1) / 2, cy=(h - 1) / 2, dist=FISHEYE150_K,
+                dist_model="equidistant")
+    T_c0_c1 = make_T(np.eye(3), (FISHEYE150_BASELINE_M, 0.0, 0.0))
+    return _stereo_rig("fisheye150", intr, intr, FISHEYE150_SIZE, T_c0_c1, R_B_C_FORWARD,
+                       MAST_XYZ_CART, 20.0, "euroc-adis16448", "cart mast")
+
+
+_BUILDERS = {"cart27": build_cart27, "fisheye150": build_fisheye150, "stereo27": build_stereo27, "yutu-navcam": build_yutu_navcam,
              "paper002": build_paper002, "kitti-like": build_kitti_like}
 _HEADERS = {
     "cart27": "Seed 000 camping-cart rig (Tables 2-3), images scaled by s = 0.15: 4800x3200 -> 720x480,\n"
@@ -153,6 +172,8 @@ _HEADERS = {
                    "Written by rigs.presets; do not edit.",
     "paper002": "Seed 002 monocular 10 Hz camera (640x400, f = 460 px) as cam0 of a parallel 0.5 m pair, IMU of\n"
                 "Table 1 at 200 Hz, car roof 1.65 m. Written by rigs.presets; do not edit.",
+    "fisheye150": "Two parallel equidistant (Kannala-Brandt) fisheye cameras, 640x480, f = 315 px, 150 deg diagonal\n"
+                  "field of view, baseline 0.12 m, 20 Hz. Written by rigs.presets; do not edit.",
     "kitti-like": "KITTI odometry geometry: 1241x376, f = 718.856 px, baseline 0.537 m, 10 Hz, car roof 1.65 m.\n"
                   "Written by rigs.presets; do not edit.",
 }

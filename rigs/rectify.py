@@ -5,6 +5,10 @@ OpenCV's ``R, T`` inputs map camera-1 points from camera 0: ``p_c1 = R p_c0 + T`
 does this conversion. Outputs: ``R0_rect = R_r0_c0`` and ``R1_rect = R_r1_c1`` rotate unrectified
 camera points into the rectified frames ``r0``, ``r1`` (parallel axes, baseline along +x);
 ``P0 = K_rect [I | 0]``, ``P1 = K_rect [I | (-B, 0, 0)]`` so ``P1[0,3] = -fx_rect * B``.
+
+A pair of equidistant (fisheye) cameras is rectified with ``cv2.fisheye.stereoRectify`` (``balance=0``:
+the pinhole output keeps only valid pixels, so a 150 degree lens loses its periphery) and
+``cv2.fisheye.initUndistortRectifyMap``; a pair mixing the two models is refused.
 """
 from __future__ import annotations
 
@@ -47,7 +51,10 @@ class Rectification:
         each map is (h, w) float32 and gives, per rectified pixel, the source pixel in camera k."""
         out = []
         for cam, R, P in zip(self.cameras, (self.R0_rect, self.R1_rect), (self.P0, self.P1)):
-            out.append(cv2.initUndistortRectifyMap(cam.K, cam.dist_coeffs, R, P, self.size, m1type))
+            if cam.is_fisheye:
+                out.append(cv2.fisheye.initUndistortRectifyMap(cam.K, cam.fisheye_coeffs, R, P, self.size, m1type))
+            else:
+                out.append(cv2.initUndistortRectifyMap(cam.K, cam.dist_coeffs, R, P, self.size, m1type))
         return tuple(out)
 
     def rectified_rig(self, rig: Rig) -> Rig:
@@ -73,6 +80,15 @@ def stereo_rectify(rig: Rig) -> Rectification:
                        f"cameras[0] {c0.width}x{c0.height}; rectification needs equal sizes")
     R, T = opencv_stereo_RT(rig)
     size = (c0.width, c0.height)
+    if c0.is_fisheye != c1.is_fisheye:
+        raise RigError(f"rig {rig.name!r}.cameras: cam0 is {c0.dist_model} and cam1 {c1.dist_model}; "
+                       f"rectification needs one lens model for both")
+    if c0.is_fisheye:
+        R0, R1, P0, P1, _Q = cv2.fisheye.stereoRectify(
+            c0.K, c0.fisheye_coeffs, c1.K, c1.fisheye_coeffs, size, R, T.reshape(3, 1),
+            flags=cv2.CALIB_ZERO_DISPARITY, newImageSize=size, balance=0.0, fov_scale=1.0)
+        return Rectification(K_rect=P0[:, :3].copy(), R0_rect=R0, R1_rect=R1, P0=P0, P1=P1, size=size,
+                             cameras=(c0, c1))
     R0, R1, P0, P1, _Q, _roi0, _roi1 = cv2.stereoRectify(
         c0.K, c0.dist_coeffs, c1.K, c1.dist_coeffs, size, R, T.reshape(3, 1),
         flags=cv2.CALIB_ZERO_DISPARITY, alpha=0.0, newImageSize=size)

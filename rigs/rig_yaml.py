@@ -5,6 +5,8 @@ File layout (``rigs/presets/*.yaml``)::
     name: stereo27
     cameras:                       # list; cameras[0] is the left/reference camera c0
     - {name, width, height, fx, fy, cx, cy, dist: [k1, k2, p1, p2, k3], T_b_c: 4x4 rows}
+      # a fisheye camera adds ``dist_model: equidistant`` and has dist: [k1, k2, k3, k4]
+      # (optional key; absent = radtan)
     imu: {name, rate_hz, accel_noise_density, gyro_noise_density,
           accel_random_walk, gyro_random_walk, T_b_i: 4x4 rows}
     camera_rate_hz: 20.0
@@ -24,7 +26,7 @@ from rigs.atomic_io import atomic_write_text
 from rigs.config_io import (check_keys, dump_yaml, field_error, field_floats, field_int, field_number, field_str,
                             read_yaml_file)
 from rigs.errors import RigError
-from rigs.model import Camera, Imu, Rig, Wheels, as_matrix4
+from rigs.model import DIST_MODELS, Camera, Imu, Rig, Wheels, as_matrix4
 
 CAMERA_KEYS = tuple(f.name for f in dataclasses.fields(Camera))
 IMU_KEYS = tuple(f.name for f in dataclasses.fields(Imu))
@@ -50,8 +52,12 @@ def _matrix_list(T) -> list:
 
 
 def camera_to_dict(cam: Camera) -> dict:
-    return {"name": cam.name, "width": cam.width, "height": cam.height, "fx": cam.fx, "fy": cam.fy,
-            "cx": cam.cx, "cy": cam.cy, "dist": [float(x) for x in cam.dist], "T_b_c": _matrix_list(cam.T_b_c)}
+    """Camera -> dict; ``dist_model`` only for a non-default (equidistant) lens model."""
+    d = {"name": cam.name, "width": cam.width, "height": cam.height, "fx": cam.fx, "fy": cam.fy,
+         "cx": cam.cx, "cy": cam.cy, "dist": [float(x) for x in cam.dist], "T_b_c": _matrix_list(cam.T_b_c)}
+    if cam.dist_model != "radtan":
+        d["dist_model"] = cam.dist_model
+    return d
 
 
 def imu_to_dict(imu: Imu) -> dict:
@@ -69,15 +75,19 @@ def rig_to_dict(rig: Rig) -> dict:
 
 
 def camera_from_dict(d, source: str, path: str) -> Camera:
-    check_keys(d, CAMERA_KEYS, (), source, path)
-    return Camera(name=field_str(d["name"], source, f"{path}.name"),
+    check_keys(d, tuple(k for k in CAMERA_KEYS if k != "dist_model"), ("dist_model",), source, path)
+    model = field_str(d.get("dist_model", "radtan"), source, f"{path}.dist_model")
+    if model not in DIST_MODELS:
+        raise field_error(source, f"{path}.dist_model", f"expected one of {', '.join(DIST_MODELS)}, got {model!r}")
+    n_dist = (4,) if model == "equidistant" else (4, 5)
+    return Camera(dist_model=model, name=field_str(d["name"], source, f"{path}.name"),
                   width=field_int(d["width"], source, f"{path}.width"),
                   height=field_int(d["height"], source, f"{path}.height"),
                   fx=field_number(d["fx"], source, f"{path}.fx", positive=True),
                   fy=field_number(d["fy"], source, f"{path}.fy", positive=True),
                   cx=field_number(d["cx"], source, f"{path}.cx"),
                   cy=field_number(d["cy"], source, f"{path}.cy"),
-                  dist=field_floats(d["dist"], source, f"{path}.dist", (4, 5)),
+                  dist=field_floats(d["dist"], source, f"{path}.dist", n_dist),
                   T_b_c=field_matrix4(d["T_b_c"], source, f"{path}.T_b_c"))
 
 

@@ -31,6 +31,7 @@ from rigs.typed_config import (check_fields, from_mapping, has_path, knob, load_
                                split_item, to_mapping, valid_keys)
 from scenes.base import SceneConfig
 from scenes.errors import SceneError
+from sim.distortion import fisheye_needed_theta
 from sim.errors import SimError
 from sim.motion import MotionConfig
 
@@ -215,6 +216,10 @@ class GenerateConfig:
             raise SceneError(f"scene.name: {e}") from None
         vehicle_class(self.vehicle)
         self.rig.check_stereo()                   # two cameras at one position: no stereo geometry
+        if self.images:                           # a fisheye wider than a pinhole canvas holds: refused up front
+            for cam in self.rig.cameras:
+                if cam.is_fisheye:
+                    fisheye_needed_theta(cam)
         if not self.images and self.format in ("kitti", "both"):
             raise SimError(f"images: false (--no-images) with format {self.format!r}: KITTI odometry holds "
                            f"images only, nothing written; use format euroc for IMU and ground truth alone")

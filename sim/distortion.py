@@ -10,6 +10,17 @@ The canvas is the pinhole camera with the same ``fx, fy`` and a shifted principa
 ``(cx - u0, cy - v0)``, sized to hold every source location plus a 2 px border (barrel distortion
 needs pixels outside the distorted frame's pinhole footprint). ``cv2.remap`` uses fixed-point
 interpolation weights (1/32 px), so the resampled position is exact to <= 1/64 px.
+
+Equidistant (fisheye, ``dist_model: equidistant``) cameras take the same path: the source of each
+fisheye pixel is ``cv2.fisheye.undistortPoints`` (checked by ``cv2.fisheye.projectPoints``, same
+1e-3 px bound). A pinhole canvas only holds rays less than 90 degrees off its axis, and its half-size
+grows as ``f tan(theta)``: :func:`fisheye_needed_theta` finds the widest ray the image needs, and rays
+beyond :data:`MAX_FISHEYE_THETA_DEG` (80 degrees, a 160 degree field of view; the canvas is then 11.3 f
+across) or a canvas side over :data:`MAX_CANVAS_SIDE_PX` are refused with a ``SimError``. A 150 degree
+(diagonal) fisheye, theta = 75 degrees at the corners, needs a canvas 2 f tan(75) = 7.5 f across the
+diagonal: 1892x1420 px for the 640x480 ``fisheye150`` preset (f = 315 px), 8x the output's pixels.
+Lenses of 180 degrees or more (e.g. 163-173 degree tracking cameras) would need several pinhole
+renders (a cube map) and are not supported.
 """
 from __future__ import annotations
 
@@ -24,6 +35,31 @@ from sim.errors import SimError
 
 MAX_REPROJ_PX = 1e-3
 _BORDER_PX = 2
+MAX_FISHEYE_THETA_DEG = 80.0
+MAX_CANVAS_SIDE_PX = 4096
+
+
+def fisheye_needed_theta(camera: Camera) -> float:
+    """Largest angle [rad] off the optical axis among the rays of an equidistant camera's image
+    (its four corners). A SimError when the lens needs rays beyond :data:`MAX_FISHEYE_THETA_DEG`, or
+    its ``theta_d(theta)`` is not increasing up to there (the model would fold the image)."""
+    lim = math.radians(MAX_FISHEYE_THETA_DEG)
+    th = np.linspace(0.0, lim, 2001)[1:]
+    rays = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], axis=1)
+    theta_d = (camera.project(rays)[:, 0] - camera.cx) / camera.fx       # normalised distorted radius
+    if not np.all(np.diff(theta_d) > 0):
+        raise SimError(f"distortion: camera {camera.name!r} dist={camera.dist}: the equidistant model is not "
+                       f"increasing up to {MAX_FISHEYE_THETA_DEG:g} degrees off axis (it folds the image)")
+    corners = np.array([[0, 0], [camera.width - 1, 0], [0, camera.height - 1],
+                        [camera.width - 1, camera.height - 1]], dtype=float)
+    r_d = np.hypot((corners[:, 0] - camera.cx) / camera.fx, (corners[:, 1] - camera.cy) / camera.fy).max()
+    if r_d >= theta_d[-1]:
+        raise SimError(f"distortion: camera {camera.name!r}: its image corners see rays more than "
+                       f"{MAX_FISHEYE_THETA_DEG:g} degrees off axis (a field of view over "
+                       f"{2 * MAX_FISHEYE_THETA_DEG:g} degrees); one pinhole render holds less than 180 degrees "
+                       f"and this renderer at most {2 * MAX_FISHEYE_THETA_DEG:g}: lower the field of view "
+                       f"(raise fx, fy or crop the image)")
+    return float(np.interp(r_d, theta_d, th))
 
 
 def undistort_exact(uv_d: np.ndarray, camera: Camera, iters: int = 30) -> np.ndarray:
@@ -35,7 +71,7 @@ def undistort_exact(uv_d: np.ndarray, camera: Camera, iters: int = 30) -> np.nda
 def reprojection_error_px(xy: np.ndarray, uv_d: np.ndarray, camera: Camera) -> np.ndarray:
     """(N,) pixel distance between ``cv2.projectPoints`` of normalised ``xy`` and ``uv_d``."""
     pts = np.concatenate([xy, np.ones((len(xy), 1))], axis=1)
-    return np.linalg.norm(pinhole.project(pts, camera.K, camera.dist_coeffs) - uv_d, axis=1)
+    return np.linalg.norm(camera.project(pts) - uv_d, axis=1)
 
 
 class DistortionMap:
@@ -46,7 +82,14 @@ class DistortionMap:
         W, H = camera.width, camera.height
         v, u = np.mgrid[0:H, 0:W].astype(np.float64)
         uv_d = np.stack([u.ravel(), v.ravel()], axis=1)
-        if camera.has_distortion:
+        if camera.is_fisheye:
+            fisheye_needed_theta(camera)
+            xy = camera.undistort_normalized(uv_d)
+            err = reprojection_error_px(xy, uv_d, camera)
+            if not np.all(np.isfinite(err)) or err.max() >= MAX_REPROJ_PX:
+                raise SimError(f"distortion: camera {camera.name!r} equidistant dist={camera.dist}: inverse not "
+                               f"exact (max re-projection error {np.nanmax(err):.2e} px >= {MAX_REPROJ_PX} px)")
+        elif camera.has_distortion:
             xy = undistort_exact(uv_d, camera)
             err = reprojection_error_px(xy, uv_d, camera)
             if not np.all(np.isfinite(err)) or err.max() >= MAX_REPROJ_PX:
@@ -59,6 +102,9 @@ class DistortionMap:
         self.v0 = math.floor(v_s.min()) - _BORDER_PX
         cw = math.ceil(u_s.max()) + _BORDER_PX + 1 - self.u0
         ch = math.ceil(v_s.max()) + _BORDER_PX + 1 - self.v0
+        if max(cw, ch) > MAX_CANVAS_SIDE_PX:
+            raise SimError(f"distortion: camera {camera.name!r}: its pinhole canvas would be {cw}x{ch} px "
+                           f"(over {MAX_CANVAS_SIDE_PX} px a side); lower the field of view or the resolution")
         self.canvas_camera = Camera(f"{camera.name}", cw, ch, camera.fx, camera.fy,
                                     camera.cx - self.u0, camera.cy - self.v0,
                                     dist=(0, 0, 0, 0, 0), T_b_c=camera.T_b_c)

@@ -78,3 +78,12 @@ def test_sensor_view_hides_the_true_calibration(pair):
         names = {p.name for p in view.rglob("*")}
     assert "rig.yaml" in names and not names & {"rig_true.yaml", "sensor_effects.yaml", "frame_effects.csv"}
     assert "imu.yaml" in names and "camchain-imucam.yaml" not in names    # its timeshift_cam_imu is truth
+
+
+def test_fisheye_coefficients_take_the_first_four_draws():
+    rig = get_rig("fisheye150")
+    z = np.random.default_rng(5).standard_normal((len(rig.cameras), 15))
+    bad, _ = perturb_rig(rig, ERR, np.random.default_rng(5))
+    for c, p, zk in zip(rig.cameras, bad.cameras, z):
+        assert p.dist_model == "equidistant"
+        assert np.allclose(np.array(p.dist), np.array(c.dist) * (1 + ERR.dist_rel * zk[4:8]), atol=0)

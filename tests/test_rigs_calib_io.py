@@ -57,7 +57,7 @@ def test_real_euroc_sensor_yaml_parses(tmp_path):
             imu.rate_hz) == (1.6968e-04, 1.9393e-05, 2.0e-3, 3.0e-3, 200.0)
 
 
-@pytest.mark.parametrize("name", ["cart27", "stereo27"])
+@pytest.mark.parametrize("name", ["cart27", "stereo27", "fisheye150"])
 def test_euroc_round_trip(tmp_path, name):
     rig = get_rig(name)
     T_i_b = inv_T(rig.imu.T_b_i_array)
@@ -67,8 +67,10 @@ def test_euroc_round_trip(tmp_path, name):
         assert path.read_text().startswith("%YAML:1.0\n")
         back, rate = read_euroc_camera_yaml(path, cam.name)
         assert rate == rig.camera_rate_hz
-        assert (back.width, back.height, back.fx, back.fy, back.cx, back.cy, back.dist) == \
-            (cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy, cam.dist)
+        assert (back.width, back.height, back.fx, back.fy, back.cx, back.cy, back.dist, back.dist_model) == \
+            (cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy, cam.dist, cam.dist_model)
+        want = "equidistant" if cam.is_fisheye else "radial-tangential"
+        assert f"distortion_model: {want}\n" in path.read_text()
         np.testing.assert_allclose(back.T_b_c_array, T_i_b @ cam.T_b_c_array, atol=1e-12)
     write_euroc_imu_yaml(tmp_path / "imu0" / "sensor.yaml", rig.imu, np.eye(4))
     imu = read_euroc_imu_yaml(tmp_path / "imu0" / "sensor.yaml")
@@ -126,7 +128,7 @@ def _assert_same_rig(a, b, tol=1e-12):
     """Every number of two rigs within ``tol`` (names of rig, cameras, IMU and the mount aside)."""
     assert len(a.cameras) == len(b.cameras)
     for ca, cb in zip(a.cameras, b.cameras):
-        assert (ca.width, ca.height) == (cb.width, cb.height)
+        assert (ca.width, ca.height, ca.dist_model) == (cb.width, cb.height, cb.dist_model)
         np.testing.assert_allclose([cb.fx, cb.fy, cb.cx, cb.cy, *cb.dist], [ca.fx, ca.fy, ca.cx, ca.cy, *ca.dist],
                                    rtol=0, atol=tol)
         np.testing.assert_allclose(cb.T_b_c_array, ca.T_b_c_array, rtol=0, atol=tol)
@@ -139,11 +141,11 @@ def _assert_same_rig(a, b, tol=1e-12):
 
 def _without_k3(rig):
     import dataclasses
-    return dataclasses.replace(rig, cameras=tuple(dataclasses.replace(c, dist=tuple(c.dist[:4]) + (0.0,))
+    return dataclasses.replace(rig, cameras=tuple(c if c.is_fisheye else dataclasses.replace(c, dist=tuple(c.dist[:4]) + (0.0,))
                                                   for c in rig.cameras))
 
 
-@pytest.mark.parametrize("name", ["stereo27", "yutu-navcam", "kitti-like", "paper002", "cart27"])
+@pytest.mark.parametrize("name", ["stereo27", "yutu-navcam", "kitti-like", "paper002", "cart27", "fisheye150"])
 def test_kalibr_round_trip(tmp_path, name):
     # rig -> camchain-imucam.yaml + imu.yaml -> rig: the same numbers to 1e-12, the body frame included
     # (imu.yaml's T_i_b); cart27's k3 cannot be expressed in Kalibr's radtan and comes back 0.
@@ -157,7 +159,10 @@ def test_kalibr_round_trip(tmp_path, name):
     T_i_c0 = inv_T(rig.imu.T_b_i_array) @ rig.cameras[0].T_b_c_array
     np.testing.assert_allclose(d["cam0"]["T_cam_imu"], inv_T(T_i_c0), atol=1e-12)
     np.testing.assert_allclose(d["cam1"]["T_cn_cnm1"], inv_T(rig.T_c0_c1), atol=1e-12)
-    assert d["cam0"]["distortion_model"] == "radtan" and len(d["cam0"]["distortion_coeffs"]) == 4
+    # fisheye150 is Kalibr's pinhole-equi: camera_model pinhole, distortion_model equidistant, k1..k4 exact.
+    assert d["cam0"]["camera_model"] == "pinhole"
+    assert d["cam0"]["distortion_model"] == ("equidistant" if name == "fisheye150" else "radtan")
+    assert len(d["cam0"]["distortion_coeffs"]) == 4
     assert d["cam0"]["resolution"] == [rig.cameras[0].width, rig.cameras[0].height]
     assert d["cam1"]["timeshift_cam_imu"] == -0.0025 and d["cam1"]["rostopic"] == "/cam1/image_raw"
     imu = yaml.safe_load((tmp_path / "imu.yaml").read_text())["imu0"]
@@ -193,11 +198,17 @@ def test_kalibr_reads_four_coefficients_and_chains_T_cn_cnm1(tmp_path):
 
 def test_kalibr_bad_model_names_field(tmp_path):
     d = kalibr_camchain_dict(get_rig("stereo27"))
-    d["cam1"]["distortion_model"] = "equidistant"
+    d["cam1"]["distortion_model"] = "fov"
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(d))
     with pytest.raises(RigError) as e:
         read_kalibr(tmp_path / "c.yaml")
-    assert str(e.value) == f"{tmp_path / 'c.yaml'}: cam1.distortion_model: only 'radtan' is supported, got 'equidistant'"
+    assert str(e.value) == (f"{tmp_path / 'c.yaml'}: cam1.distortion_model: only 'radtan' and 'equidistant' are "
+                            f"supported, got 'fov'")
+    d["cam1"]["distortion_model"] = "equidistant"           # equidistant has exactly 4 coefficients
+    d["cam1"]["distortion_coeffs"] = [0.1, 0.0, 0.0, 0.0, 0.0]
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(d))
+    with pytest.raises(RigError, match=r"cam1\.distortion_coeffs"):
+        read_kalibr(tmp_path / "c.yaml")
 
 
 @pytest.mark.parametrize("name, tol", [("stereo27", 1e-9), ("cart27", 1e-6)])

@@ -67,9 +67,12 @@ def run_dataset(dataset_dir, estimator: str, out_dir, options: Optional[dict] = 
     from vo.estimators.registry import check_spec
     from vo.estimators.runner import run_estimator
 
+    from vo.dataset.fisheye_view import for_estimators
+
     check_spec(estimator)
     ds = open_dataset(dataset_dir)
     refuse_dataset_as_out(ds, dataset_dir, out_dir)
+    ds = for_estimators(ds)            # fisheye cameras: the cv2.fisheye-rectified view
     out = prepare_out_dir(out_dir)
     run = run_estimator(estimator, ds, options=options or {}, progress=progress, max_frames=max_frames, seed=seed)
     run.save(out)                      # kept even when the evaluation then fails
@@ -82,8 +85,10 @@ def run_and_evaluate(dataset, estimator: str, out_dir=None, options: Optional[di
                      progress: bool = True, align: str = "first", max_frames=None, seed: int = 0) -> Evaluated:
     """Run ``estimator`` on an opened dataset (OpenCV's RNG seeded with ``seed``), evaluate against
     ``dataset.groundtruth_cam0()``."""
+    from vo.dataset.fisheye_view import for_estimators
     from vo.estimators.runner import run_estimator
 
+    dataset = for_estimators(dataset)  # fisheye cameras: the cv2.fisheye-rectified view
     run = run_estimator(estimator, dataset, options=options or {}, progress=progress, max_frames=max_frames,
                         seed=seed)
     return evaluate_run(dataset, run, estimator, out_dir=out_dir, align=align)

@@ -42,7 +42,7 @@ def rig_details(name: str) -> dict:
     return {"resolution": [int(cam.width), int(cam.height)], "baseline_m": round(float(rig.baseline), 4),
             "camera_rate_hz": float(rig.camera_rate_hz),
             "imu_rate_hz": float(rig.imu.rate_hz) if rig.imu is not None else None,
-            "imu": rig.imu.name if rig.imu is not None else None, "mount": rig.mount}
+            "imu": rig.imu.name if rig.imu is not None else None, "mount": rig.mount, "lens": cam.dist_model}
 
 
 def scenario_details(name: str) -> dict:
@@ -88,7 +88,8 @@ def catalogue_text(cat: dict) -> str:
     for n, d in cat["rigs"].items():
         imu = f", IMU {d['imu']} {d['imu_rate_hz']:g} Hz" if d["imu"] else ", no IMU"
         lines.append(f"  {n:<16} {d['resolution'][0]}x{d['resolution'][1]}, baseline {d['baseline_m']:g} m, "
-                     f"camera {d['camera_rate_hz']:g} Hz{imu}")
+                     f"camera {d['camera_rate_hz']:g} Hz{imu}"
+                     + (f", {d['lens']} (fisheye) lens" if d.get("lens") == "equidistant" else ""))
     lines.append("imu models: " + ", ".join(cat["imu_models"]))
     lines.append("scenarios:")
     for n, d in cat["scenarios"].items():

@@ -310,7 +310,7 @@ def timeshift_s(metadata: dict) -> float:
 
 
 def has_k3(rig) -> bool:
-    return any(float(c.dist[4]) != 0.0 for c in rig.cameras)
+    return any(not c.is_fisheye and float(c.dist[4]) != 0.0 for c in rig.cameras)
 
 
 def calibration_note(rig) -> str:
@@ -318,6 +318,9 @@ def calibration_note(rig) -> str:
     if has_k3(rig):
         return ("rig.yaml is exact; mav0/camK/sensor.yaml and the Kalibr mav0/camchain-imucam.yaml list 4 radtan "
                 "coefficients and omit k3 (non-zero for this rig)")
+    if any(c.is_fisheye for c in rig.cameras):
+        return ("rig.yaml, mav0/camK/sensor.yaml (distortion_model equidistant) and the Kalibr "
+                "mav0/camchain-imucam.yaml (pinhole-equi) + mav0/imu.yaml are exact (k1..k4 of cv2.fisheye)")
     return ("rig.yaml, mav0/camK/sensor.yaml and the Kalibr mav0/camchain-imucam.yaml + mav0/imu.yaml are exact "
             "(k3 = 0 for every camera)")
 

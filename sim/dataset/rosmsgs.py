@@ -93,7 +93,9 @@ class RosMessages:
             is_bigendian=0, step=int(img.strides[0]), data=data)
 
     def camera_info(self, t_ns: int, frame_id: str, cam, P: np.ndarray):
-        """``cam``: rigs.Camera (OpenCV intrinsics and 5 distortion coefficients); ``P`` (3,4)."""
+        """``cam``: rigs.Camera; ``P`` (3,4). ``distortion_model`` as ROS names them (sensor_msgs'
+        distortion_models.h): ``plumb_bob`` with OpenCV's 5 radtan coefficients, or ``equidistant`` with the
+        4 ``cv2.fisheye`` coefficients ``k1..k4`` of an equidistant camera."""
         K = np.array([[cam.fx, 0.0, cam.cx], [0.0, cam.fy, cam.cy], [0.0, 0.0, 1.0]])
         arrays = {"D": np.asarray(cam.dist, dtype=np.float64), "K": K.reshape(-1), "R": np.eye(3).reshape(-1),
                   "P": np.asarray(P, dtype=np.float64).reshape(-1)}
@@ -103,7 +105,7 @@ class RosMessages:
                                                              do_rectify=False)
         return self.types["sensor_msgs/msg/CameraInfo"](
             header=self.header(t_ns, frame_id, "info"), height=cam.height, width=cam.width,
-            distortion_model="plumb_bob", binning_x=0, binning_y=0, roi=roi, **arrays)
+            distortion_model="equidistant" if cam.is_fisheye else "plumb_bob", binning_x=0, binning_y=0, roi=roi, **arrays)
 
     def imu(self, t_ns: int, frame_id: str, gyro, accel, var_gyro: float, var_accel: float):
         q = self.types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)

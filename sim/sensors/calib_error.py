@@ -30,7 +30,8 @@ def perturb_camera(cam, z: np.ndarray, err):
     """``cam`` (rigs.model.Camera) with the errors ``z`` (15,) scaled by ``err`` (sim.config.CalibError)."""
     from scipy.spatial.transform import Rotation
     f = 1.0 + err.focal_ppm * 1e-6 * z[0:2]
-    dist = np.asarray(cam.dist, float) * (1.0 + err.dist_rel * z[4:9])
+    dist = np.asarray(cam.dist, float)            # radtan k1 k2 p1 p2 k3, or equidistant k1..k4 (first 4 draws)
+    dist = dist * (1.0 + err.dist_rel * z[4:4 + len(dist)])
     dR = Rotation.from_rotvec(np.deg2rad(err.extrinsic_rot_deg * z[9:12])).as_matrix()
     T_b_c = cam.T_b_c_array @ make_T(dR, err.extrinsic_trans_mm * 1e-3 * z[12:15])
     return dataclasses.replace(cam, fx=cam.fx * f[0], fy=cam.fy * f[1], cx=cam.cx + err.principal_px * z[2],

@@ -4,7 +4,8 @@
 Topics read (those ``vo-testbed export`` writes, as EuRoC's own bags)::
 
     /cam0/image_raw, /cam1/image_raw        sensor_msgs/Image mono8 | rgb8 | mono16 (stereo pairs: equal stamps)
-    /cam0/camera_info, /cam1/camera_info    sensor_msgs/CameraInfo plumb_bob (K, D = k1 k2 p1 p2 [k3], P)
+    /cam0/camera_info, /cam1/camera_info    sensor_msgs/CameraInfo plumb_bob (K, D = k1 k2 p1 p2 [k3], P), or
+                                            equidistant (D = k1 k2 k3 k4: cv2.fisheye, our dist_model equidistant)
     /tf_static                              body -> imu0, cam0, cam1 (the rig's extrinsics; identity without it)
     /imu0                                   sensor_msgs/Imu (optional); noise densities from the covariances
                                             (``density = sqrt(variance / rate)``), random walks unknown (0)
@@ -29,6 +30,7 @@ from vo.trajectory import Trajectory
 
 IMAGE_TOPICS = ("/cam0/image_raw", "/cam1/image_raw")
 INFO_TOPICS = ("/cam0/camera_info", "/cam1/camera_info")
+ROS_DIST_MODELS = {"plumb_bob": "radtan", "equidistant": "equidistant"}   # sensor_msgs distortion_models.h -> ours
 
 
 def is_bag(path: Path) -> bool:
@@ -122,7 +124,11 @@ class BagDataset(Dataset):
             msg = next(gen, None)
             if msg is None:
                 raise DatasetError(f"{self.root}: {topic}: no message")
-            return {"width": int(msg.width), "height": int(msg.height),
+            model = str(msg.distortion_model or "plumb_bob")
+            if model not in ROS_DIST_MODELS:
+                raise DatasetError(f"{self.root}: {topic}: distortion_model: only {', '.join(ROS_DIST_MODELS)} are "
+                                   f"supported, got {model!r}")
+            return {"width": int(msg.width), "height": int(msg.height), "dist_model": ROS_DIST_MODELS[model],
                     **{k: _field(msg, k).copy() for k in ("K", "D", "P")}}
         finally:
             gen.close()
@@ -149,6 +155,7 @@ class BagDataset(Dataset):
             K, D = info["K"].reshape(3, 3), info["D"]
             cams.append(rig_or_error(Camera, name=f"cam{k}", width=info["width"], height=info["height"],
                                      fx=K[0, 0], fy=K[1, 1], cx=K[0, 2], cy=K[1, 2], dist=tuple(D) or (0.0,) * 5,
+                                     dist_model=info["dist_model"],
                                      T_b_c=tf.get(f"cam{k}", np.eye(4))))
         if self.images_are_rectified and "cam1" not in tf:     # KITTI-style: the baseline from P
             P1 = infos[1]["P"].reshape(3, 4)

@@ -51,7 +51,7 @@ def real_euroc_rig(mav0: Path, name: str):
     exact = _camchain_distortion(mav0 / "camchain.yaml")
     for k in (0, 1):
         cam, r = rig_or_error(read_euroc_camera_yaml, mav0 / f"cam{k}" / "sensor.yaml", f"cam{k}")
-        cams.append(cam if exact is None else dataclasses.replace(cam, dist=exact[k]))
+        cams.append(cam if exact is None else dataclasses.replace(cam, dist=exact[k][0], dist_model=exact[k][1]))
         rate = rate or r
     imu_yaml = mav0 / "imu0" / "sensor.yaml"
     imu = rig_or_error(read_euroc_imu_yaml, imu_yaml) if imu_yaml.is_file() else None
@@ -60,14 +60,15 @@ def real_euroc_rig(mav0: Path, name: str):
 
 
 def _camchain_distortion(path: Path):
-    """[dist of cam0, dist of cam1] (OpenCV 5-tuples) from a Kalibr camchain, or None without one."""
+    """[(dist, dist_model) of cam0, of cam1] from a Kalibr camchain (radtan: OpenCV 5-tuples; equidistant:
+    cv2.fisheye 4-tuples), or None without one."""
     if not path.is_file():
         return None
     from rigs.calib_io import read_kalibr
     chain = rig_or_error(read_kalibr, path)
     if len(chain.cameras) < 2:
         raise DatasetError(f"{path}: expected cam0 and cam1, got {len(chain.cameras)} camera(s)")
-    return [chain.cameras[0].dist, chain.cameras[1].dist]
+    return [(c.dist, c.dist_model) for c in chain.cameras[:2]]
 
 
 class EurocDataset(Dataset):

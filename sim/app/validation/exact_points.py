@@ -41,11 +41,16 @@ def project(camera, T_w_c: np.ndarray, X_w: np.ndarray) -> tuple[np.ndarray, np.
     X_c = (np.asarray(X_w, float).reshape(-1, 3) - T_w_c[:3, 3]) @ T_w_c[:3, :3]
     if not len(X_c):
         return np.zeros((0, 2)), np.zeros(0, bool)
+    if camera.is_fisheye:                  # cv2.fisheye.projectPoints
+        return camera.project(X_c), X_c[:, 2] > 0.1
     return pinhole.project(X_c, camera.K, camera.dist_coeffs), X_c[:, 2] > 0.1
 
 
 def backproject(camera, p: np.ndarray, z: np.ndarray) -> np.ndarray:
     """(N,3) camera-frame points at pixels ``p`` (N,2, distorted) with optical-axis depths ``z`` (N,)."""
+    if camera.is_fisheye:                  # cv2.fisheye.undistortPoints
+        xy = camera.undistort_normalized(np.asarray(p, float).reshape(-1, 2))
+        return np.column_stack([xy, np.ones(len(xy))]) * np.asarray(z, dtype=np.float64).reshape(-1, 1)
     return pinhole.backproject(p, camera.K, camera.dist_coeffs, z)
 
 
