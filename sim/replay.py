@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, Optional
 
 import numpy as np
 from scipy.interpolate import make_splrep
@@ -59,7 +59,7 @@ class ReplayConfig:
     ``euroc`` or ``kitti`` (KITTI poses take ``times.txt`` beside them); smoothing bounds are the RMS
     residual allowed per axis (m) and per rotation (deg); 0 interpolates."""
 
-    file: str = ""
+    file: Optional[str] = None
     frame: Literal["body", "imu", "cam0"] = "body"
     fmt: Literal["auto", "tum", "euroc", "kitti"] = "auto"
     smoothing_m: float = knob(0.001, ge=0.0, le=1.0, doc="RMS position residual allowed (m); 0 interpolates")

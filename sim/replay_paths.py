@@ -2,7 +2,8 @@
 
 ``python -m sim.replay_paths helix|walk OUT.txt [--seed N] [--rate HZ] [--duration S]`` writes a TUM file
 of body poses (x forward along the motion, z up) inside the ``indoor`` scene's south-west room
-(x in [1, 7], y in [0.8, 4.2], z in [0.9, 1.9]).
+(x in [1, 7], y in [0.8, 4.2], z in [0, 0.6]: body origins of a rig whose cameras sit 1.2 m above ``b``, as
+cart27's, so the cameras move between 1.2 and 1.8 m).
 """
 from __future__ import annotations
 
@@ -23,8 +24,8 @@ def _Rz(yaw):
     return R
 
 
-def helix(duration_s: float = 10.0, rate_hz: float = 100.0, centre=(4.0, 2.5, 0.9), radius_m: float = 1.2,
-          climb_m: float = 0.8, turns: float = 1.0) -> Trajectory:
+def helix(duration_s: float = 10.0, rate_hz: float = 100.0, centre=(4.0, 2.5, 0.0), radius_m: float = 1.2,
+          climb_m: float = 0.6, turns: float = 1.0) -> Trajectory:
     """Body on a helix, looking along its horizontal tangent, rolled 10 deg inwards; t from 1 s."""
     t = np.arange(0.0, duration_s + 1e-9, 1.0 / rate_hz)
     ph = 2 * np.pi * turns * t / duration_s
@@ -51,7 +52,7 @@ def hand_walk(seed: int = 0, duration_s: float = 10.0, rate_hz: float = 100.0) -
     T = np.tile(np.eye(4), (t.size, 1, 1))
     T[:, 0, 3] = 1.5 + 0.4 * t + sway[0]
     T[:, 1, 3] = 2.5 + sway[1]
-    T[:, 2, 3] = 1.4 + sway[2]
+    T[:, 2, 3] = 0.2 + sway[2]
     T[:, :3, :3] = np.stack([R_from_opk_deg(r, p, 0.0) for p, r in zip(sway[4], sway[5])])
     T[:, :3, :3] = _Rz(np.radians(sway[3])) @ T[:, :3, :3]
     return Trajectory(1_000_000_000 + np.round(t * 1e9).astype(np.int64), T, "w", "b")
