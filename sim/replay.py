@@ -126,8 +126,8 @@ class ReplayTrajectory:
                  smoothing_deg: float = 0.05, duration_s=None, source: str = "poses"):
         self.source = source
         t_in = (poses.t_ns - poses.t_ns[0]).astype(float) * 1e-9
-        self._t_in, self._T_in = t_in, poses.T
-        _check_gaps(t_in, source)
+        self._t_in, self._T_in, self._file_t0_ns = t_in, poses.T, int(poses.t_ns[0])
+        _check_gaps(t_in, source, self._file_t0_ns)
         q = quat_wxyz_from_R(poses.rotations)
         flip = np.cumprod(np.where(np.einsum("ij,ij->i", q[1:], q[:-1]) < 0, -1.0, 1.0))
         q[1:] *= flip[:, None]
@@ -210,14 +210,14 @@ class ReplayTrajectory:
                                       "rad/s^2")):
             k = int(np.argmax(val))
             if val[k] > lim:
-                raise SimError(f"replay.file: {self.source}: a jump at t = {t[k]:.3f} s (from the first pose): "
+                raise SimError(f"replay.file: {self.source}: a jump at {_when(t[k], self._file_t0_ns)}: "
                                f"following it needs {name} {val[k]:.3g} {unit} (limit {lim:g}); the spline cannot "
                                f"follow it")
         d = self.departure
         lim_m = MAX_DEPARTURE_FACTOR * smoothing_m + DEPARTURE_FLOOR_M
         lim_deg = MAX_DEPARTURE_FACTOR * smoothing_deg + DEPARTURE_FLOOR_DEG
         if d.pos_max_m > lim_m or d.ang_max_deg > lim_deg:
-            raise SimError(f"replay.file: {self.source}: a jump at t = {d.t_max_s:.3f} s (from the first pose): "
+            raise SimError(f"replay.file: {self.source}: a jump at {_when(d.t_max_s, self._file_t0_ns)}: "
                            f"the spline departs {d.pos_max_m:.3g} m / {d.ang_max_deg:.3g} deg from the poses "
                            f"(limit {lim_m:g} m / {lim_deg:g} deg); the spline cannot follow it")
 
@@ -245,12 +245,17 @@ class ReplayTrajectory:
         return Trajectory(st.t_ns, st.T_w_b, ref="w", frame="b")
 
 
-def _check_gaps(t: np.ndarray, source: str) -> None:
+def _when(t_s: float, file_t0_ns: int) -> str:
+    """``t = 2.970 s (file time 1403636582.733 s)``: from the first pose, and on the file's clock."""
+    return f"t = {t_s:.3f} s (file time {(file_t0_ns + round(t_s * 1e9)) * 1e-9:.3f} s)"
+
+
+def _check_gaps(t: np.ndarray, source: str, file_t0_ns: int = 0) -> None:
     if t.size < 8:
         raise SimError(f"replay.file: {source}: {t.size} poses; a spline needs at least 8")
     dt = np.diff(t)
     med = float(np.median(dt))
     k = int(np.argmax(dt))
     if dt[k] > GAP_FACTOR * med:
-        raise SimError(f"replay.file: {source}: a gap of {dt[k]:.3f} s after t = {t[k]:.3f} s (from the first pose; "
+        raise SimError(f"replay.file: {source}: a gap of {dt[k]:.3f} s after {_when(t[k], file_t0_ns)} ("
                        f"median step {med:.4f} s, limit {GAP_FACTOR:g} steps); the spline cannot follow it")
