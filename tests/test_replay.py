@@ -1,0 +1,173 @@
+"""Replayed motion (sim.replay): exact spline derivatives, C2 continuity at knots, IMU exactness, the
+frame of the poses, the departure figure, refusals of gaps and jumps, and the wheel-less vehicles."""
+import os
+import subprocess
+import sys
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np
+import pytest
+
+from rigs.geometry import R_from_opk_deg, make_T, so3_log
+from rigs.model import Imu
+from rigs.trajectory import Trajectory
+from rigs.trajfile import write_tum
+from sim.config import GenerateConfig, rig_of
+from sim.errors import SimError
+from sim.replay import ReplayTrajectory
+from sim.replay_paths import hand_walk, helix
+from sim.sensors.imu import imu_pose_velocity, imu_times_ns, integrate_imu, measure_states
+
+T0 = 1_000_000_000
+IMU = Imu(T_b_i=make_T(R_from_opk_deg(10, -20, 95), [0.3, -0.2, 0.8]), rate_hz=200.0)
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return ReplayTrajectory(hand_walk(seed=3, duration_s=6.0), np.eye(4), T0)
+
+
+def _fd_check(tr, t, h_ns=100_000):
+    """Central differences (step 2h = 0.2 ms) of pose -> v, omega; of v, omega -> a, alpha. Truncation error
+    ~ h^2 |f'''| / 6 ~ 1e-8 |f'''| and rounding ~ 1e-16 |f| / h ~ 1e-12: bounds 1e-6 on O(1) signals."""
+    s0, sp, sm = tr.states(t), tr.states(t + h_ns), tr.states(t - h_ns)
+    h2 = 2 * h_ns * 1e-9
+    v_fd = (sp.T_w_b[:, :3, 3] - sm.T_w_b[:, :3, 3]) / h2
+    om_fd = np.array([so3_log(a[:3, :3].T @ b[:3, :3]) for a, b in zip(sm.T_w_b, sp.T_w_b)]) / h2
+    return (np.abs(v_fd - s0.v_w).max(), np.abs((sp.v_w - sm.v_w) / h2 - s0.a_w).max(),
+            np.abs(om_fd - s0.omega_b).max(), np.abs((sp.omega_b - sm.omega_b) / h2 - s0.alpha_b).max(), s0)
+
+
+def test_derivatives_equal_finite_differences(walk):
+    t = np.arange(walk.t0_ns + 50_000_000, walk.t1_ns - 50_000_000, 7_000_000)
+    dv, da, dom, dal, s0 = _fd_check(walk, t)
+    assert np.abs(s0.a_w).max() > 0.5 and np.abs(s0.alpha_b).max() > 1.0   # a real, lively motion
+    assert dv < 1e-6 and da < 1e-6 and dom < 1e-6 and dal < 1e-5
+
+
+def test_cam0_poses_give_body_motion_with_exact_derivatives():
+    """Poses of cam0 (lever 1.2 m, rotated): T_w_b T_b_c0 is the spline through the cam0 poses, and the
+    body's v, a, omega, alpha (rigid-body transfer) still equal finite differences."""
+    rig = rig_of("cart27")
+    T_b_c = rig.cameras[0].T_b_c_array
+    body = hand_walk(seed=5, duration_s=4.0)
+    cam = Trajectory(body.t_ns, body.T @ T_b_c, "w", "c0")
+    tr = ReplayTrajectory(cam, np.linalg.inv(T_b_c), T0, smoothing_m=0.0, smoothing_deg=0.0)
+    T_wc = tr.states(T0 + (body.t_ns - body.t_ns[0])).T_w_b @ T_b_c
+    assert np.abs(T_wc - cam.T).max() < 1e-9                   # smoothing 0: interpolates the poses
+    t = np.arange(tr.t0_ns + 50_000_000, tr.t1_ns - 50_000_000, 9_000_000)
+    dv, da, dom, dal, _ = _fd_check(tr, t)
+    assert dv < 1e-6 and da < 1e-5 and dom < 1e-6 and dal < 1e-5
+
+
+def test_c2_continuous_at_knots(walk):
+    """Across every interior knot of the position and quaternion splines, a_w and alpha_b jump by no more
+    than their slope allows over +-1 us (quintic: C4; a C1 spline would jump by O(1) m/s^2 here)."""
+    knots = np.unique(np.concatenate([f.t[6:-6] for f in walk._pos._f + walk._quat._f]))
+    knots = knots[(knots > 0.01) & (knots < 5.99)]
+    assert knots.size > 20
+    t = T0 + np.round(knots * 1e9).astype(np.int64)
+    lo, hi = walk.states(t - 1000), walk.states(t + 1000)
+    assert np.abs(hi.a_w - lo.a_w).max() < 1e-3            # |jerk| < ~100 m/s^3 over 2 us
+    assert np.abs(hi.alpha_b - lo.alpha_b).max() < 1e-3
+
+
+def test_ideal_imu_integrates_back_to_the_spline():
+    """5 s helix, IMU 0.9 m from b and rotated, 200 Hz exact samples, RK4 of sim.sensors.imu: the same check
+    and integrator as the routes (tests/test_imu_exact.py, limits 1 cm, 0.01 deg). Measured ~1e-11 m."""
+    tr = ReplayTrajectory(helix(duration_s=5.0), np.eye(4), T0)
+    t = imu_times_ns(tr.t0_ns, tr.t1_ns, IMU.rate_hz)
+    st = tr.states(t)
+    T_w_i, v_w_i = imu_pose_velocity(st, IMU.T_b_i_array)
+    T_est, v_est = integrate_imu(measure_states(st, IMU.T_b_i_array), T_w_i[0], v_w_i[0])
+    pos_err = np.linalg.norm(T_est[-1, :3, 3] - T_w_i[-1, :3, 3])
+    att_err = np.degrees(np.linalg.norm(so3_log(T_est[-1, :3, :3].T @ T_w_i[-1, :3, :3])))
+    assert pos_err < 1e-6 and att_err < 1e-6
+    assert np.abs(v_est - v_w_i).max() < 1e-6
+    assert tr.path_length() > 3.0
+
+
+def test_departure_is_bounded_by_the_smoothing():
+    """Noise of 2 mm / 0.2 deg on the helix; smoothing bounds 2 mm and 0.2 deg: FITPACK's residual sum is at
+    most N sigma^2 per axis, so the RMS position departure is at most sqrt(3) * 2 mm."""
+    h = helix(duration_s=6.0)
+    rng = np.random.default_rng(1)
+    T = h.T.copy()
+    T[:, :3, 3] += rng.normal(0, 0.002, (len(h), 3))
+    T[:, :3, :3] = T[:, :3, :3] @ np.stack([R_from_opk_deg(*a) for a in rng.normal(0, 0.2 / np.sqrt(3), (len(h), 3))])
+    tr = ReplayTrajectory(Trajectory(h.t_ns, T, "w", "b"), np.eye(4), T0, smoothing_m=0.002, smoothing_deg=0.2)
+    d = tr.departure
+    assert 0.001 < d.pos_rms_m <= np.sqrt(3) * 0.002 + 1e-9
+    assert 0.02 < d.ang_rms_deg < 0.4
+    # the smoothed spline is closer to the noise-free helix than the noisy poses are
+    truth = h.T[:, :3, 3]
+    spl = tr.states(T0 + (h.t_ns - h.t_ns[0])).T_w_b[:, :3, 3]
+    assert np.sqrt(np.mean(np.sum((spl - truth) ** 2, 1))) < 0.6 * np.sqrt(np.mean(np.sum((T[:, :3, 3] - truth) ** 2, 1)))
+
+
+def _with(h, T=None, keep=None):
+    T = h.T if T is None else T
+    keep = np.ones(len(h), bool) if keep is None else keep
+    return Trajectory(h.t_ns[keep], T[keep], "w", "b")
+
+
+def test_refuses_gaps_jumps_and_flips_naming_the_time():
+    h = helix(duration_s=6.0)                                  # 100 Hz, file times from 1 s
+    keep = np.ones(len(h), bool)
+    keep[300:340] = False
+    with pytest.raises(SimError, match=r"a gap of 0\.410 s after t = 2\.990 s \(file time 3\.990 s\)"):
+        ReplayTrajectory(_with(h, keep=keep), np.eye(4), T0)
+    T = h.T.copy()
+    T[250, 0, 3] += 0.3                                        # one pose teleported 30 cm
+    with pytest.raises(SimError, match=r"a jump at t = 2\.5\d\d s .*acceleration"):
+        ReplayTrajectory(_with(h, T), np.eye(4), T0)
+    T = h.T.copy()
+    T[400, :3, :3] = T[400, :3, :3] @ R_from_opk_deg(0, 0, 60)  # one attitude off by 60 deg
+    with pytest.raises(SimError, match=r"a jump at t = 3\.\d\d\d s .*angular"):
+        ReplayTrajectory(_with(h, T), np.eye(4), T0)
+    with pytest.raises(SimError, match="4 poses; a spline needs at least 8"):
+        ReplayTrajectory(_with(h, keep=np.arange(len(h)) < 4), np.eye(4), T0)
+
+
+def test_wheelless_vehicles_build_and_refuse_wheel_encoders():
+    import mujoco
+    from sim.vehicles import make_vehicle
+    for kind in ("handheld", "drone"):
+        spec = mujoco.MjSpec()
+        handles = make_vehicle(kind, rig_of("cart27")).add_to(spec)
+        model = spec.compile()
+        assert handles.kind == kind and model.ngeom >= 2 and len(handles.camera_names) == 2
+        assert GenerateConfig(vehicle=kind).vehicle == kind
+    with pytest.raises(SimError, match="'drone' has no wheels, but rig 'cart27' has wheel encoders"):
+        GenerateConfig(vehicle="drone").with_overrides(["wheels=default"])
+
+
+EXE = [sys.executable, "-c", "import sys; from sim.app.cli import main; sys.argv[0] = 'vo-testbed'; main()"]
+
+
+@pytest.mark.slow
+def test_cli_replays_and_refuses_in_one_line(tmp_path):
+    """generate --motion prints the departure and writes it to metadata; a gap exits 2 with one line."""
+    env = {**os.environ, "MUJOCO_GL": "egl"}
+    good, bad = tmp_path / "helix.txt", tmp_path / "gap.txt"
+    h = helix(duration_s=3.0)
+    write_tum(good, h)
+    keep = np.ones(len(h), bool)
+    keep[100:120] = False
+    write_tum(bad, _with(h, keep=keep))
+    r = subprocess.run(EXE + ["generate", "--scene", "indoor", "--vehicle", "handheld", "--motion", str(good),
+                              "--no-images", "--ideal", "--no-progress", "--out", str(tmp_path / "ds")],
+                       capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "spline departs from the 301 input poses by max" in r.stdout
+    import yaml
+    meta = yaml.safe_load((tmp_path / "ds" / "metadata.yaml").read_text())
+    assert meta["replay_departure"]["n_poses"] == 301 and meta["config"]["replay"]["file"] == str(good)
+    assert 0 < meta["replay_departure"]["pos_max_m"] < 0.02
+    r = subprocess.run(EXE + ["generate", "--scene", "indoor", "--vehicle", "handheld", "--motion", str(bad),
+                              "--no-images", "--no-progress", "--out", str(tmp_path / "ds2")],
+                       capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+    assert "a gap of 0.210 s after t = 0.990 s" in r.stderr and str(bad) in r.stderr
+    assert not (tmp_path / "ds2" / "metadata.yaml").exists()
