@@ -152,7 +152,7 @@ def metadata(setup: Setup) -> dict:
         "path_length_m": float(setup.trajectory.path_length()),
         "duration_s": generated_duration_s(setup),
         **({"duration_note": note} if (note := duration_note(setup)) else {}),
-        **({"replay_departure": setup.trajectory.departure.to_dict()} if c.replay.file else {}),
+        **({"replay": setup.trajectory.metadata()} if c.replay.file else {}),
     }
 
 

@@ -27,8 +27,10 @@ teleported, a quaternion flipped), or when the spline departs from a pose by mor
 """
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal, Optional
 
 import numpy as np
@@ -123,8 +125,8 @@ class ReplayTrajectory:
     ``pass_times_ns``, ``to_trajectory``). The file's first pose is placed at ``t0_ns``."""
 
     def __init__(self, poses: Trajectory, T_x_b: np.ndarray, t0_ns: int, smoothing_m: float = 0.001,
-                 smoothing_deg: float = 0.05, duration_s=None, source: str = "poses"):
-        self.source = source
+                 smoothing_deg: float = 0.05, duration_s=None, source: str = "poses", source_sha256: str = ""):
+        self.source, self.source_sha256 = source, source_sha256
         t_in = (poses.t_ns - poses.t_ns[0]).astype(float) * 1e-9
         self._t_in, self._T_in, self._file_t0_ns = t_in, poses.T, int(poses.t_ns[0])
         _check_gaps(t_in, source, self._file_t0_ns)
@@ -150,8 +152,14 @@ class ReplayTrajectory:
         except RecordError as e:
             raise SimError(f"replay.file: {e}") from None
         T_b_x = {"body": np.eye(4), "imu": rig.imu.T_b_i_array, "cam0": rig.cameras[0].T_b_c_array}[cfg.frame]
+        sha = hashlib.sha256(Path(cfg.file).read_bytes()).hexdigest()
         return cls(poses, np.linalg.inv(T_b_x), t0_ns, cfg.smoothing_m, cfg.smoothing_deg, duration_s,
-                   source=str(cfg.file))
+                   source=str(cfg.file), source_sha256=sha)
+
+    def metadata(self) -> dict:
+        """``metadata.yaml``'s ``replay`` block: the file's SHA-256 (the config records only its path) and
+        the spline's departure from its poses."""
+        return {"source_sha256": self.source_sha256, "departure": self.departure.to_dict()}
 
     # ------------------------------------------------------------------ evaluation
     def _spline_states(self, t: np.ndarray):

@@ -1,5 +1,6 @@
 """Replayed motion (sim.replay): exact spline derivatives, C2 continuity at knots, IMU exactness, the
 frame of the poses, the departure figure, refusals of gaps and jumps, and the wheel-less vehicles."""
+import hashlib
 import os
 import subprocess
 import sys
@@ -8,15 +9,17 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 import pytest
+import yaml
 
-from rigs.geometry import R_from_opk_deg, make_T, so3_log
+from rigs.geometry import R_from_opk_deg, make_T, quat_wxyz_from_R, so3_log
 from rigs.model import Imu
 from rigs.trajectory import Trajectory
-from rigs.trajfile import write_tum
+from rigs.trajfile import write_kitti, write_tum
 from sim.config import GenerateConfig, rig_of
 from sim.errors import SimError
-from sim.replay import ReplayTrajectory
+from sim.replay import ReplayConfig, ReplayTrajectory
 from sim.replay_paths import hand_walk, helix
+from sim.vehicles import make_vehicle
 from sim.sensors.imu import imu_pose_velocity, imu_times_ns, integrate_imu, measure_states
 
 T0 = 1_000_000_000
@@ -132,7 +135,6 @@ def test_refuses_gaps_jumps_and_flips_naming_the_time():
 
 def test_wheelless_vehicles_build_and_refuse_wheel_encoders():
     import mujoco
-    from sim.vehicles import make_vehicle
     for kind in ("handheld", "drone"):
         spec = mujoco.MjSpec()
         handles = make_vehicle(kind, rig_of("cart27")).add_to(spec)
@@ -161,13 +163,41 @@ def test_cli_replays_and_refuses_in_one_line(tmp_path):
                        capture_output=True, text=True, env=env, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "spline departs from the 301 input poses by max" in r.stdout
-    import yaml
     meta = yaml.safe_load((tmp_path / "ds" / "metadata.yaml").read_text())
-    assert meta["replay_departure"]["n_poses"] == 301 and meta["config"]["replay"]["file"] == str(good)
-    assert 0 < meta["replay_departure"]["pos_max_m"] < 0.02
+    dep = meta["replay"]["departure"]
+    assert dep["n_poses"] == 301 and meta["config"]["replay"]["file"] == str(good)
+    assert meta["replay"]["source_sha256"] == hashlib.sha256(good.read_bytes()).hexdigest()
+    assert 0 < dep["pos_max_m"] < 0.02
     r = subprocess.run(EXE + ["generate", "--scene", "indoor", "--vehicle", "handheld", "--motion", str(bad),
                               "--no-images", "--no-progress", "--out", str(tmp_path / "ds2")],
                        capture_output=True, text=True, env=env, timeout=300)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
     assert "a gap of 0.210 s after t = 0.990 s" in r.stderr and str(bad) in r.stderr
     assert not (tmp_path / "ds2" / "metadata.yaml").exists()
+
+
+@pytest.mark.parametrize("fmt", ["tum", "euroc", "kitti"])
+def test_every_format_and_frame_replays_the_same_body_motion(tmp_path, fmt):
+    """The walk's poses of the IMU (EuRoC), cam0 (KITTI with times.txt) or the body (TUM), read through
+    rigs.trajfile and carried to b with the rig's extrinsics: the same body poses, to the file's 9 digits."""
+    rig = rig_of("cart27")
+    body = hand_walk(seed=2, duration_s=3.0)
+    T_b_x = {"tum": np.eye(4), "euroc": rig.imu.T_b_i_array, "kitti": rig.cameras[0].T_b_c_array}[fmt]
+    frame = {"tum": "body", "euroc": "imu", "kitti": "cam0"}[fmt]
+    poses = Trajectory(body.t_ns, body.T @ T_b_x, "w", "x")
+    path = tmp_path / "poses.txt"
+    if fmt == "tum":
+        write_tum(path, poses)
+    elif fmt == "kitti":
+        write_kitti(path, poses, tmp_path / "times.txt")
+    else:
+        q = quat_wxyz_from_R(poses.rotations)
+        path = tmp_path / "data.csv"
+        path.write_text("#timestamp [ns], p_x, p_y, p_z, q_w, q_x, q_y, q_z\n" + "".join(
+            f"{t},{p[0]:.9f},{p[1]:.9f},{p[2]:.9f},{a[0]:.9f},{a[1]:.9f},{a[2]:.9f},{a[3]:.9f}\n"
+            for t, p, a in zip(poses.t_ns, poses.positions, q)))
+    cfg = ReplayConfig(file=str(path), frame=frame, smoothing_m=0.0, smoothing_deg=0.0)
+    tr = ReplayTrajectory.from_config(cfg, rig, T0)
+    T = tr.states(T0 + (body.t_ns - body.t_ns[0])).T_w_b
+    assert np.abs(T[:, :3, 3] - body.positions).max() < 1e-6
+    assert np.abs(T[:, :3, :3] - body.rotations).max() < 1e-6
