@@ -61,7 +61,8 @@ def resolve(config: GenerateConfig) -> Setup:
     scene = make_scene(scene_cfg, scene_streams(scene_cfg.seed), stream(config.seed, "dynamic"))
     if config.replay.file:                   # --motion FILE: the recorded poses through a spline (sim.replay)
         from sim.replay import ReplayTrajectory
-        traj = ReplayTrajectory.from_config(config.replay, rig, config.motion.start_time_ns, config.duration_s)
+        traj = ReplayTrajectory.from_config(config.replay, rig, config.motion.start_time_ns, config.duration_s,
+                                            scene)
     else:
         traj = VehicleTrajectory.from_route(scene.route, scene.ground_height, config.motion,
                                             stream(config.seed, "motion"), duration_s=config.duration_s)

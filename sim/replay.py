@@ -58,12 +58,18 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
 class ReplayConfig:
     """``--motion FILE`` (``replay.file``): replay its poses through a spline (see :mod:`sim.replay`).
     ``frame``: whose poses the file holds (``body``, ``imu`` or ``cam0``); ``fmt``: ``auto``, ``tum``,
-    ``euroc`` or ``kitti`` (KITTI poses take ``times.txt`` beside them); smoothing bounds are the RMS
-    residual allowed per axis (m) and per rotation (deg); 0 interpolates."""
+    ``euroc`` or ``kitti`` (KITTI poses take ``times.txt`` beside them); ``up``: the file's world axis
+    pointing up (``z``: EuRoC, TUM, ours; ``-y``: KITTI's first-camera frame, x right, y down, z forward,
+    taken to w as z -> x, -x -> y, -y -> z); ``place``: ``file`` keeps the file's world as ``w``,
+    ``start`` moves and turns it about z so the first body pose stands on the ground at the start of the
+    scene's route, its x axis along the route; smoothing bounds are the RMS residual allowed per axis (m)
+    and per rotation (deg); 0 interpolates."""
 
     file: Optional[str] = None
     frame: Literal["body", "imu", "cam0"] = "body"
     fmt: Literal["auto", "tum", "euroc", "kitti"] = "auto"
+    up: Literal["z", "-y"] = "z"
+    place: Literal["file", "start"] = "file"
     smoothing_m: float = knob(0.001, ge=0.0, le=1.0, doc="RMS position residual allowed (m); 0 interpolates")
     smoothing_deg: float = knob(0.05, ge=0.0, le=10.0, doc="RMS rotation residual allowed (deg); 0 interpolates")
 
@@ -145,13 +151,22 @@ class ReplayTrajectory:
         self._check_follows(smoothing_m, smoothing_deg)
 
     @classmethod
-    def from_config(cls, cfg: ReplayConfig, rig, t0_ns: int, duration_s=None) -> "ReplayTrajectory":
-        """Read ``cfg.file`` and fit; the rig gives ``T_x_b`` for ``frame`` imu or cam0."""
+    def from_config(cls, cfg: ReplayConfig, rig, t0_ns: int, duration_s=None, scene=None) -> "ReplayTrajectory":
+        """Read ``cfg.file``, take it to ``w`` (``up``, ``place``: the scene's route start) and fit; the rig
+        gives ``T_x_b`` for ``frame`` imu or cam0."""
         try:
             poses = read_trajectory(cfg.file, cfg.fmt)
         except RecordError as e:
             raise SimError(f"replay.file: {e}") from None
         T_b_x = {"body": np.eye(4), "imu": rig.imu.T_b_i_array, "cam0": rig.cameras[0].T_b_c_array}[cfg.frame]
+        T_w_f = np.eye(4)
+        if cfg.up == "-y":
+            T_w_f[:3, :3] = UP_MINUS_Y
+        if cfg.place == "start":
+            if scene is None:
+                raise SimError("replay.place: 'start' needs the scene (its route's start)")
+            T_w_f = _start_placement(scene, T_w_f @ poses.T[0] @ np.linalg.inv(T_b_x)) @ T_w_f
+        poses = Trajectory(poses.t_ns, T_w_f @ poses.T, "w", poses.frame)
         sha = hashlib.sha256(Path(cfg.file).read_bytes()).hexdigest()
         return cls(poses, np.linalg.inv(T_b_x), t0_ns, cfg.smoothing_m, cfg.smoothing_deg, duration_s,
                    source=str(cfg.file), source_sha256=sha)
@@ -251,6 +266,24 @@ class ReplayTrajectory:
     def to_trajectory(self, t_ns) -> Trajectory:
         st = self.states(t_ns)
         return Trajectory(st.t_ns, st.T_w_b, ref="w", frame="b")
+
+
+UP_MINUS_Y = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])   # KITTI c0_0 -> z up
+
+
+def _start_placement(scene, T_w_b0: np.ndarray) -> np.ndarray:
+    """(4,4) turn about z and shift taking the first body pose ``T_w_b0`` to the route's first waypoint,
+    on the ground there, its x axis (projected on the ground plane) along the route's first leg."""
+    wp = np.asarray(scene.route.waypoints_xy, dtype=float)
+    d = wp[1] - wp[0]
+    x_b = T_w_b0[:3, 0]
+    yaw = math.atan2(d[1], d[0]) - math.atan2(x_b[1], x_b[0])
+    c, s = math.cos(yaw), math.sin(yaw)
+    T = np.eye(4)
+    T[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+    z0 = float(scene.ground_height(wp[0, 0], wp[0, 1]))
+    T[:3, 3] = np.array([wp[0, 0], wp[0, 1], z0]) - T[:3, :3] @ T_w_b0[:3, 3]
+    return T
 
 
 def _when(t_s: float, file_t0_ns: int) -> str:

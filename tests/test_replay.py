@@ -201,3 +201,38 @@ def test_every_format_and_frame_replays_the_same_body_motion(tmp_path, fmt):
     T = tr.states(T0 + (body.t_ns - body.t_ns[0])).T_w_b
     assert np.abs(T[:, :3, 3] - body.positions).max() < 1e-6
     assert np.abs(T[:, :3, :3] - body.rotations).max() < 1e-6
+
+
+def test_up_and_place_put_a_kitti_like_file_upright_at_the_route_start(tmp_path):
+    """Poses of cam0 in KITTI's first-camera frame (y down, z forward): with up=-y and place=start the
+    first body pose stands on the ground (z = ground height) at the route's first waypoint, upright
+    (body z = world z), its x axis along the first leg; the relative motion is unchanged."""
+    from scenes.base import Route
+
+    class FlatScene:
+        route = Route(((3.0, 4.0), (3.0, 10.0)))
+
+        @staticmethod
+        def ground_height(x, y):
+            return 0.25
+
+    rig = rig_of("kitti-like")
+    T_b_c = rig.cameras[0].T_b_c_array
+    body = hand_walk(seed=4, duration_s=3.0)                    # z-up body poses
+    R_kitti_w = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])   # inverse of UP_MINUS_Y
+    T_k_w = np.eye(4)
+    T_k_w[:3, :3] = R_kitti_w
+    cam = Trajectory(body.t_ns, T_k_w @ body.T @ T_b_c, "c0_0", "c0")
+    path = tmp_path / "00.txt"
+    write_kitti(path, cam, tmp_path / "times.txt")
+    cfg = ReplayConfig(file=str(path), frame="cam0", up="-y", place="start", smoothing_m=0.0, smoothing_deg=0.0)
+    tr = ReplayTrajectory.from_config(cfg, rig, T0, scene=FlatScene())
+    T = tr.states(T0 + (body.t_ns - body.t_ns[0])).T_w_b
+    assert np.abs(T[0, :3, 3] - [3.0, 4.0, 0.25]).max() < 1e-6
+    x0 = body.T[0, :3, 0]
+    assert np.abs(T[0, 2, :3] - body.T[0, 2, :3]).max() < 1e-6   # tilt as the original (only turned about z)
+    heading = np.arctan2(T[0, 1, 0], T[0, 0, 0])
+    assert abs(heading - np.pi / 2) < 1e-6 and abs(np.hypot(*x0[:2]) - np.hypot(*T[0, :2, 0])) < 1e-9
+    rel = np.linalg.inv(T[0]) @ T[-1]
+    rel_in = np.linalg.inv(body.T[0]) @ body.T[-1]
+    assert np.abs(rel - rel_in).max() < 1e-6
