@@ -58,7 +58,7 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
 class ReplayConfig:
     """``--motion FILE`` (``replay.file``): replay its poses through a spline (see :mod:`sim.replay`).
     ``frame``: whose poses the file holds (``body``, ``imu`` or ``cam0``); ``fmt``: ``auto``, ``tum``,
-    ``euroc`` or ``kitti`` (KITTI poses take ``times.txt`` beside them); ``up``: the file's world axis
+    ``euroc`` or ``kitti`` (KITTI poses take ``times``, else ``times.txt`` beside them); ``up``: the file's world axis
     pointing up (``z``: EuRoC, TUM, ours; ``-y``: KITTI's first-camera frame, x right, y down, z forward,
     taken to w as z -> x, -x -> y, -y -> z); ``place``: ``file`` keeps the file's world as ``w``,
     ``start`` moves and turns it about z so the first body pose stands on the ground at the start of the
@@ -68,6 +68,7 @@ class ReplayConfig:
     file: Optional[str] = None
     frame: Literal["body", "imu", "cam0"] = "body"
     fmt: Literal["auto", "tum", "euroc", "kitti"] = "auto"
+    times: Optional[str] = None
     up: Literal["z", "-y"] = "z"
     place: Literal["file", "start"] = "file"
     smoothing_m: float = knob(0.001, ge=0.0, le=1.0, doc="RMS position residual allowed (m); 0 interpolates")
@@ -155,9 +156,10 @@ class ReplayTrajectory:
         """Read ``cfg.file``, take it to ``w`` (``up``, ``place``: the scene's route start) and fit; the rig
         gives ``T_x_b`` for ``frame`` imu or cam0."""
         try:
-            poses = read_trajectory(cfg.file, cfg.fmt)
+            poses = read_trajectory(cfg.file, cfg.fmt, cfg.times)
         except RecordError as e:
-            raise SimError(f"replay.file: {e}") from None
+            msg = str(e).replace("with --times FILE", "with --motion-times FILE (replay.times)")
+            raise SimError(f"replay.file: {msg}") from None
         T_b_x = {"body": np.eye(4), "imu": rig.imu.T_b_i_array, "cam0": rig.cameras[0].T_b_c_array}[cfg.frame]
         T_w_f = np.eye(4)
         if cfg.up == "-y":

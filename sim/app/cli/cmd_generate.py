@@ -15,7 +15,8 @@ from sim.app.cli.options import echo_json, json_option, set_option
 FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "seed": "seed", "fmt": "format",
                "depth": "depth", "depth_format": "depth_format", "segmentation": "segmentation", "ideal": "ideal",
                "images": "images", "rgb": "rgb", "vehicle": "vehicle",
-               "motion_file": "replay.file", "motion_frame": "replay.frame"}
+               "motion_file": "replay.file", "motion_frame": "replay.frame",
+               "motion_times": "replay.times"}
 
 
 @click.command("generate")
@@ -31,6 +32,8 @@ FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "s
                    "them) through a smooth SE(3) spline instead of driving the scene's route (sim.replay).")
 @click.option("--motion-frame", "motion_frame", type=click.Choice(["body", "imu", "cam0"]), default="body",
               show_default=True, help="Whose poses the --motion file holds.")
+@click.option("--motion-times", "motion_times", type=click.Path(dir_okay=False), default=None,
+              help="times.txt (seconds, one per pose) of --motion KITTI poses, when it is not beside them.")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False), default=None,
               help="Start from a YAML file whose keys are GenerateConfig fields (scene, rig, duration_s, seed, "
                    "format, depth, depth_format, segmentation, ideal, images, vehicle, rgb, motion, render, noise; "
