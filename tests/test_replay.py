@@ -236,3 +236,11 @@ def test_up_and_place_put_a_kitti_like_file_upright_at_the_route_start(tmp_path)
     rel = np.linalg.inv(T[0]) @ T[-1]
     rel_in = np.linalg.inv(body.T[0]) @ body.T[-1]
     assert np.abs(rel - rel_in).max() < 1e-6
+
+
+def test_kitti_without_times_names_the_option(tmp_path):
+    path = tmp_path / "poses" / "00.txt"
+    path.parent.mkdir()
+    write_kitti(path, helix(duration_s=2.0))
+    with pytest.raises(SimError, match=r"replay\.file: .*00\.txt: KITTI poses hold no timestamps.*--motion-times FILE"):
+        ReplayTrajectory.from_config(ReplayConfig(file=str(path)), rig_of("cart27"), T0)
