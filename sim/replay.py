@@ -5,12 +5,12 @@ IMU measured along it is exact for it (``vo-testbed validate imu`` integrates it
 
 Construction (times in s from the file's first pose; world ``w`` is the file's reference frame):
 
-* position: per axis a quintic smoothing B-spline (scipy ``make_splrep``, FITPACK, ``k = 5``) whose
-  residual sum of squares over the N poses is at most ``N * smoothing_m**2`` (``smoothing_m = 0``:
-  it interpolates). Quintic splines are C4, so ``v_w``, ``a_w`` and their derivative are continuous;
+* position: per axis a quintic B-spline (scipy ``make_lsq_spline``, ``k = 5``) fitted by least squares
+  to the N poses on uniform knots ``knot_spacing_s`` apart (default 0.1 s, at least two of the longest
+  input steps), or interpolating every pose (``make_interp_spline``) with ``knot_spacing_s = 0``. Quintic
+  splines are C4, so ``v_w``, ``a_w`` and their derivative are continuous;
 * rotation: the unit quaternions (signs made continuous, ``q_k . q_{k-1} >= 0``) are fitted, per
-  component, by the same quintic smoothing spline ``s(t)`` (residual bound ``N * (smoothing_deg/2)**2``
-  in radians: a quaternion component moves by half the angle), and the rotation is the normalised
+  component, by the same quintic spline ``s(t)``, and the rotation is the normalised
   ``q(t) = s(t) / |s(t)|``. Normalising a non-vanishing C4 curve is C4, so ``omega_b`` and
   ``alpha_b`` are continuous (C2 and beyond, as a cumulative cubic B-spline on SO(3) would be). With
   ``q' = 1/2 q (x) [0, omega_b]``: ``omega_b = 2 vec(q* (x) q')`` and ``alpha_b = 2 vec(q* (x) q'')``
@@ -23,7 +23,7 @@ The fit is refused (one-line :class:`~sim.errors.SimError` naming the file and t
 input has a gap longer than :data:`GAP_FACTOR` median steps, or when following it needs more than
 :data:`MAX_ACCEL_MPS2`, :data:`MAX_RATE_RADPS` or :data:`MAX_ANG_ACCEL_RADPS2` (a jump: a pose
 teleported, a quaternion flipped), or when the spline departs from a pose by more than
-:data:`MAX_DEPARTURE_FACTOR` times the smoothing bound plus :data:`DEPARTURE_FLOOR_M` / ``_DEG``.
+:data:`MAX_DEPARTURE_M` / :data:`MAX_DEPARTURE_DEG`.
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Literal, Optional
 
 import numpy as np
-from scipy.interpolate import make_splrep
+from scipy.interpolate import make_interp_spline, make_lsq_spline
 
 from rigs.errors import RecordError
 from rigs.geometry import R_from_quat_wxyz, quat_wxyz_from_R
@@ -48,9 +48,8 @@ GAP_FACTOR = 5.0               # a step longer than 5 median steps is a gap
 MAX_ACCEL_MPS2 = 100.0         # ~10 g: beyond any hand-held, drone or car motion
 MAX_RATE_RADPS = 20.0          # ~3 turns per second
 MAX_ANG_ACCEL_RADPS2 = 1000.0
-MAX_DEPARTURE_FACTOR = 10.0    # x the smoothing bound
-DEPARTURE_FLOOR_M = 0.01
-DEPARTURE_FLOOR_DEG = 0.5
+MAX_DEPARTURE_M = 0.02        # a pose 2 cm off the least-squares spline is not noise
+MAX_DEPARTURE_DEG = 1.0
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
 
 
@@ -62,8 +61,8 @@ class ReplayConfig:
     pointing up (``z``: EuRoC, TUM, ours; ``-y``: KITTI's first-camera frame, x right, y down, z forward,
     taken to w as z -> x, -x -> y, -y -> z); ``place``: ``file`` keeps the file's world as ``w``,
     ``start`` moves and turns it about z so the first body pose stands on the ground at the start of the
-    scene's route, its x axis along the route; smoothing bounds are the RMS residual allowed per axis (m)
-    and per rotation (deg); 0 interpolates."""
+    scene's route, its x axis along the route; ``knot_spacing_s``: the spline's knots (0: through every
+    pose)."""
 
     file: Optional[str] = None
     frame: Literal["body", "imu", "cam0"] = "body"
@@ -71,8 +70,7 @@ class ReplayConfig:
     times: Optional[str] = None
     up: Literal["z", "-y"] = "z"
     place: Literal["file", "start"] = "file"
-    smoothing_m: float = knob(0.001, ge=0.0, le=1.0, doc="RMS position residual allowed (m); 0 interpolates")
-    smoothing_deg: float = knob(0.05, ge=0.0, le=10.0, doc="RMS rotation residual allowed (deg); 0 interpolates")
+    knot_spacing_s: float = knob(0.1, ge=0.0, le=10.0, doc="knot spacing of the least-squares spline (s); 0 interpolates")
 
     def __post_init__(self):
         check_fields(self, SimError, "replay.")
@@ -81,7 +79,7 @@ class ReplayConfig:
 @dataclass(frozen=True)
 class Departure:
     """How far the spline is from the input poses: max and RMS, position (m) and angle (deg), at the
-    input times; ``t_max_s`` the time (s from the first pose) of the largest position departure."""
+    input times; ``t_max_s`` / ``t_max_ang_s`` the times (s from the first pose) of the largest ones."""
 
     n_poses: int
     pos_max_m: float
@@ -89,6 +87,7 @@ class Departure:
     ang_max_deg: float
     ang_rms_deg: float
     t_max_s: float
+    t_max_ang_s: float = 0.0
 
     def to_dict(self) -> dict:
         return {k: (int(v) if k == "n_poses" else float(v)) for k, v in self.__dict__.items()}
@@ -111,18 +110,23 @@ def _conj(q):
 
 
 class _VecSpline:
-    """Quintic smoothing splines of (N, C) values at times t (N,) s; call -> value, d1, d2 (M, C)."""
+    """Quintic splines of (N, C) values at times t (N,) s: least squares on uniform knots ``spacing`` s apart
+    (at least two of the longest input steps, so every knot span holds poses), or interpolating every
+    pose when ``spacing`` is 0; call -> value, d1, d2 (M, C)."""
 
-    def __init__(self, t: np.ndarray, y: np.ndarray, sigma: float):
-        s = float(len(t)) * sigma ** 2
-        self._f = [make_splrep(t, y[:, j], k=5, s=s) for j in range(y.shape[1])]
-        self._d = [[f.derivative(k) for k in (1, 2)] for f in self._f]
+    def __init__(self, t: np.ndarray, y: np.ndarray, spacing: float):
+        if spacing > 0:
+            dk = max(spacing, 2.0 * float(np.diff(t).max()))
+            n_in = max(0, int(math.floor(t[-1] / dk - 0.5)))
+            inner = np.linspace(0.0, t[-1], n_in + 2)[1:-1]
+            knots = np.r_[[t[0]] * 6, inner, [t[-1]] * 6]
+            self._f = make_lsq_spline(t, y, knots, k=5, axis=0)
+        else:
+            self._f = make_interp_spline(t, y, k=5, axis=0)
+        self._d = [self._f.derivative(k) for k in (1, 2)]
 
     def __call__(self, t):
-        out = [np.stack([f(t) for f in self._f], axis=1)]
-        for k in range(2):
-            out.append(np.stack([d[k](t) for d in self._d], axis=1))
-        return out
+        return [self._f(t), self._d[0](t), self._d[1](t)]
 
 
 class ReplayTrajectory:
@@ -131,8 +135,8 @@ class ReplayTrajectory:
     Same interface as :class:`sim.motion.VehicleTrajectory` (``states``, ``path_length``,
     ``pass_times_ns``, ``to_trajectory``). The file's first pose is placed at ``t0_ns``."""
 
-    def __init__(self, poses: Trajectory, T_x_b: np.ndarray, t0_ns: int, smoothing_m: float = 0.001,
-                 smoothing_deg: float = 0.05, duration_s=None, source: str = "poses", source_sha256: str = ""):
+    def __init__(self, poses: Trajectory, T_x_b: np.ndarray, t0_ns: int, knot_spacing_s: float = 0.1,
+                 duration_s=None, source: str = "poses", source_sha256: str = ""):
         self.source, self.source_sha256 = source, source_sha256
         t_in = (poses.t_ns - poses.t_ns[0]).astype(float) * 1e-9
         self._t_in, self._T_in, self._file_t0_ns = t_in, poses.T, int(poses.t_ns[0])
@@ -140,8 +144,11 @@ class ReplayTrajectory:
         q = quat_wxyz_from_R(poses.rotations)
         flip = np.cumprod(np.where(np.einsum("ij,ij->i", q[1:], q[:-1]) < 0, -1.0, 1.0))
         q[1:] *= flip[:, None]
-        self._pos = _VecSpline(t_in, poses.positions, smoothing_m)
-        self._quat = _VecSpline(t_in, q, math.radians(smoothing_deg) / 2)
+        try:
+            self._pos = _VecSpline(t_in, poses.positions, knot_spacing_s)
+            self._quat = _VecSpline(t_in, q, knot_spacing_s)
+        except (ValueError, np.linalg.LinAlgError) as e:
+            raise SimError(f"replay.file: {source}: no spline fits these poses ({e})") from None
         self._T_x_b = np.asarray(T_x_b, dtype=float)
         self.t0_ns = int(t0_ns)
         dur = float(t_in[-1])
@@ -149,7 +156,7 @@ class ReplayTrajectory:
             dur = min(dur, float(duration_s))
         self.t1_ns = self.t0_ns + int(round(dur * 1e9))
         self.departure = self._departure()
-        self._check_follows(smoothing_m, smoothing_deg)
+        self._check_follows()
 
     @classmethod
     def from_config(cls, cfg: ReplayConfig, rig, t0_ns: int, duration_s=None, scene=None) -> "ReplayTrajectory":
@@ -170,7 +177,7 @@ class ReplayTrajectory:
             T_w_f = _start_placement(scene, T_w_f @ poses.T[0] @ np.linalg.inv(T_b_x)) @ T_w_f
         poses = Trajectory(poses.t_ns, T_w_f @ poses.T, "w", poses.frame)
         sha = hashlib.sha256(Path(cfg.file).read_bytes()).hexdigest()
-        return cls(poses, np.linalg.inv(T_b_x), t0_ns, cfg.smoothing_m, cfg.smoothing_deg, duration_s,
+        return cls(poses, np.linalg.inv(T_b_x), t0_ns, cfg.knot_spacing_s, duration_s,
                    source=str(cfg.file), source_sha256=sha)
 
     def metadata(self) -> dict:
@@ -221,11 +228,11 @@ class ReplayTrajectory:
         dp = np.linalg.norm(p - self._T_in[:, :3, 3], axis=1)
         dR = np.einsum("nji,njk->nik", R, self._T_in[:, :3, :3])
         ang = np.degrees(np.arccos(np.clip((np.trace(dR, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0)))
-        k = int(np.argmax(dp))
+        k, j = int(np.argmax(dp)), int(np.argmax(ang))
         return Departure(len(dp), float(dp.max()), float(np.sqrt(np.mean(dp ** 2))), float(ang.max()),
-                         float(np.sqrt(np.mean(ang ** 2))), float(self._t_in[k]))
+                         float(np.sqrt(np.mean(ang ** 2))), float(self._t_in[k]), float(self._t_in[j]))
 
-    def _check_follows(self, smoothing_m: float, smoothing_deg: float) -> None:
+    def _check_follows(self) -> None:
         """Refuse a jump: limits on the spline's acceleration and rates, and on its departure."""
         t = np.linspace(0.0, self._t_in[-1], max(2, int(self._t_in[-1] * 400) + 1))
         _, _, _, a, om, al = self._spline_states(t)
@@ -239,10 +246,10 @@ class ReplayTrajectory:
                                f"following it needs {name} {val[k]:.3g} {unit} (limit {lim:g}); the spline cannot "
                                f"follow it")
         d = self.departure
-        lim_m = MAX_DEPARTURE_FACTOR * smoothing_m + DEPARTURE_FLOOR_M
-        lim_deg = MAX_DEPARTURE_FACTOR * smoothing_deg + DEPARTURE_FLOOR_DEG
+        lim_m, lim_deg = MAX_DEPARTURE_M, MAX_DEPARTURE_DEG
         if d.pos_max_m > lim_m or d.ang_max_deg > lim_deg:
-            raise SimError(f"replay.file: {self.source}: a jump at {_when(d.t_max_s, self._file_t0_ns)}: "
+            t_bad = d.t_max_s if d.pos_max_m > lim_m else d.t_max_ang_s
+            raise SimError(f"replay.file: {self.source}: a jump at {_when(t_bad, self._file_t0_ns)}: "
                            f"the spline departs {d.pos_max_m:.3g} m / {d.ang_max_deg:.3g} deg from the poses "
                            f"(limit {lim_m:g} m / {lim_deg:g} deg); the spline cannot follow it")
 
