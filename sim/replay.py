@@ -93,8 +93,8 @@ class Departure:
         return {k: (int(v) if k == "n_poses" else float(v)) for k, v in self.__dict__.items()}
 
     def text(self) -> str:
-        return (f"spline departs from the {self.n_poses} input poses by max {self.pos_max_m * 1e3:.3f} mm "
-                f"(RMS {self.pos_rms_m * 1e3:.3f} mm), max {self.ang_max_deg:.4f} deg (RMS {self.ang_rms_deg:.4f} deg)")
+        return (f"spline departs from the {self.n_poses} input poses by max {self.pos_max_m * 1e3:.3g} mm "
+                f"(RMS {self.pos_rms_m * 1e3:.3g} mm), max {self.ang_max_deg:.3g} deg (RMS {self.ang_rms_deg:.3g} deg)")
 
 
 def _qmul(a, b):
@@ -227,7 +227,9 @@ class ReplayTrajectory:
         R, p, *_ = self._spline_states(self._t_in)
         dp = np.linalg.norm(p - self._T_in[:, :3, 3], axis=1)
         dR = np.einsum("nji,njk->nik", R, self._T_in[:, :3, :3])
-        ang = np.degrees(np.arccos(np.clip((np.trace(dR, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0)))
+        sin = np.linalg.norm(np.stack([dR[:, 2, 1] - dR[:, 1, 2], dR[:, 0, 2] - dR[:, 2, 0],
+                                       dR[:, 1, 0] - dR[:, 0, 1]], axis=1), axis=1) / 2
+        ang = np.degrees(np.arctan2(sin, (np.trace(dR, axis1=1, axis2=2) - 1) / 2))   # exact near 0 too
         k, j = int(np.argmax(dp)), int(np.argmax(ang))
         return Departure(len(dp), float(dp.max()), float(np.sqrt(np.mean(dp ** 2))), float(ang.max()),
                          float(np.sqrt(np.mean(ang ** 2))), float(self._t_in[k]), float(self._t_in[j]))

@@ -58,7 +58,7 @@ def test_cam0_poses_give_body_motion_with_exact_derivatives():
     cam = Trajectory(body.t_ns, body.T @ T_b_c, "w", "c0")
     tr = ReplayTrajectory(cam, np.linalg.inv(T_b_c), T0, knot_spacing_s=0.0)
     T_wc = tr.states(T0 + (body.t_ns - body.t_ns[0])).T_w_b @ T_b_c
-    assert np.abs(T_wc - cam.T).max() < 1e-9                   # smoothing 0: interpolates the poses
+    assert np.abs(T_wc - cam.T).max() < 1e-9                   # knot spacing 0: interpolates the poses
     t = np.arange(tr.t0_ns + 50_000_000, tr.t1_ns - 50_000_000, 9_000_000)
     dv, da, dom, dal, _ = _fd_check(tr, t)
     assert dv < 1e-6 and da < 1e-5 and dom < 1e-6 and dal < 1e-5
