@@ -34,6 +34,7 @@ from scenes.errors import SceneError
 from sim.distortion import fisheye_needed_theta
 from sim.errors import SimError
 from sim.motion import MotionConfig
+from sim.replay import ReplayConfig
 
 MAX_SUPERSAMPLE = 7
 PNG_COMPRESSION = 1        # zlib level of the written PNGs, chosen by measurement (docs/simulator.md)
@@ -48,7 +49,7 @@ DepthFormat = Literal["npy", "png16-mm", "tum", "png16"]   # png16: alias of png
 FORMATS = get_args(Format)
 DEPTH_FORMATS = get_args(DepthFormat)
 ALIASES = {"image_noise": "noise.image_sigma", "imu.time_offset_ms": "imu_clock.time_offset_ms"}
-EFFECT_PIECES = ("camera", "imu_clock", "calib_error")   # left out of to_dict() (and the hash) while all off
+EFFECT_PIECES = ("camera", "imu_clock", "calib_error", "replay")   # left out of to_dict() (and the hash) while all off
 
 
 @dataclass(frozen=True)
@@ -205,6 +206,7 @@ class GenerateConfig:
     camera: CameraEffects = knob(default_factory=CameraEffects)
     imu_clock: ImuClock = knob(default_factory=ImuClock)
     calib_error: CalibError = knob(default_factory=CalibError)
+    replay: ReplayConfig = knob(default_factory=ReplayConfig)   # --motion FILE (sim.replay); off: file None
 
     def __post_init__(self):
         from scenes.registry import scene_class
@@ -214,7 +216,8 @@ class GenerateConfig:
             scene_class(self.scene.name)          # a registered name or a plug-in "package.module:SceneClass"
         except SceneError as e:
             raise SceneError(f"scene.name: {e}") from None
-        vehicle_class(self.vehicle)
+        if vehicle_class(self.vehicle).dims is None and self.rig.wheels is not None:
+            raise SimError(f"vehicle: {self.vehicle!r} has no wheels, but rig {self.rig.name!r} has wheel encoders")
         self.rig.check_stereo()                   # two cameras at one position: no stereo geometry
         if self.images:                           # a fisheye wider than a pinhole canvas holds: refused up front
             for cam in self.rig.cameras:

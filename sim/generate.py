@@ -30,6 +30,7 @@ class GenerateResult:
     topdown_png: str
     formats: tuple
     notes: tuple = ()            # what differs from the request (e.g. a duration longer than the route)
+    replay_departure: dict = None   # --motion FILE: the spline's departure from the poses (sim.replay.Departure)
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -59,8 +60,13 @@ def resolve(config: GenerateConfig) -> Setup:
 
     rig, scene_cfg = config.rig, config.scene_config
     scene = make_scene(scene_cfg, scene_streams(scene_cfg.seed), stream(config.seed, "dynamic"))
-    traj = VehicleTrajectory.from_route(scene.route, scene.ground_height, config.motion,
-                                        stream(config.seed, "motion"), duration_s=config.duration_s)
+    if config.replay.file:                   # --motion FILE: the recorded poses through a spline (sim.replay)
+        from sim.replay import ReplayTrajectory
+        traj = ReplayTrajectory.from_config(config.replay, rig, config.motion.start_time_ns, config.duration_s,
+                                            scene)
+    else:
+        traj = VehicleTrajectory.from_route(scene.route, scene.ground_height, config.motion,
+                                            stream(config.seed, "motion"), duration_s=config.duration_s)
     check_clearance(scene, traj, config)
     period_ns = int(round(1e9 / rig.camera_rate_hz))
     frame_t = np.arange(traj.t0_ns, traj.t1_ns + 1, period_ns, dtype=np.int64)
@@ -148,6 +154,7 @@ def metadata(setup: Setup) -> dict:
         "path_length_m": float(setup.trajectory.path_length()),
         "duration_s": generated_duration_s(setup),
         **({"duration_note": note} if (note := duration_note(setup)) else {}),
+        **({"replay": setup.trajectory.metadata()} if c.replay.file else {}),
     }
 
 
@@ -360,7 +367,8 @@ def _generate(config: GenerateConfig, out_dir: Path, progress: bool, threads=Non
     return GenerateResult(str(out_dir), int(len(setup.frame_t_ns)) if config.images else 0,
                           int(len(setup.imu_t_ns)), (setup.trajectory.t1_ns - setup.trajectory.t0_ns) * 1e-9,
                           float(setup.trajectory.path_length()), png, _formats(config.format),
-                          tuple(filter(None, [duration_note(setup)])))
+                          tuple(filter(None, [duration_note(setup)])),
+                          setup.trajectory.departure.to_dict() if config.replay.file else None)
 
 
 def write_topdown(setup: Setup, truth: dict, path: str) -> None:

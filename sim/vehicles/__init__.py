@@ -10,9 +10,11 @@ from sim.vehicles.base import (BODY_NAME, IMU_SITE, VEHICLE_GROUP, Vehicle, Vehi
                                VehicleHandles, camera_name)
 from sim.vehicles.car import CAR, Car
 from sim.vehicles.cart import CART, Cart
+from sim.vehicles.drone import Drone
+from sim.vehicles.handheld import Handheld
 from sim.vehicles.rover import ROVER, Rover
 
-VEHICLES = {"cart": Cart, "rover": Rover, "car": Car}
+VEHICLES = {"cart": Cart, "rover": Rover, "car": Car, "handheld": Handheld, "drone": Drone}
 VEHICLE_KINDS = tuple(VEHICLES)
 
 
@@ -34,6 +36,6 @@ def add_vehicle(spec, rig, kind: str = "cart") -> VehicleHandles:
     return make_vehicle(kind, rig).add_to(spec)
 
 
-__all__ = ["BODY_NAME", "CAR", "CART", "Car", "Cart",
+__all__ = ["BODY_NAME", "CAR", "CART", "Car", "Cart", "Drone", "Handheld",
            "IMU_SITE", "ROVER", "Rover", "VEHICLES", "VEHICLE_GROUP", "VEHICLE_KINDS",
            "Vehicle", "VehicleDims", "VehicleHandles", "add_vehicle", "camera_name", "make_vehicle", "vehicle_class"]

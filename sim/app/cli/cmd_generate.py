@@ -14,7 +14,9 @@ from sim.app.cli.options import echo_json, json_option, set_option
 # command-line parameter -> GenerateConfig field path (applied only when given on the command line)
 FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "seed": "seed", "fmt": "format",
                "depth": "depth", "depth_format": "depth_format", "segmentation": "segmentation", "ideal": "ideal",
-               "images": "images", "rgb": "rgb", "vehicle": "vehicle"}
+               "images": "images", "rgb": "rgb", "vehicle": "vehicle",
+               "motion_file": "replay.file", "motion_frame": "replay.frame",
+               "motion_times": "replay.times"}
 
 
 @click.command("generate")
@@ -24,7 +26,14 @@ FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "s
 @click.option("--imu", "imu_yaml", type=click.Path(dir_okay=False), default=None,
               help="Kalibr imu.yaml for a --rig camchain-imucam.yaml (noise densities, random walks, rate, T_i_b).")
 @click.option("--scenario", default=None, help="Start from a named scenario (flags and --set then change it).")
-@click.option("--vehicle", default="cart", show_default=True, help="Vehicle: cart, car or rover.")
+@click.option("--vehicle", default="cart", show_default=True, help="Vehicle: cart, car, rover, handheld or drone.")
+@click.option("--motion", "motion_file", type=click.Path(dir_okay=False), default=None,
+              help="Replay this trajectory (TUM, EuRoC ground-truth CSV, or KITTI poses with times.txt beside "
+                   "them) through a smooth SE(3) spline instead of driving the scene's route (sim.replay).")
+@click.option("--motion-frame", "motion_frame", type=click.Choice(["body", "imu", "cam0"]), default="body",
+              show_default=True, help="Whose poses the --motion file holds.")
+@click.option("--motion-times", "motion_times", type=click.Path(dir_okay=False), default=None,
+              help="times.txt (seconds, one per pose) of --motion KITTI poses, when it is not beside them.")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False), default=None,
               help="Start from a YAML file whose keys are GenerateConfig fields (scene, rig, duration_s, seed, "
                    "format, depth, depth_format, segmentation, ideal, images, vehicle, rgb, motion, render, noise; "
@@ -74,6 +83,9 @@ def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, worker
               workers=workers, scheduler=scheduler, egl_devices=devices)
     for note in res.notes:
         click.echo(f"warning: {note}", err=True)
+    if res.replay_departure and not as_json:
+        from sim.replay import Departure
+        click.echo(f"replay {cfg.replay.file}: {Departure(**res.replay_departure).text()}")
     if as_json:
         echo_json(res.to_dict())
     else:

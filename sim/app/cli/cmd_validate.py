@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from sim.app.cli.options import echo_json, json_option
+from sim.app.cli.options import echo_json, json_option, set_option
 
 
 def _floats(text: str, option: str) -> tuple:
@@ -63,11 +63,16 @@ def range_cmd(rig_name, baselines, ranges, matchers, image_noise, phases, tolera
 @click.option("--rig", "rig_name", default="cart27", show_default=True)
 @click.option("--duration", type=click.FloatRange(min=0, min_open=True), default=60.0, show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--motion", "motion_file", type=click.Path(dir_okay=False), default=None,
+              help="Replay this trajectory (as generate --motion) instead of the scene's route.")
+@click.option("--motion-frame", type=click.Choice(["body", "imu", "cam0"]), default="body", show_default=True)
+@set_option
 @json_option
-def imu_cmd(scene, rig_name, duration, seed, as_json):
+def imu_cmd(scene, rig_name, duration, seed, motion_file, motion_frame, overrides, as_json):
     """Dead-reckon the ideal IMU from the true initial state and print the error against the truth."""
     from sim.app.validation.imu_check import dead_reckoning
-    res = dead_reckoning(scene, rig_name, duration, seed)
+    sets = (f"replay.file={motion_file}", f"replay.frame={motion_frame}") if motion_file else ()
+    res = dead_reckoning(scene, rig_name, duration, seed, sets + tuple(overrides))
     echo_json(res.to_dict()) if as_json else click.echo(res.text())
 
 

@@ -43,7 +43,8 @@ def dead_reckoning(scene: str = "campus", rig: str = "cart27", duration_s: float
     T_true, v_true = imu_pose_velocity(setup.trajectory.states(setup.imu_t_ns), T_b_i)
     T_est, v_est = integrate_imu(samples, T_true[0], v_true[0])
     dR = T_true[-1, :3, :3] @ T_est[-1, :3, :3].T
-    return DeadReckoningResult(scene, rig, duration_s, setup.rig.imu.rate_hz, float(setup.trajectory.path_length()),
+    done_s = (setup.trajectory.t1_ns - setup.trajectory.t0_ns) * 1e-9      # a route or replay may end first
+    return DeadReckoningResult(scene, rig, done_s, setup.rig.imu.rate_hz, float(setup.trajectory.path_length()),
                                float(np.linalg.norm(T_true[-1, :3, 3] - T_est[-1, :3, 3])),
                                float(np.degrees(np.linalg.norm(so3_log(dR)))),
                                float(np.linalg.norm(v_true[-1] - v_est[-1])))
