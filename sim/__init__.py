@@ -2,7 +2,7 @@
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering unless the user chose otherwise
-__version__ = "0.3.0"      # dataset version (metadata, config hash): bumped when a config's bytes change
+from sim.version import __version__  # noqa: F401  (the dataset version)
 
 
 def stream(config=None):

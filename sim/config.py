@@ -270,7 +270,7 @@ class GenerateConfig:
 
     def config_hash(self) -> str:
         """Stable hash of the configuration (for caching generated scenarios)."""
-        from sim import __version__
+        from sim.version import __version__
         blob = json.dumps({"config": self.to_dict(), "version": __version__}, sort_keys=True)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 

@@ -142,7 +142,7 @@ def metadata(setup: Setup) -> dict:
     the rig's wheels those of the vehicle, sigma 0 when ideal)."""
     from rigs.rig_yaml import rig_to_dict
     from rigs.typed_config import to_mapping
-    from sim import __version__
+    from sim.version import __version__
     import mujoco
     c = setup.config
     return {
@@ -266,7 +266,7 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
     devices, ids_written = [], not c.segmentation
     bar = tqdm(total=n, initial=start, desc="render", unit="pair", disable=not progress, dynamic_ncols=True)
     t0, c0 = time.perf_counter(), time.process_time()
-    with ChunkSource(c, workers, scheduler, egl_devices) as source, FramePipeline(threads) as pipeline:
+    with ChunkSource(c, workers, resolve, scheduler, egl_devices) as source, FramePipeline(threads) as pipeline:
         for chunk in source.chunks(start, n):
             if not ids_written:
                 writers.add_segmentation_ids(setup.scene.segmentation_rows(chunk.geom_names))

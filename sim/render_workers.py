@@ -66,8 +66,7 @@ _LOCAL = threading.local()          # one renderer per thread (a GL context is c
 class _WorkerState:
     """A worker's scene, trajectory and camera for one config (built on first use, kept for the next chunk)."""
 
-    def __init__(self, config):
-        from sim.generate import resolve
+    def __init__(self, config, resolve):
         from sim.sensors.camera import FrameExposer, StereoCamera
         self.key = config.config_hash()
         self.setup = setup = resolve(config)
@@ -84,8 +83,10 @@ class _WorkerState:
         self.camera.close()
 
 
-def render_chunk(config, a: int, b: int) -> RenderedChunk:
-    """Frames ``a .. b-1`` of ``config`` with noise and effects (module docstring); any process, any order."""
+def render_chunk(config, a: int, b: int, resolve) -> RenderedChunk:
+    """Frames ``a .. b-1`` of ``config`` with noise and effects (module docstring); any process, any order.
+    ``resolve``: config -> setup (scene, rig, trajectory, frame times): :func:`sim.generate.resolve`, passed in
+    (pickled by reference) so that this module does not import the generator that imports it."""
     from sim.rng import indexed_stream
     from sim.sensors.camera import add_noise
     check_splittable(config)
@@ -93,7 +94,7 @@ def render_chunk(config, a: int, b: int) -> RenderedChunk:
     if state is None or state.key != config.config_hash():
         if state is not None:
             state.close()
-        state = _LOCAL.state = _WorkerState(config)
+        state = _LOCAL.state = _WorkerState(config, resolve)
     s, frames = state.setup, []
     pose_at = lambda t_ns: s.trajectory.states(t_ns).T_w_b  # noqa: E731
     for k in range(a, b):
@@ -119,11 +120,12 @@ def _init_process(devices, counter) -> None:
 
 
 class ChunkSource:
-    """Chunks of ``config`` rendered by ``workers`` local processes or by the Dask cluster at ``scheduler``,
+    """Chunks of ``config`` rendered by ``workers`` local processes (each builds its setup with ``resolve``) or by the Dask cluster at ``scheduler``,
     yielded in frame order by :meth:`chunks`, at most ``2 x workers`` in flight. Use as a context manager."""
 
-    def __init__(self, config, workers: int, scheduler: str | None = None, egl_devices=()):
+    def __init__(self, config, workers: int, resolve, scheduler: str | None = None, egl_devices=()):
         check_splittable(config)
+        self._resolve = resolve                # sim.generate.resolve: config -> setup, run in each worker
         self.config, self.workers, self.scheduler = config, max(1, int(workers)), scheduler
         self.egl_devices = tuple(str(d) for d in egl_devices)
         self._pool = self._client = None
@@ -150,8 +152,8 @@ class ChunkSource:
 
     def _submit(self, a: int, b: int):
         if self._client is not None:
-            return self._client.submit(render_chunk, self.config, a, b, pure=False)
-        return self._pool.submit(render_chunk, self.config, a, b)
+            return self._client.submit(render_chunk, self.config, a, b, self._resolve, pure=False)
+        return self._pool.submit(render_chunk, self.config, a, b, self._resolve)
 
     def chunks(self, start: int, stop: int, size: int = CHUNK_FRAMES):
         """Yield the :class:`RenderedChunk` of ``start .. stop-1`` in order; chunks of ``size`` frames, fewer

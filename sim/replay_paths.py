@@ -1,13 +1,11 @@
 """Example trajectories to replay (``generate --motion FILE``): a helix and a seeded hand-held walk.
 
-``python -m sim.replay_paths helix|walk OUT.txt [--seed N] [--rate HZ] [--duration S]`` writes a TUM file
+``vo-testbed motion-example helix|walk OUT.txt [--seed N] [--rate HZ] [--duration S]`` writes a TUM file
 of body poses (x forward along the motion, z up) inside the ``indoor`` scene's south-west room
 (x in [1, 7], y in [0.8, 4.2], z in [0, 0.6]: body origins of a rig whose cameras sit 1.2 m above ``b``, as
 cart27's, so the cameras move between 1.2 and 1.8 m).
 """
 from __future__ import annotations
-
-import argparse
 
 import numpy as np
 
@@ -56,20 +54,3 @@ def hand_walk(seed: int = 0, duration_s: float = 10.0, rate_hz: float = 100.0) -
     T[:, :3, :3] = np.stack([R_from_opk_deg(r, p, 0.0) for p, r in zip(sway[4], sway[5])])
     T[:, :3, :3] = _Rz(np.radians(sway[3])) @ T[:, :3, :3]
     return Trajectory(1_000_000_000 + np.round(t * 1e9).astype(np.int64), T, "w", "b")
-
-
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(prog="python -m sim.replay_paths", description=__doc__.splitlines()[0])
-    ap.add_argument("kind", choices=("helix", "walk"))
-    ap.add_argument("out")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--rate", type=float, default=100.0)
-    ap.add_argument("--duration", type=float, default=10.0)
-    a = ap.parse_args(argv)
-    traj = helix(a.duration, a.rate) if a.kind == "helix" else hand_walk(a.seed, a.duration, a.rate)
-    write_tum(a.out, traj)
-    print(f"wrote {len(traj)} {a.kind} poses ({a.duration:g} s at {a.rate:g} Hz) to {a.out}")
-
-
-if __name__ == "__main__":
-    main()

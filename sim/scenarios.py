@@ -124,7 +124,7 @@ def renderer_versions() -> dict:
     the dataset version), MuJoCo's (rendering, physics) and OpenCV's (noise, rectification, PNG encoding)."""
     from importlib.metadata import PackageNotFoundError, version
     import cv2
-    from sim import __version__
+    from sim.version import __version__
     try:
         package = version("vo-testbed")
     except PackageNotFoundError:

@@ -11,7 +11,7 @@ from sim.app.cli import cli
 
 def test_version():
     from importlib.metadata import version
-    from sim import __version__ as dataset_version
+    from sim.version import __version__ as dataset_version
     r = CliRunner().invoke(cli, ["--version"])
     assert r.exit_code == 0
     assert r.output.strip() == f"vo-testbed {version('vo-testbed')} (dataset version {dataset_version})"

@@ -65,7 +65,7 @@ def _generate_traverse(config, tcfg, out: Path, progress: bool) -> dict:
 def _metadata(config, tcfg, tp) -> dict:
     from rigs.rig_yaml import rig_to_dict
     from rigs.typed_config import to_mapping
-    from sim import __version__
+    from sim.version import __version__
     from sim.vehicles.rover import MastHead
     head = MastHead.from_rig(config.rig)
     return {"generator": "vo-testbed", "kind": "traverse", "version": __version__, "config": config.to_dict(),

@@ -26,6 +26,7 @@ COMMANDS = {
     "validate": "sim.app.cli.cmd_validate:validate",
     "sweep": "sim.app.cli.cmd_sweep:sweep",
     "localize": "sim.app.cli.cmd_localize:localize",
+    "motion-example": "sim.app.cli.cmd_motion_example:motion_example",
 }
 
 
@@ -49,7 +50,7 @@ def _available(target: str) -> bool:
 def _version_text() -> str:
     """``vo-testbed X (dataset version Y)``: the package, and the version recorded in generated datasets."""
     from importlib.metadata import PackageNotFoundError, version
-    from sim import __version__ as dataset_version
+    from sim.version import __version__ as dataset_version
     try:
         package = version("vo-testbed")
     except PackageNotFoundError:

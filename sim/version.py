@@ -1,0 +1,3 @@
+"""The dataset version: written to ``metadata.yaml`` and hashed into cache keys; bumped when a configuration's
+bytes change (0.3.0: image noise drawn as quantized grey-level offsets, PNG level 1 / RLE / Paeth)."""
+__version__ = "0.3.0"
