@@ -41,10 +41,12 @@ class VinsEstimator(Estimator):
     preset = "vins"
     remove_dynamic = False         # vins-oracle: no features on moving objects (true segmentation)
 
-    def __init__(self, rig, initializer=None, divergence=None, **options):
+    def __init__(self, rig, initializer=None, divergence=None, frontend=None, **options):
         """``initializer``: the visual-inertial start, called as :func:`vo.vins.initial.initialize` (default);
         ``divergence``: the failure test after each window optimisation, called as
-        :class:`vo.vins.divergence.DivergenceCheck` (default: one with the ``fail_*`` options)."""
+        :class:`vo.vins.divergence.DivergenceCheck` (default: one with the ``fail_*`` options);
+        ``frontend``: called once with the configured :class:`vo.vins.frontend.KltFrontend`, returns the tracker
+        to use (its ``track`` / ``undistort`` / ``size``; default: that front-end itself), e.g. a study's wrapper."""
         super().__init__(rig, **options)
         self.config = cfg = VinsConfig.from_options(self.preset, options)
         self.initializer = initialize if initializer is None else initializer
@@ -54,8 +56,9 @@ class VinsEstimator(Estimator):
         self.camera = rig.cameras[0]
         self.T_i_c = np.linalg.inv(rig.imu.T_b_i_array) @ self.camera.T_b_c_array
         self.params = imu_params(self.config, rig.imu)
-        self.frontend = KltFrontend(self.camera, self.config.max_features, self.config.min_distance_px,
-                                    self.config.f_threshold_px, self.config.klt_refine)
+        klt = KltFrontend(self.camera, self.config.max_features, self.config.min_distance_px,
+                          self.config.f_threshold_px, self.config.klt_refine)
+        self.frontend = klt if frontend is None else frontend(klt)
         self.stream = None
         self.first_frame = None
         self.reinitialising = False     # after a divergence, until the start succeeds again
