@@ -71,11 +71,11 @@ def test_rpe_series_is_the_tables_rpe():
 def test_demo_starts_with_the_monocular_initialisation_by_default():
     """Every table configuration, with the demo's default options, uses the VINS-Mono start (init=vi)."""
     from sim.app.demo_vins import START_OPTIONS, start_of
-    from vo.estimators.registry import ESTIMATORS, load_class
-    from vo.vins.config import VinsConfig
+    from vo.estimators.registry import make_estimator
+    from rigs.presets import get_rig
     assert start_of(START_OPTIONS) == "vi"
-    presets = {load_class(ESTIMATORS[name]).preset for name in TABLE_CONFIGS}
-    assert {VinsConfig.from_options(p, START_OPTIONS).init for p in presets} == {"vi"}
+    rig = get_rig("cart27")
+    assert {make_estimator(name, rig, **START_OPTIONS).config.init for name in TABLE_CONFIGS} == {"vi"}
 
 
 def test_a_run_that_never_initialises_has_no_error_figures():

@@ -3,12 +3,8 @@ packages runs as ``python -m`` (no ``__main__`` module, no ``if __name__ == "__m
 import ast
 from pathlib import Path
 
-import pytest
-
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("rigs", "scenes", "sim", "vo")
-# the VINS study drivers move to docs/studies/ on the branch that reworks the VINS initialisation
-PENDING = {"vo/vins/initial.py", "vo/vins/tables.py", "vo/vins/postinit_nees.py"}
 
 
 def _runs_as_main(tree: ast.Module) -> bool:
@@ -42,10 +38,5 @@ def test_the_check_finds_a_main_block(tmp_path):
 
 
 def test_no_python_m_entry_points_in_the_product():
-    assert [p for p in entry_points(ROOT) if p not in PENDING] == []
+    assert entry_points(ROOT) == []
 
-
-@pytest.mark.xfail(reason="vo/vins study drivers (initial, tables, postinit_nees) move to docs/studies/ on the "
-                          "VINS initialisation branch", strict=False)
-def test_no_pending_vins_entry_points():
-    assert not [p for p in entry_points(ROOT) if p in PENDING]

@@ -1,8 +1,13 @@
-"""``python -m vo.vins.tables`` / ``vo.vins.postinit_nees`` on bad input: one ``error:`` line, exit 2."""
+"""The VINS study drivers (docs/studies/vins_tables.py, vins_postinit_nees.py, vins_start_table.py,
+vins_initial_report.py) on bad input: one ``error:`` line, exit 2."""
 import numpy as np
 import pytest
+from studies import load_study
 
-from vo.vins import postinit_nees, tables
+tables = load_study("vins_tables")
+postinit_nees = load_study("vins_postinit_nees")
+start_table = load_study("vins_start_table")
+initial_report = load_study("vins_initial_report")
 
 
 def _one_error_line(capsys) -> str:
@@ -32,3 +37,12 @@ def test_postinit_nees_missing_or_malformed_file(tmp_path, capsys):
     np.savez(bad, T_est=np.zeros((2, 3, 4, 4)))
     assert postinit_nees.main([str(bad)]) == 2
     assert "'cov'" in _one_error_line(capsys)
+
+
+def test_start_table_and_initial_report_missing_dataset(tmp_path, capsys):
+    assert start_table.main([str(tmp_path / "none")]) == 2
+    assert "dataset folder not found" in _one_error_line(capsys)
+    assert initial_report.main([str(tmp_path / "none")]) == 2
+    assert "dataset folder not found" in _one_error_line(capsys)
+    assert initial_report.main([str(tmp_path), "10", "landmark"]) == 2
+    assert "usage" in capsys.readouterr().err

@@ -129,3 +129,24 @@ def test_window_starts_only_from_well_conditioned_sfm_points():
     r = InitResult(0, np.stack([np.eye(3)] * 2), np.array([[0.0, 0, 0], [0.5, 0, 0]]), pts, np.zeros(3), 2.0,
                    np.array([0, 9.81, 0]), np.zeros((2, 3)))
     assert set(usable_points(r, frames)) == {1}
+
+
+def test_frontend_is_injected_through_the_constructor():
+    """``frontend=``: called once with the front-end the options configure; the estimator tracks with what it
+    returns (a study's wrapper), without anything patched in afterwards."""
+    from rigs.geometry import make_T
+    from rigs.model import Camera, Imu, Rig
+    from vo.vins.frontend import KltFrontend
+    cam = Camera("cam0", 64, 48, 50.0, 50.0, 32.0, 24.0, T_b_c=make_T(np.eye(3), [0, 0, 0]))
+    rig = Rig("mono-imu", (cam,), imu=Imu(T_b_i=make_T(np.eye(3), [0, 0, 0])))
+    seen = []
+
+    class Wrapper:
+        def __init__(self, inner):
+            seen.append(inner)
+            self.inner = inner
+
+    est = VinsEstimator(rig, frontend=Wrapper, max_features=77)
+    assert len(seen) == 1 and isinstance(seen[0], KltFrontend) and seen[0].max_features == 77
+    assert isinstance(est.frontend, Wrapper) and est.frontend.inner is seen[0]
+    assert isinstance(VinsEstimator(rig).frontend, KltFrontend)

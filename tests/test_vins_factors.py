@@ -55,10 +55,10 @@ def test_geometry_factor_matches_pdop():
 
 
 @pytest.mark.parametrize("preset, g_f, n, weight", [
-    ("vins", 0.5, 10, 1.0),                      # eq. 27: fixed 1.5 px at F_c = 460
-    ("vins-ac-gf", 0.5, 10, 2.0),                # 1 / g_f
-    ("vins-ac", 0.5, 10, 10 * 0.02 / 0.5),       # N s / g_f (eq. 26)
-    ("vins-ac-me", 0.5, 40, 40 * 0.02 / 0.5),
+    ("base", 0.5, 10, 1.0),                      # eq. 27: fixed 1.5 px at F_c = 460
+    ("ac-gf", 0.5, 10, 2.0),                     # 1 / g_f
+    ("ac", 0.5, 10, 10 * 0.02 / 0.5),            # N s / g_f (eq. 26)
+    ("ac-me", 0.5, 40, 40 * 0.02 / 0.5),
 ])
 def test_adaptive_weight_and_sigma(preset, g_f, n, weight):
     cfg = VinsConfig.from_options(preset, {})
@@ -70,11 +70,11 @@ def test_adaptive_weight_and_sigma(preset, g_f, n, weight):
 
 
 def test_huber_thresholds():
-    assert huber_k(VinsConfig.from_options("vins-ac-me", {}), 35) == pytest.approx(0.02 * 35)     # eq. 30
-    assert huber_k(VinsConfig.from_options("vins-huber", {"robust_k": 1.5}), 35) == 1.5
-    assert huber_k(VinsConfig.from_options("vins", {}), 35) is None
+    assert huber_k(VinsConfig.from_options("ac-me", {}), 35) == pytest.approx(0.02 * 35)     # eq. 30
+    assert huber_k(VinsConfig.from_options("huber", {"robust_k": 1.5}), 35) == 1.5
+    assert huber_k(VinsConfig.from_options("base", {}), 35) is None
     # the robust model is applied to the whitened residual: weight 1 inside k, k/|e| outside
-    m = noise_model(VinsConfig.from_options("vins-ac-me", {}), 0.5, 50, fx=460.0)    # k = 1
+    m = noise_model(VinsConfig.from_options("ac-me", {}), 0.5, 50, fx=460.0)    # k = 1
     assert m.robust().weight(0.5) == pytest.approx(1.0) and m.robust().weight(4.0) == pytest.approx(0.25)
 
 
@@ -89,7 +89,7 @@ def test_adaptive_huber_threshold_in_pixels_is_n_free_and_its_pull_grows_as_n_sq
     """With M_s = s (Table 1: both 0.02) the whitened threshold M_s·N times the residual sigma
     1.5·g_f/(s·N) (virtual px) is 1.5·g_f px for every N; beyond it the pull is k/sigma =
     M_s·s·N²/(1.5·g_f) per px. Cauchy (scale 1, vins-ac) instead falls off as 1/e for every N."""
-    me, ac = VinsConfig.from_options("vins-ac-me", {}), VinsConfig.from_options("vins-ac", {})
+    me, ac = VinsConfig.from_options("ac-me", {}), VinsConfig.from_options("ac", {})
     g_f = 2.0
     for n in (5, 20, 60):
         k_px = huber_k(me, n) * 1.5 / visual_weight(me, g_f, n)
@@ -114,7 +114,7 @@ def test_adaptive_huber_threshold_in_pixels_is_n_free_and_its_pull_grows_as_n_sq
 ])
 def test_bad_options_are_one_line_errors(options, match):
     with pytest.raises(EstimatorError, match=match) as e:
-        VinsConfig.from_options("vins", options)
+        VinsConfig.from_options("base", options)
     assert "\n" not in str(e.value)
 
 
@@ -167,3 +167,37 @@ def test_landmarks_seen_once_in_the_window_are_dropped():
     w._drop_single_observations()
     assert set(w.lm) == {7}
     assert not w.values.exists(L(0)) and w.values.exists(L(1))
+
+
+# seed 002 Table 2/3 columns (plus the Huber comparison and the oracle), as the five classes defined them
+REGISTERED_CONFIGS = {
+    "vins": dict(use_gf=False, use_track_count=False, robust="cauchy", remove_dynamic=False),
+    "vins-ac-gf": dict(use_gf=True, use_track_count=False, robust="cauchy", remove_dynamic=False),
+    "vins-ac": dict(use_gf=True, use_track_count=True, robust="cauchy", remove_dynamic=False),
+    "vins-ac-me": dict(use_gf=True, use_track_count=True, robust="adaptive-huber", remove_dynamic=False),
+    "vins-huber": dict(use_gf=False, use_track_count=False, robust="huber", remove_dynamic=False),
+    "vins-oracle": dict(use_gf=False, use_track_count=False, robust="cauchy", remove_dynamic=True),
+}
+
+
+@pytest.mark.parametrize("name", sorted(REGISTERED_CONFIGS))
+def test_registered_names_are_vins_presets(name):
+    """Each registered VINS name is ``vins`` with its preset: the configuration it always had (every other field
+    the default), the same as ``vins`` with ``preset=<name without vins->``, an oracle only where it reads truth;
+    options still apply on top, and a name's fixed preset cannot be overridden."""
+    from dataclasses import fields
+    from vo.estimators.registry import is_oracle
+    rig = Rig("mono-imu", (CAM,), imu=IMU)
+    est = make_estimator(name, rig)
+    expected = REGISTERED_CONFIGS[name]
+    default = VinsConfig()
+    assert type(est).__name__ == "VinsEstimator" and est.name == name
+    assert {f.name: getattr(est.config, f.name) for f in fields(VinsConfig)} == {
+        f.name: expected.get(f.name, getattr(default, f.name)) for f in fields(VinsConfig)}
+    preset = "base" if name == "vins" else name[len("vins-"):]
+    assert make_estimator("vins", rig, preset=preset).config == est.config
+    assert is_oracle(name) == (name == "vins-oracle") and is_oracle(name, {"init": "truth"})
+    assert make_estimator(name, rig, landmark="inverse-depth").config.landmark == "inverse-depth"
+    if name != "vins":
+        with pytest.raises(EstimatorError, match="preset"):
+            make_estimator(name, rig, preset="base")

@@ -46,8 +46,8 @@ def test_no_segmentation_means_no_labels_and_oracle_refuses(tmp_path):
     assert FeatureLabels.of(_SegDataset(tmp_path, has_seg=False)) is None
     assert FeatureLabels.of(None) is None
     from rigs.presets import get_rig
-    from vo.vins.estimator import VinsOracle
-    est = VinsOracle(get_rig("cart27"))
+    from vo.vins.estimator import VinsEstimator
+    est = VinsEstimator(get_rig("cart27"), preset="oracle")
     with pytest.raises(EstimatorError, match="segmentation") as e:
         est.set_dataset(_SegDataset(tmp_path, has_seg=False))
     assert "\n" not in str(e.value)
@@ -65,7 +65,7 @@ def test_oracle_keeps_features_off_moving_objects_and_refills_the_static_scene(c
     back-end sees only left-half features, more of them than vins has there (its detector fills the left half),
     and the diagnostics count vins's right-half features as dynamic."""
     from vo.dataset.open import open_dataset
-    from vo.vins.estimator import VinsEstimator, VinsOracle
+    from vo.vins.estimator import VinsEstimator
     ds = open_dataset(campus_short)
     w, h = ds.rig.cameras[0].width, ds.rig.cameras[0].height
 
@@ -81,21 +81,21 @@ def test_oracle_keeps_features_off_moving_objects_and_refills_the_static_scene(c
             return ids, ids == 1
 
     last = {}
-    for cls in (VinsEstimator, VinsOracle):
-        est = cls(ds.rig)
+    for preset in ("base", "oracle"):
+        est = VinsEstimator(ds.rig, preset=preset)
         est.set_imu(ds.imu)
         est.set_dataset(Half())
         for k in range(3):
             est.process(ds.frame(k))
-        last[cls] = d = est.diagnostics[-1]
-        if cls is VinsOracle:
+        last[preset] = d = est.diagnostics[-1]
+        if preset == "oracle":
             assert d["n_dynamic"] == 0 and d["n_static"] == len(d["counts"]) > 20
             assert np.all(d["px"][:, 0] < w // 2 - 0.5)
         else:
             right = d["dynamic"]
             assert 0 < right.sum() < len(right) and d["n_dynamic"] == right.sum()
     # the budget freed by the right half goes to the left half: more static features than vins keeps there
-    assert last[VinsOracle]["n_static"] > last[VinsEstimator]["n_static"]
+    assert last["oracle"]["n_static"] > last["base"]["n_static"]
 
 
 def test_table_metrics_after_initialisation():

@@ -1,6 +1,9 @@
 """Seed 002 tables over several seeds: medians over the seeds that initialised, the improvement as the
 median of the per-seed improvements (not the improvement of the medians)."""
-from vo.vins.tables import format_seed_table, seed_medians
+from studies import load_study
+
+_study = load_study("vins_tables")
+format_seed_table, seed_medians = _study.format_seed_table, _study.seed_medians
 
 
 def _row(name, rpe=None, drift=None, dyn=30.0):

@@ -11,9 +11,10 @@ from vo.dataset.open import open_dataset
 from vo.estimators.base import frame_class
 from vo.vins.divergence import DivergenceCheck, Snapshot
 from vo.vins.estimator import VinsEstimator
-from vo.vins.start_table import InitRecorder
+from studies import load_study
 
 COVERED = ("ok", "keyframe")
+InitRecorder = load_study("vins_start_table").InitRecorder
 
 
 def _urban(tmp_path_factory, name, duration_s, **motion):

@@ -14,7 +14,7 @@ from rigs.model import Camera
 CAM = Camera("cam0", 640, 480, 460.0, 460.0, 320.0, 240.0, T_b_c=np.eye(4))
 
 
-def _standing_window(n_states=4, preset="vins", count=8, landmark="point3"):
+def _standing_window(n_states=4, preset="base", count=8, landmark="point3"):
     """A body standing still at the origin (camera = IMU frame, looking along z), exact 200 Hz IMU."""
     t = np.arange(0, int(1e9) * n_states, int(5e6), dtype=np.int64)
     z = np.zeros((len(t), 3))
@@ -36,7 +36,7 @@ def _standing_window(n_states=4, preset="vins", count=8, landmark="point3"):
 
 
 @pytest.mark.parametrize("landmark", ["point3", "inverse-depth"])
-@pytest.mark.parametrize("n_states, preset, count", [(4, "vins", 8), (11, "vins", 8), (11, "vins-ac-me", 300)])
+@pytest.mark.parametrize("n_states, preset, count", [(4, "base", 8), (11, "base", 8), (11, "ac-me", 300)])
 def test_marginalization_survives_a_landmark_without_parallax(n_states, preset, count, landmark):
     """The body never moves, so every landmark's depth is unobservable from the images (only the
     bearings constrain it): gtsam's elimination of such a landmark is indeterminate. The weak landmark
@@ -65,6 +65,6 @@ def test_inverse_depth_moves_to_the_next_observer_on_marginalization():
     w3.marginalize_oldest()
     assert not w3.lm
     w3 = _standing_window(4)
-    w3.cfg = VinsConfig.from_options("vins", {"shift_depth": True})     # point3: continue at once
+    w3.cfg = VinsConfig.from_options("base", {"shift_depth": True})     # point3: continue at once
     w3.marginalize_oldest()
     assert set(w3.lm) == set(before) and all(np.allclose(w3.landmark_w(i), p) for i, p in before.items())

@@ -193,15 +193,20 @@ def run(dataset_path: Path, estimator: str, max_frames: int, options: dict, exac
     truth = TrueStates(dataset_path)
     gt = ds.groundtruth_cam0()
     T_gt = np.linalg.inv(gt.T[0]) @ gt.T
-    est = make_estimator(estimator, ds.rig, **options)
+
+    def frontend(fe):
+        """The estimator's front-end with the study's changes (injected through the constructor)."""
+        if flow_back_px is not None:
+            fe = flow_back_frontend(fe, flow_back_px)
+        if v_min is not None:
+            fe = RowMask(fe, v_min)
+        if exact_px is not None:
+            fe = ExactTracks(fe, ds, exact_px, np.random.default_rng(seed))
+        return fe
+
+    est = make_estimator(estimator, ds.rig, frontend=frontend, **options)
     est.set_imu(ds.imu)
     est.set_dataset(ds)
-    if flow_back_px is not None:
-        est.frontend = flow_back_frontend(est.frontend, flow_back_px)
-    if v_min is not None:
-        est.frontend = RowMask(est.frontend, v_min)
-    if exact_px is not None:
-        est.frontend = ExactTracks(est.frontend, ds, exact_px, np.random.default_rng(seed))
     n = min(max_frames, len(ds))
     T_est, ok, rows = np.tile(np.eye(4), (n, 1, 1)), np.zeros(n, bool), []
     for k, fr in enumerate(ds.frames(0, n)):

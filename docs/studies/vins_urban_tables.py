@@ -6,8 +6,8 @@
         [--seeds 1,2,3,4,5] [--frames N] [--configs vins,vins-ac-gf,...] [--opt key=value ...] \\
         [--plot PNG --plot-seed S]
 
-Each configuration's row is kept in ``OUT/<scenario>_s<seed>/<config>.json`` (``vo.vins.tables.run``); rows
-already there are reused, so an interrupted study resumes. The table is ``vo.vins.tables.format_seed_table``.
+Each configuration's row is kept in ``OUT/<scenario>_s<seed>/<config>.json`` (``vins_tables.run``); rows
+already there are reused, so an interrupted study resumes. The table is ``vins_tables.format_seed_table``.
 ``--plot``: for seed ``--plot-seed``, the RPE over time of each configuration (seed 002's Fig. 12) above the
 true speed and the scale error of ``vins``'s 10-frame motion (estimated / true length - 1, %).
 """
@@ -25,7 +25,8 @@ from rigs.typed_config import parse_value
 from vo.dataset import open_dataset
 from vo.errors import EstimatorError
 from vo.eval.plots import plt, save_figure
-from vo.vins.tables import RPE_DELTA, TABLE_CONFIGS, format_seed_table, rpe_series, run
+from vins_tables import format_seed_table, run
+from vo.vins.tables import RPE_DELTA, TABLE_CONFIGS, rpe_series
 
 
 def rows_for(dataset: Path, out: Path, frames: int, configs, opts) -> list:

@@ -67,7 +67,7 @@ class VinsDemo:
 def start_of(options: dict) -> str:
     """The start ``vins`` uses with estimator ``options`` (its ``init`` option, default included)."""
     from vo.vins.config import VinsConfig
-    return VinsConfig.from_options("vins", options).init
+    return VinsConfig.from_options("base", options).init
 
 
 def restarts(run) -> dict:

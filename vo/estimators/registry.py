@@ -16,18 +16,24 @@ ESTIMATORS = {
     "klt-pnp": "vo.estimators.pnp:KltPnpEstimator",
     "orb-pnp": "vo.estimators.pnp:OrbPnpEstimator",
     "vins": "vo.vins.estimator:VinsEstimator",
-    "vins-ac-gf": "vo.vins.estimator:VinsAcGf",
-    "vins-ac": "vo.vins.estimator:VinsAc",
-    "vins-ac-me": "vo.vins.estimator:VinsAcMe",
-    "vins-huber": "vo.vins.estimator:VinsHuber",
-    "vins-oracle": "vo.vins.estimator:VinsOracle",
 }
+# names that are a registered estimator with fixed options: seed 002's VINS configurations are ``vins`` with its
+# ``preset`` option (vo.vins.config.PRESETS), registered under these names too
+FIXED_OPTIONS = {f"vins-{p}": ("vins", {"preset": p}) for p in ("ac-gf", "ac", "ac-me", "huber", "oracle")}
+ESTIMATORS.update({name: ESTIMATORS[base] for name, (base, _) in FIXED_OPTIONS.items()})
 FORMS = "a registered name, 'package.module:Class', or 'cmd:<command with {dataset} and {out}>'"
 # one line each for `vo-testbed list`; a name without one shows its class docstring's first sentence
 DESCRIPTIONS = {
     "rop": "seed 000: stereo VO by relative-orientation-parameter (ROP) adjustment, with propagated covariance",
     "klt-pnp": "seed 003: KLT optical-flow tracking on a feature grid, stereo triangulation, PnP-RANSAC",
     "orb-pnp": "seed 003's baseline: ORB (or SIFT) descriptor matching, stereo triangulation, PnP-RANSAC",
+    "vins-ac-gf": "Seed 002 VINS-AC (g_f): visual information scaled by 1/g_f (equations 22-26), Cauchy loss",
+    "vins-ac": "Seed 002 VINS-AC (g_f, N): visual information scaled by N s / g_f (equation 26), Cauchy loss",
+    "vins-ac-me": "Seed 002 VINS-AC-ME: adaptive covariance (equation 26) and adaptive Huber k_t = M_s N "
+                  "(equations 28-30)",
+    "vins-huber": "VINS with fixed visual information and a fixed-k Huber loss (comparison row)",
+    "vins-oracle": "VINS (fixed information, Cauchy) without the features on moving objects, by the true "
+                   "segmentation",
 }
 
 
@@ -74,14 +80,25 @@ def make_estimator(spec: str, rig, **options) -> Estimator:
     if is_external(spec):
         raise EstimatorError(f"estimator {spec!r}: external commands run on a dataset folder; use ExternalCommand")
     if spec in ESTIMATORS:
-        return load_class(ESTIMATORS[spec])(rig, **options)
+        return load_class(ESTIMATORS[spec])(rig, **with_fixed_options(spec, options))
     if ":" not in spec:
         raise EstimatorError(f"estimator {spec!r} unknown; valid names: {', '.join(estimator_names())}; or {FORMS}")
     return load_class(spec)(rig, **options)
+
+
+def with_fixed_options(spec: str, options: dict) -> dict:
+    """``options`` plus those that registered name ``spec`` fixes (:data:`FIXED_OPTIONS`); giving one of those
+    too -> EstimatorError."""
+    base, fixed = FIXED_OPTIONS.get(spec, (spec, {}))
+    clash = sorted(set(fixed) & set(options))
+    if clash:
+        raise EstimatorError(f"estimator {spec!r} is {base!r} with {clash[0]}={fixed[clash[0]]}; to choose "
+                             f"{clash[0]}, run {base!r}")
+    return {**fixed, **options}
 
 
 def is_oracle(spec: str, options: dict | None = None) -> bool:
     """True when in-process estimator ``spec`` with ``options`` reads ground truth (its class's ``is_oracle``)."""
     if is_external(spec):
         return False
-    return bool(load_class(ESTIMATORS.get(spec, spec)).is_oracle(dict(options or {})))
+    return bool(load_class(ESTIMATORS.get(spec, spec)).is_oracle(with_fixed_options(spec, dict(options or {}))))

@@ -22,14 +22,17 @@ N_COUNT = ("track", "window")
 KLT_REFINE = ("none", "affine")
 LANDMARK = ("point3", "inverse-depth")
 
-# seed 002 Table 2/3 configurations (plus a fixed-k Huber for comparison). "VINS" is VINS-Mono [6], whose
-# visual factors carry a Cauchy loss (scale 1 in whitened units); VINS-AC-ME replaces it by the adaptive Huber.
+# seed 002 Table 2/3 configurations (plus a fixed-k Huber for comparison and the true-segmentation oracle): the
+# ``preset`` option of ``vins``, each also registered as ``vins-<preset>`` (vo.estimators.registry). "VINS"
+# (``base``) is VINS-Mono [6], whose visual factors carry a Cauchy loss (scale 1 in whitened units); VINS-AC-ME
+# replaces it by the adaptive Huber.
 PRESETS = {
-    "vins": dict(use_gf=False, use_track_count=False, robust="cauchy"),
-    "vins-ac-gf": dict(use_gf=True, use_track_count=False, robust="cauchy"),
-    "vins-ac": dict(use_gf=True, use_track_count=True, robust="cauchy"),
-    "vins-ac-me": dict(use_gf=True, use_track_count=True, robust="adaptive-huber"),
-    "vins-huber": dict(use_gf=False, use_track_count=False, robust="huber"),
+    "base": dict(use_gf=False, use_track_count=False, robust="cauchy"),
+    "ac-gf": dict(use_gf=True, use_track_count=False, robust="cauchy"),
+    "ac": dict(use_gf=True, use_track_count=True, robust="cauchy"),
+    "ac-me": dict(use_gf=True, use_track_count=True, robust="adaptive-huber"),
+    "huber": dict(use_gf=False, use_track_count=False, robust="huber"),
+    "oracle": dict(use_gf=False, use_track_count=False, robust="cauchy", remove_dynamic=True),
 }
 
 
@@ -87,6 +90,7 @@ class VinsConfig:
     ``init`` "vi" (monocular visual-inertial, VINS-Mono) or "truth" (window started from the true keyframe
     states of a simulated dataset: :mod:`vo.vins.truth_init`, for comparing back-ends where "vi" cannot start).
     Output: ``covariance`` "frame" (gtsam marginal of the newest state every frame, ``FrameResult.cov``) or "off".
+    ``remove_dynamic`` (preset ``oracle``): the front-end keeps no features on moving objects (true segmentation).
     """
 
     use_gf: bool = False
@@ -132,6 +136,7 @@ class VinsConfig:
     fail_max_scale_jump: float = knob(0.25, gt=0)
     covariance: Literal[COVARIANCE] = "frame"
     init: Literal[INIT] = "vi"
+    remove_dynamic: bool = False
 
     def __post_init__(self):
         check_fields(self, EstimatorError, "vins.")
@@ -153,5 +158,5 @@ class VinsConfig:
     def from_options(cls, preset: str, options: dict) -> "VinsConfig":
         """``PRESETS[preset]`` updated by ``options``; unknown keys -> EstimatorError naming the valid ones."""
         if preset not in PRESETS:
-            raise EstimatorError(f"vins: unknown configuration {preset!r}; valid: {', '.join(PRESETS)}")
+            raise EstimatorError(f"vins.preset: unknown {preset!r}; valid: {', '.join(PRESETS)}")
         return from_mapping(cls, {**PRESETS[preset], **options}, EstimatorError, "vins")

@@ -38,15 +38,19 @@ class VinsEstimator(Estimator):
     """Seed 002's monocular VINS-Mono baseline: fixed visual information (1.5 px at F_c 460), Cauchy loss."""
 
     name = "vins"
-    preset = "vins"
-    remove_dynamic = False         # vins-oracle: no features on moving objects (true segmentation)
 
-    def __init__(self, rig, initializer=None, divergence=None, **options):
-        """``initializer``: the visual-inertial start, called as :func:`vo.vins.initial.initialize` (default);
+    def __init__(self, rig, preset: str = "base", initializer=None, divergence=None, frontend=None, **options):
+        """``preset``: one of :data:`vo.vins.config.PRESETS` (seed 002's configurations), updated by ``options``;
+        the estimator is named as registered, ``vins`` (``base``) or ``vins-<preset>``.
+        ``initializer``: the visual-inertial start, called as :func:`vo.vins.initial.initialize` (default);
         ``divergence``: the failure test after each window optimisation, called as
-        :class:`vo.vins.divergence.DivergenceCheck` (default: one with the ``fail_*`` options)."""
-        super().__init__(rig, **options)
-        self.config = cfg = VinsConfig.from_options(self.preset, options)
+        :class:`vo.vins.divergence.DivergenceCheck` (default: one with the ``fail_*`` options);
+        ``frontend``: called once with the configured :class:`vo.vins.frontend.KltFrontend`, returns the tracker
+        to use (its ``track`` / ``undistort`` / ``size``; default: that front-end itself), e.g. a study's wrapper."""
+        super().__init__(rig, preset=preset, **options)
+        self.config = cfg = VinsConfig.from_options(preset, options)
+        self.preset, self.remove_dynamic = preset, cfg.remove_dynamic
+        self.name = "vins" if preset == "base" else f"vins-{preset}"
         self.initializer = initialize if initializer is None else initializer
         self.divergence = divergence if divergence is not None else DivergenceCheck(
             cfg.fail_max_acc_bias, cfg.fail_max_gyr_bias, cfg.fail_max_step_m, cfg.fail_max_dz_m,
@@ -54,8 +58,9 @@ class VinsEstimator(Estimator):
         self.camera = rig.cameras[0]
         self.T_i_c = np.linalg.inv(rig.imu.T_b_i_array) @ self.camera.T_b_c_array
         self.params = imu_params(self.config, rig.imu)
-        self.frontend = KltFrontend(self.camera, self.config.max_features, self.config.min_distance_px,
-                                    self.config.f_threshold_px, self.config.klt_refine)
+        klt = KltFrontend(self.camera, self.config.max_features, self.config.min_distance_px,
+                          self.config.f_threshold_px, self.config.klt_refine)
+        self.frontend = klt if frontend is None else frontend(klt)
         self.stream = None
         self.first_frame = None
         self.reinitialising = False     # after a divergence, until the start succeeds again
@@ -74,7 +79,9 @@ class VinsEstimator(Estimator):
     @classmethod
     def is_oracle(cls, options: dict) -> bool:
         """``vins-oracle`` (true segmentation) and ``init=truth`` (true start) read ground truth."""
-        return cls.remove_dynamic or VinsConfig.from_options(cls.preset, options).init == "truth"
+        opts = dict(options)
+        cfg = VinsConfig.from_options(opts.pop("preset", "base"), opts)
+        return cfg.remove_dynamic or cfg.init == "truth"
 
     def set_dataset(self, dataset) -> None:
         """Read the true segmentation when the dataset has it (diagnostics; required by ``vins-oracle``); the
@@ -372,32 +379,3 @@ def _rotation_to_down(g_v: np.ndarray) -> np.ndarray:
         return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
     return gtsam.Rot3.Expmap(v / np.linalg.norm(v) * np.arctan2(np.linalg.norm(v), c)).matrix()
 
-
-class VinsAcGf(VinsEstimator):
-    """Seed 002 VINS-AC (g_f): visual information scaled by 1/g_f (equations 22-26), Cauchy loss."""
-
-    name = preset = "vins-ac-gf"
-
-
-class VinsAc(VinsEstimator):
-    """Seed 002 VINS-AC (g_f, N): visual information scaled by N s / g_f (equation 26), Cauchy loss."""
-
-    name = preset = "vins-ac"
-
-
-class VinsAcMe(VinsEstimator):
-    """Seed 002 VINS-AC-ME: adaptive covariance (equation 26) and adaptive Huber k_t = M_s N (equations 28-30)."""
-
-    name = preset = "vins-ac-me"
-
-
-class VinsHuber(VinsEstimator):
-    """VINS with fixed visual information and a fixed-k Huber loss (comparison row)."""
-
-    name = preset = "vins-huber"
-
-
-class VinsOracle(VinsEstimator):
-    """VINS (fixed information, Cauchy) without the features on moving objects, by the true segmentation."""
-
-    name, preset, remove_dynamic = "vins-oracle", "vins", True

@@ -1,7 +1,7 @@
 """The start-up table of ``docs/vins.md``: when and how well ``vins`` initialises without truth, and what it
 covers afterwards, per dataset.
 
-``python -m vo.vins.start_table DATASET [DATASET ...] [--frames N] [--json OUT] [--opt key=value ...]``
+``python docs/studies/vins_start_table.py DATASET [DATASET ...] [--frames N] [--json OUT] [--opt key=value ...]``
 runs ``vins`` (or ``--estimator NAME``) on each dataset's first ``N`` frames (default: all) and prints one row:
 the frame and time (from the first frame) of the first initialisation, the distance travelled by then,
 the scale and gravity errors against the truth of the alignment that started the window (:class:`InitRecorder`,
@@ -19,6 +19,11 @@ import time
 
 import numpy as np
 
+from rigs.errors import TestbedError
+from rigs.typed_config import parse_value
+from vo.dataset import open_dataset
+from vo.errors import EstimatorError
+from vo.estimators.registry import make_estimator
 from vo.eval.rpe import rpe
 from vo.trajectory import Trajectory
 from vo.vins.imu import GRAVITY
@@ -69,8 +74,6 @@ def window_errors(w, gt) -> dict:
 
 def run_one(path, n_frames=None, estimator: str = "vins", options=None) -> dict:
     """Row of the start table for the dataset at ``path`` (see the module docstring)."""
-    from vo.dataset import open_dataset
-    from vo.estimators.registry import make_estimator
     ds = open_dataset(path)
     gt = ds.groundtruth_cam0()
     rec = InitRecorder(gt)
@@ -141,9 +144,6 @@ HEADER = ("| dataset | frames | first pose: frame / time / distance | scale err 
 
 
 def main(argv=None) -> int:
-    from rigs.errors import TestbedError
-    from rigs.typed_config import parse_value
-    from vo.errors import EstimatorError
     args = list(sys.argv[1:] if argv is None else argv)
     paths, opts, n, out, est = [], {}, None, None, "vins"
     try:
@@ -161,11 +161,11 @@ def main(argv=None) -> int:
             else:
                 paths.append(a)
     except (IndexError, ValueError):
-        print("usage: python -m vo.vins.start_table DATASET [...] [--frames N] [--json OUT] [--estimator NAME] "
+        print("usage: python docs/studies/vins_start_table.py DATASET [...] [--frames N] [--json OUT] [--estimator NAME] "
               "[--opt key=value ...]", file=sys.stderr)
         return 2
     if not paths:
-        print("usage: python -m vo.vins.start_table DATASET [...] [--frames N] [--json OUT]", file=sys.stderr)
+        print("usage: python docs/studies/vins_start_table.py DATASET [...] [--frames N] [--json OUT]", file=sys.stderr)
         return 2
     print(HEADER, flush=True)
     rows = []

@@ -1,4 +1,4 @@
-"""NEES of a VINS consistency run after initialisation: ``python -m vo.vins.postinit_nees OUT/runs.npz``.
+"""NEES of a VINS consistency run after initialisation: ``python docs/studies/vins_postinit_nees.py OUT/runs.npz``.
 
 ``vo-testbed consistency`` scores every frame after 5 cm of motion; a monocular VINS reports the identity with
 :data:`vo.vins.covariance.INIT_COV` until it initialises, which swamps that summary. This scores the frames
@@ -7,6 +7,7 @@ attitude NEES (dof 3 each), and the end-point error spread against the runs' mea
 """
 from __future__ import annotations
 
+import argparse
 import sys
 
 import numpy as np
@@ -39,8 +40,7 @@ def post_init_nees(T_est: np.ndarray, cov: np.ndarray, T_true: np.ndarray) -> di
 
 def main(argv=None) -> int:
     """CLI: one-line error and exit 2 on a missing or malformed ``runs.npz``."""
-    import argparse
-    ap = argparse.ArgumentParser(prog="python -m vo.vins.postinit_nees", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="vins_postinit_nees.py", description=__doc__.splitlines()[0])
     ap.add_argument("runs_npz", help="runs.npz written by vo-testbed consistency")
     a = ap.parse_args(argv)
     try:
