@@ -36,7 +36,7 @@ T_BS:
 
 # Camera specific definitions.
 rate_hz: 20
-resolution: [32, 24]
+resolution: [752, 480]
 camera_model: pinhole
 intrinsics: {intr} #fu, fv, cu, cv
 distortion_model: radial-tangential
@@ -65,7 +65,7 @@ def real_euroc(tmp_path):
                                                 "[-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]"))
         times = T_CAM if k == 0 else T_CAM[:4]            # cam1 lacks the last frame
         for t in times:
-            cv2.imwrite(str(d / "data" / f"{t}.png"), rng.integers(0, 256, (24, 32), dtype=np.uint8))
+            cv2.imwrite(str(d / "data" / f"{t}.png"), rng.integers(0, 256, (480, 752), dtype=np.uint8))
         (d / "data.csv").write_text("#timestamp [ns],filename\n" + "".join(f"{t},{t}.png\r\n" for t in times))
     (mav0 / "imu0").mkdir()
     (mav0 / "imu0" / "sensor.yaml").write_text(IMU_YAML)
@@ -93,7 +93,7 @@ def test_real_euroc_body_is_imu_frame(real_euroc):
         assert np.allclose(ds.rig.imu.T_b_i_array, np.eye(4))
         assert abs(ds.rig.cameras[0].fx - 458.654) < 1e-12 and ds.rig.cameras[0].dist[4] == 0.0
         assert len(ds) == 4 and "dropped 1 cam0" in ds.warnings[0]
-        assert ds.frame(0).left.shape == (24, 32)
+        assert ds.frame(0).left.shape == (480, 752)
         assert ds.imu.gyro.shape == (40, 3) and ds.imu.accel[0, 0] == 8.1
 
 
@@ -124,14 +124,14 @@ def test_real_kitti_sequence(tmp_path):
     (seq / "times.txt").write_text("".join(f"{0.1036 * k:.6e}\n" for k in range(3)))
     for k in range(3):
         for c in (0, 1):
-            cv2.imwrite(str(seq / f"image_{c}" / f"{k:06d}.png"), rng.integers(0, 256, (20, 40), dtype=np.uint8))
+            cv2.imwrite(str(seq / f"image_{c}" / f"{k:06d}.png"), rng.integers(0, 256, (376, 1241), dtype=np.uint8))
     poses = tmp_path / "dataset" / "poses"
     poses.mkdir()
     (poses / "05.txt").write_text("".join(f"1 0 0 0 0 1 0 0 0 0 1 {0.8 * k}\n" for k in range(3)))
     ds = open_dataset(seq)
     assert ds.kind == "kitti" and len(ds) == 3 and ds.images_are_rectified
     assert abs(ds.rig.baseline - 379.8145 / 707.0912) < 1e-12
-    assert (ds.rig.cameras[1].width, ds.rig.cameras[1].height) == (40, 20)
+    assert (ds.rig.cameras[1].width, ds.rig.cameras[1].height) == (1241, 376)
     assert np.array_equal(ds.frame_times_ns, [0, 103_600_000, 207_200_000])
     assert np.allclose(ds.groundtruth.positions[:, 2], [0, 0.8, 1.6])
     with pytest.raises(Exception, match="several KITTI sequences|open one"):
