@@ -72,7 +72,7 @@ def test_run_on_the_bag_gives_the_folders_trajectory(campus_short, tmp_path):
     # `vo-testbed run --dataset file.bag` and the EuRoC folder it was exported from: the same trajectory.
     # Each run in its own process, as a user runs them (OpenCV's RANSAC draws from a process-wide RNG).
     from test_cli_integration import run_cli
-    from vo.trajfile import read_tum
+    from rigs.trajfile import read_tum
     export_rosbag(campus_short, tmp_path / "c.bag")
     for name, src in (("folder", campus_short), ("bag", tmp_path / "c.bag")):
         r = run_cli("run", "--dataset", str(src), "--estimator", "klt-pnp", "--max-frames", "40", "--out",

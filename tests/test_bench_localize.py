@@ -6,8 +6,8 @@ import pytest
 from rigs.geometry import make_T, rot_z
 from sim.app.bench_localize import previous_poses
 from vo.errors import DatasetError
-from vo.trajectory import Trajectory
-from vo.trajfile import write_tum
+from rigs.trajectory import Trajectory
+from rigs.trajfile import write_tum
 
 
 def test_previous_poses_are_the_file_poses_at_the_site_times(tmp_path):

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from sim.app.bench_real import bench_real, ground_axes, segment_errors
 from sim.app.cli import cli, main
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 REPO = Path(__file__).resolve().parents[1]
 REAL = Path(os.environ.get("VO_TESTBED_REAL_DATA", REPO.parent / "shared" / "data" / "real"))

@@ -123,7 +123,7 @@ with open(out, 'w') as f:
 """)
     code, out, err = check(capsys, "--estimator", ns, "--max-ate", "1e-6", "-v")
     assert code == 0, out + err
-    assert "read as nanoseconds" in caplog.text             # said on the vo.trajfile logger (stderr)
+    assert "read as nanoseconds" in caplog.text             # said on the rigs.trajfile logger (stderr)
 
 
 def test_no_bound_negative_bound_and_unknown_estimator_are_bad_input(cache, capsys, tmp_path, monkeypatch):

@@ -108,7 +108,7 @@ def test_imu_object_form_tum_helper_and_mav0_path(tmp_path, written):
     from types import SimpleNamespace
     from sim.dataset import DatasetWriters, write_tum_groundtruth
     from sim.errors import SimError
-    from vo.trajfile import read_tum
+    from rigs.trajfile import read_tum
     s, out = written
     assert open_dataset(out / "mav0").path == out            # opening mav0 itself finds our extras
     w = EurocWriter(tmp_path / "o", s.rig, s.metadata)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from rigs.model import Camera, Imu, Rig
-from vo.dataset.types import Gcp
+from rigs.records import Gcp
 from rigs.geometry import make_T, rot_x, rot_z
 
 R_B_C_FORWARD = np.array([[0.0, 0, 1], [-1, 0, 0], [0, -1, 0]])

@@ -1,4 +1,4 @@
-"""Dead-reckoning EKF (vo.deadreckoning) on the simulator's cart motion over hilly ground: with exact
+"""Dead-reckoning EKF (sim.sensors.deadreckoning) on the simulator's cart motion over hilly ground: with exact
 IMU and wheel ticks it tracks the truth closely; with gyro noise and wheel slip its covariance is
 consistent with its error (position NEES over seeds); with an accelerometer bias on a stop-and-go drive
 its vertical covariance holds the height error that the biased tilt makes."""
@@ -17,8 +17,8 @@ from sim.sensors.imu import imu_times_ns, measure_imu
 from sim.sensors.imu_noise import add_imu_noise
 from sim.sensors.wheels import WheelTravel, add_slip_noise, encoder_ticks, measure
 from sim.vehicles import CART
-from vo.deadreckoning import DeadReckoningConfig, dead_reckon
-from vo.errors import VoError
+from sim.sensors.deadreckoning import DeadReckoningConfig, dead_reckon
+from sim.errors import SimError
 
 ROUTE = Route(((0, 0), (8, -1), (12, 2), (9, 7), (3, 6)), closed=False, cruise_speed_mps=0.5, accel_mps2=0.4)
 IMU = Imu(rate_hz=100.0, gyro_noise_density=2e-3)      # noisy gyro (rad/s/sqrt(Hz)), ~15x a MEMS IMU
@@ -150,16 +150,16 @@ def test_dead_reckoning_output_at_times_and_bad_input(traj):
     dr, truth, _ = run(traj, 0, 0.0, False)
     T, C = dr.at([dr.t_ns[10], dr.t_ns[10] + 1])
     assert np.array_equal(T[0], dr.T_w_b[10]) and C.shape == (2, 6, 6)
-    with pytest.raises(VoError, match="outside"):
+    with pytest.raises(SimError, match="outside"):
         dr.at([dr.t_ns[-1] + 10**9])
-    with pytest.raises(VoError, match="slip_std"):
+    with pytest.raises(SimError, match="slip_std"):
         DeadReckoningConfig(0.1, 100, slip_std=-1)
 
 
 def test_filterpy_predict_moves_the_state_by_the_motion_model_and_P_by_F_and_Q():
     # MotionEKF is filterpy's EKF with the nonlinear motion model as predict_x: predict(u) gives
     # x = f(x, u) and filterpy's own P = F P F^T + Q (and saves the prior); F x alone is not the motion.
-    from vo.deadreckoning.ekf import N_X, MotionEKF, _f, _num_jac
+    from sim.sensors.deadreckoning import N_X, MotionEKF, _f, _num_jac
     rng = np.random.default_rng(7)
     ekf = MotionEKF(dim_x=N_X, dim_z=2)
     ekf.x = np.r_[1.0, -2.0, 0.3, 0.02, -0.01, 1.2, 0.05, 1e-3, -2e-3, 5e-4, 0.0, 0.0]

@@ -1,4 +1,4 @@
-"""Re-noising propagation (vo.errorprop.renoise) and the image-noise reader it uses (vo.dataset.image_noise).
+"""Re-noising propagation (vo.errorprop.renoise) and the image-noise reader it uses (rigs.image_noise).
 
 The toy estimator's pose is linear in the image noise, so its run-to-run covariance is known in
 closed form: position x = s * (mean grey level of the left image - 128). A noisy image is
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from sim.app.consistency import NoisyDataset
-from vo.dataset.image_noise import MC_TAG, ImageNoiseDataset
-from vo.dataset.types import StereoFrame
+from rigs.image_noise import MC_TAG, ImageNoiseDataset
+from rigs.records import StereoFrame
 from vo.errors import VoError
 from vo.errorprop.renoise import renoise_covariance
 from vo.estimators.base import Estimator, FrameResult

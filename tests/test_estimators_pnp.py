@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from rigs.model import Camera, Rig
-from vo.dataset.types import StereoFrame
+from rigs.records import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, frame_class
 from vo.estimators.pnp import KltPnpEstimator, OrbPnpEstimator

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from vo.dataset.types import StereoFrame
+from rigs.records import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import Estimator, FrameResult
 from vo.estimators.registry import ESTIMATORS, ExternalCommand, estimator_names, make_estimator
 from vo.estimators.runner import run_estimator
 from rigs.geometry import make_T, rot_z
-from vo.trajfile import read_kitti, read_tum
+from rigs.trajfile import read_kitti, read_tum
 
 from test_estimators_pnp import make_rig  # noqa: E402  (tests/ is on sys.path under pytest's rootdir)
 

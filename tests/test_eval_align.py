@@ -5,7 +5,7 @@ import pytest
 from vo.errors import VoError
 from vo.eval import align, umeyama
 from rigs.geometry import make_T, so3_exp
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 def _points(seed=1, n=20):

@@ -6,7 +6,7 @@ from vo.errors import VoError
 from vo.eval import associate, interpolate
 from rigs.geometry import make_T, rot_z
 from vo.eval.rotation import angle_rad
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 def _line(t_ns):

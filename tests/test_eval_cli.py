@@ -9,8 +9,8 @@ from click.testing import CliRunner
 from sim.app.cli import cli, main
 from vo.eval import evaluate
 from rigs.geometry import make_T, so3_exp
-from vo.trajectory import Trajectory
-from vo.trajfile import read_tum, write_tum
+from rigs.trajectory import Trajectory
+from rigs.trajfile import read_tum, write_tum
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +70,7 @@ def test_eval_missing_file_exit_2_one_line(files, tmp_path, monkeypatch, capsys)
 
 
 def test_eval_cli_kitti_files_and_short_route_strict_json(tmp_path):
-    from vo.trajfile import write_kitti
+    from rigs.trajfile import write_kitti
     n = 3                                                     # standing still: drift ratio, KITTI NaN -> null
     T = np.tile(np.eye(4), (n, 1, 1))
     traj = Trajectory(np.arange(n, dtype=np.int64) * 100_000_000, T)

@@ -15,8 +15,8 @@ from click.testing import CliRunner
 from rigs.geometry import make_T, so3_exp
 from sim.app.cli import cli
 from vo.eval import evaluate
-from vo.trajectory import Trajectory
-from vo.trajfile import read_tum, write_tum
+from rigs.trajectory import Trajectory
+from rigs.trajfile import read_tum, write_tum
 
 EVO_RES = Path(sys.executable).parent / "evo_res"
 

@@ -8,8 +8,8 @@ from evo.tools import file_interface  # noqa: E402
 
 from vo.eval import align, associate, ate, rpe  # noqa: E402
 from rigs.geometry import make_T, so3_exp  # noqa: E402
-from vo.trajectory import Trajectory  # noqa: E402
-from vo.trajfile import read_tum, write_tum  # noqa: E402
+from rigs.trajectory import Trajectory  # noqa: E402
+from rigs.trajfile import read_tum, write_tum  # noqa: E402
 
 REL = 1e-9  # both read the same 9-decimal files; differences are float rounding only
 

@@ -13,8 +13,8 @@ import pytest
 from sim.app.cli import main
 from sim.dataset import EurocWriter
 from test_dataset_synth import Synth
-from vo.trajectory import Trajectory
-from vo.trajfile import write_tum
+from rigs.trajectory import Trajectory
+from rigs.trajfile import write_tum
 
 
 @pytest.fixture(scope="module")

@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from vo.dataset.types import Gcp
+from rigs.records import Gcp
 from vo.eval import align, ate, drift, gcp_errors, kitti_errors, route_lengths, rpe
 from rigs.geometry import make_T, rot_z, so3_exp
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 S = 1_000_000_000
 

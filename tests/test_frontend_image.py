@@ -1,7 +1,7 @@
-"""vo.frontend.image.to_gray: RGB channel order, OpenCV's luma weights, grey and non-uint8 input."""
+"""rigs.image.to_gray: RGB channel order, OpenCV's luma weights, grey and non-uint8 input."""
 import numpy as np
 
-from vo.frontend.image import to_gray
+from rigs.image import to_gray
 
 
 def test_rgb_order_and_weights():

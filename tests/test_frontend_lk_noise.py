@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from vo.dataset.image_noise import add_image_noise
+from rigs.image_noise import add_image_noise
 from vo.errors import VoError
 from vo.frontend.lk_noise import lk_noise_cov
 from vo.frontend.noise_level import estimate_noise_sigma

@@ -21,8 +21,8 @@ from vo.estimators.base import Estimator, FrameResult
 from vo.estimators.progress import progress_iter, progress_lines
 from vo.estimators.runner import run_estimator
 from vo.eval import evaluate
-from vo.trajectory import Trajectory
-from vo.trajfile import write_kitti, write_tum
+from rigs.trajectory import Trajectory
+from rigs.trajfile import write_kitti, write_tum
 
 from test_estimators_pnp import make_rig  # noqa: E402  (tests/ is on sys.path under pytest's rootdir)
 from test_estimators_registry import FakeDataset  # noqa: E402
@@ -231,7 +231,7 @@ def test_eval_frame_log_of_another_run_is_refused(run_dir, capsys):
 
 def shifted_copy(d, shift_s):
     """The run's TUM estimate with every timestamp plus ``shift_s`` (a folder without a frame log)."""
-    from vo.trajfile import read_tum
+    from rigs.trajfile import read_tum
     est = read_tum(d / "run" / "trajectory_tum.txt")
     keep = np.arange(5, N)                                   # the produced poses, so every pose counts
     keep = keep[keep != 22]

@@ -16,7 +16,7 @@ import pytest
 
 from sim.config import GenerateConfig
 from sim.frame_pipeline import FramePipeline
-from vo.dataset.image_noise import _offset_table, add_quantized_noise, offset_probabilities
+from rigs.image_noise import _offset_table, add_quantized_noise, offset_probabilities
 
 ROOT = Path(__file__).resolve().parents[1]
 SHORT = GenerateConfig(scene="indoor", rig="stereo27", duration_s=0.5, seed=3)

@@ -11,7 +11,7 @@ import pytest
 
 from rigs.geometry import inv_T
 from sim.app.cli import main
-from vo.trajfile import read_tum
+from rigs.trajfile import read_tum
 
 
 class _Result:

@@ -10,8 +10,8 @@ from scenes.base import SceneConfig
 from sim.app.bench_render import bench_render, route_poses
 from sim.distortion import DistortionMap, reprojection_error_px, undistort_exact
 from sim.errors import SimError
-from vo.errors import VoError
-from vo.dataset.image_noise import add_image_noise
+from rigs.errors import RecordError
+from rigs.image_noise import add_image_noise
 from sim.world import build_world
 
 EUROC_CAM = Camera("cam0", 752, 480, 458.654, 457.296, 367.215, 248.375,
@@ -63,9 +63,9 @@ def test_image_noise_statistics_and_determinism():
     assert abs(d.mean()) < 0.05 and abs(d.std() - np.sqrt(9 + 1 / 12)) < 0.06
     assert add_image_noise(np.full((10, 10), 254, np.uint8), 50.0, np.random.default_rng(1)).max() == 255
     assert np.array_equal(add_image_noise(img, 0.0, np.random.default_rng(1)), img)
-    with pytest.raises(VoError, match="sigma"):
+    with pytest.raises(RecordError, match="sigma"):
         add_image_noise(img, -1.0, np.random.default_rng(1))
-    with pytest.raises(VoError, match="dtype"):
+    with pytest.raises(RecordError, match="dtype"):
         add_image_noise(img, 1.0, np.random.default_rng(1), np.float16)
     # float64 sums (the Monte-Carlo re-noising) draw the same numbers: at most a rounding tie differs
     c = add_image_noise(img, 3.0, np.random.default_rng(5), np.float64)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rigs.presets import get_rig
-from vo.dataset.types import StereoFrame
+from rigs.records import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import STATUSES
 from rigs.geometry import make_T, rot_y, rotation_angle, skew

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rigs.presets import get_rig
-from vo.dataset.types import StereoFrame
+from rigs.records import StereoFrame
 from helpers.synthetic import box_scene, render
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, detect_in_empty_cells

@@ -62,7 +62,7 @@ def test_traverse_writes_and_reads_back(tmp_path, config):
     from sim.dataset.traverse_writer import generate_traverse
     from sim.vehicles.rover import MastHead
     from vo.dataset.traverse_reader import is_traverse, read_drive, read_traverse
-    from vo.trajfile import read_tum
+    from rigs.trajfile import read_tum
     tcfg = TraverseConfig(max_sites=6, n_pairs=2)
     res = generate_traverse(config, tcfg, tmp_path, progress=False)
     assert res["n_sites"] == 6 and is_traverse(tmp_path) and (tmp_path / "map.png").stat().st_size > 10_000

@@ -135,7 +135,7 @@ def test_imu_excitation_is_zero_at_constant_velocity_and_sees_a_speed_change():
     """Noise-free IMU: constant velocity gives 0; a 1 m/s^2 acceleration in half of the intervals gives the
     sample standard deviation of the interval means (0 and 1 m/s^2 alternating over 10 intervals: 0.527)."""
     import gtsam
-    from vo.dataset.types import ImuData
+    from rigs.records import ImuSamples
     from vo.vins.config import VinsConfig
     from vo.vins.frontend import FeatureFrame
     from vo.vins.imu import ImuStream, imu_params
@@ -148,10 +148,10 @@ def test_imu_excitation_is_zero_at_constant_velocity_and_sees_a_speed_change():
                            np.zeros(0, np.int64)) for k in range(11)]
     params = imu_params(VinsConfig(), None)
     params.setAccelerometerCovariance(np.zeros((3, 3)))
-    still = ImuStream(ImuData(t, np.zeros((len(t), 3)), acc.copy()))
+    still = ImuStream(ImuSamples(t, np.zeros((len(t), 3)), acc.copy()))
     assert imu_excitation(still, params, frames) == pytest.approx(0.0, abs=1e-9)
     acc[seg, 0] = 1.0
-    moving = ImuStream(ImuData(t, np.zeros((len(t), 3)), acc))
+    moving = ImuStream(ImuSamples(t, np.zeros((len(t), 3)), acc))
     expect = np.std(np.arange(10) % 2, ddof=1)
     assert imu_excitation(moving, params, frames) == pytest.approx(expect, rel=0.02)
     assert isinstance(params, gtsam.PreintegrationCombinedParams)

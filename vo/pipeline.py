@@ -143,7 +143,7 @@ def load_groundtruth(path, fmt: str = "auto"):
     """Ground truth for ``eval``: a trajectory file, or a dataset folder (ours, real EuRoC or KITTI),
     whose left camera ``T_w_c0`` at the frame times is taken (the extrinsics applied to EuRoC's
     IMU/body truth) -> ``(Trajectory, gcps or [], note)``; ``note`` says what was read."""
-    from vo.trajfile import read_trajectory
+    from rigs.trajfile import read_trajectory
     if Path(path).is_dir():
         from vo.dataset import open_dataset
         ds = open_dataset(path)
@@ -159,7 +159,7 @@ def load_estimate(path, fmt: str = "auto", times_path=None, frames_path=None):
     pose counts as ok). ``notes`` say in words what was read."""
     from vo.estimators.base import FRAME_CLASSES
     from vo.estimators.framelog import LOG_NAME, classes_for
-    from vo.trajfile import detect_format, kitti_times_path, read_trajectory
+    from rigs.trajfile import detect_format, kitti_times_path, read_trajectory
     kind = detect_format(path) if fmt == "auto" else fmt
     est = read_trajectory(path, kind, times_path=times_path)
     when = (f", times from {kitti_times_path(path, times_path)}" if kind == "kitti" else "")

@@ -42,7 +42,7 @@ from vo.crosssite import CrossSiteConfig, Site, StereoCal, StereoPair, localize_
 from vo.crosssite.model_check import (axis_sigmas, ba_ties, model_covariance, pair_layout,  # noqa: E402
                                       robust_sigma, tie_errors_vs_depth, track_axes)
 from vo.crosssite.types import mast_T_b_c  # noqa: E402
-from vo.dataset.image_noise import add_image_noise  # noqa: E402
+from rigs.image_noise import add_image_noise  # noqa: E402
 
 SEED_TAG = 0x001C  # the study's stream tag: run r draws from default_rng([SEED_TAG, r])
 OUT = Path(__file__).parent / "figures" / "crosssite_model_mc"

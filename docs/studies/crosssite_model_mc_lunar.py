@@ -58,7 +58,7 @@ import crosssite_model_mc_ties as ties  # noqa: E402
 from vo.crosssite import CrossSiteConfig, Site, StereoCal, StereoPair, localize_site  # noqa: E402
 from vo.crosssite.localizer import leg_model_cov  # noqa: E402
 from vo.crosssite.types import mast_T_b_c  # noqa: E402
-from vo.dataset.image_noise import add_image_noise  # noqa: E402
+from rigs.image_noise import add_image_noise  # noqa: E402
 
 SEED_TAG = 0x001D  # the lunar variant's stream tag (the campus study uses 0x001C)
 SCENARIO = "yutu-traverse"
@@ -75,7 +75,7 @@ def render_pair(traverse_seed: int) -> dict:
     from sim.traverse import plan
     from sim.vehicles.rover import MastHead
     from sim.world import build_world
-    from vo.frontend.image import to_gray
+    from rigs.image import to_gray
     config = get_scenario(SCENARIO, seed=traverse_seed)
     tcfg = traverse_scenarios()[SCENARIO]
     tp = plan(config, tcfg)

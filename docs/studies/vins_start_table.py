@@ -25,7 +25,7 @@ from vo.dataset import open_dataset
 from vo.errors import EstimatorError
 from vo.estimators.registry import make_estimator
 from vo.eval.rpe import rpe
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 from vo.vins.imu import GRAVITY
 from vo.vins.initial import initialize
 

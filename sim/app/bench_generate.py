@@ -158,10 +158,10 @@ def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -
 
 def noise_cost(width: int = 752, height: int = 480, sigma: float = 1.0, pairs: int = 50) -> dict:
     """CPU ms per stereo pair of ``width x height`` grey images for the camera's noise step
-    (:func:`vo.dataset.image_noise.add_quantized_noise`) and for the Gaussian sum in float32 and float64
-    (:func:`vo.dataset.image_noise.add_image_noise`), each frame from its own indexed stream, one thread."""
+    (:func:`rigs.image_noise.add_quantized_noise`) and for the Gaussian sum in float32 and float64
+    (:func:`rigs.image_noise.add_image_noise`), each frame from its own indexed stream, one thread."""
     from sim.rng import indexed_stream
-    from vo.dataset.image_noise import add_image_noise, add_quantized_noise
+    from rigs.image_noise import add_image_noise, add_quantized_noise
     img = np.random.default_rng(0).integers(0, 256, (height, width), dtype=np.uint8)
     draws = {"quantized offsets (camera)": add_quantized_noise,
              "gaussian sum, float32": lambda im, s, rng: add_image_noise(im, s, rng, np.float32),

@@ -18,7 +18,7 @@ from vo.errors import DatasetError
 def previous_poses(poses_path, site_t_ns: np.ndarray) -> np.ndarray:
     """(S,4,4) T_w_b at each of the site times ``site_t_ns`` (S,) from a TUM file holding one pose
     per site time (within 1 ms)."""
-    from vo.trajfile import read_tum
+    from rigs.trajfile import read_tum
     traj = read_tum(poses_path)
     k = np.abs(traj.t_ns[None, :] - np.asarray(site_t_ns, np.int64)[:, None]).argmin(axis=1)
     off = np.abs(traj.t_ns[k] - site_t_ns)

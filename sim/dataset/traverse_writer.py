@@ -72,7 +72,7 @@ def _metadata(config, tcfg, tp) -> dict:
             "traverse": to_mapping(tcfg), "seed": config.seed, "rig": rig_to_dict(config.rig),
             "mast": {"T_b_mast": head.T_b_mast, "T_head_c": head.T_head_c, "tilt0_rad": head.tilt0_rad},
             "n_sites": int(len(tp.site_t_ns)), "site_arc_length_m": tp.site_s_m,
-            "dead_reckoning": {"filter": "vo.deadreckoning EKF", "imu_rate_hz": DR_RATE_HZ}}
+            "dead_reckoning": {"filter": "sim.sensors.deadreckoning EKF", "imu_rate_hz": DR_RATE_HZ}}
 
 
 def _write_drive(out: Path, tp, tcfg, config):
@@ -107,14 +107,14 @@ def _write_drive(out: Path, tp, tcfg, config):
 
 
 def _dead_reckoning(tp, tcfg, config, imu):
-    """Per-site dead-reckoning pose and covariance: the rover's EKF (:mod:`vo.deadreckoning`) on the
+    """Per-site dead-reckoning pose and covariance: the rover's EKF (:mod:`sim.sensors.deadreckoning`) on the
     written sensors, the IMU block-averaged to :data:`DR_RATE_HZ` (averaging keeps the integrated
     angle and the white-noise density), started from the true initial pose. Its white slip noise is
     the random part of the slip model (``traverse.slip_random_std``); the mean slip is not corrected
     (an on-board filter does not know it) but is in its covariance: a slip-bias state of prior std
     ``traverse.slip`` (at least 0.02); the gyro and accelerometer bias random walks are the rig IMU's."""
     from rigs.records import ImuSamples
-    from vo.deadreckoning import DeadReckoningConfig, dead_reckon
+    from sim.sensors.deadreckoning import DeadReckoningConfig, dead_reckon
     n = max(1, int(round(config.rig.imu.rate_hz / DR_RATE_HZ)))
     m = (len(imu.t_ns) - 1) // n * n + 1
     blocks = lambda a: np.vstack([a[:1], a[1:m].reshape(-1, n, 3).mean(axis=1)])

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from vo.dataset.image_noise import add_quantized_noise
+from rigs.image_noise import add_quantized_noise
 
 
 class StereoCamera:
     """The rig's first two cameras on ``vehicle`` in ``scene``. Images are 8-bit grey
-    (:func:`vo.frontend.image.to_gray`) unless ``rgb``; ``depth`` / ``segmentation`` as :class:`sim.render.StereoRenderer`.
+    (:func:`rigs.image.to_gray`) unless ``rgb``; ``depth`` / ``segmentation`` as :class:`sim.render.StereoRenderer`.
     Use as a context manager (it owns an off-screen GL context). ``timer``: a
     :class:`sim.stage_timer.StageTimer` for the renderer's read-back (None: not timed)."""
 
@@ -59,7 +59,7 @@ class StereoCamera:
 
 
 def add_noise(images, sigma: float, rng: np.random.Generator) -> list:
-    """The camera's noise step: :func:`vo.dataset.image_noise.add_quantized_noise` (the rounded Gaussian
+    """The camera's noise step: :func:`rigs.image_noise.add_quantized_noise` (the rounded Gaussian
     offsets drawn directly) on each image in order, all from ``rng``; ``sigma = 0`` returns the images
     unchanged and draws nothing."""
     return [add_quantized_noise(img, sigma, rng) for img in images]

@@ -144,8 +144,8 @@ def write_outputs(run: TraverseRun, out) -> dict:
     ``traverse_map.png`` and ``matching.png``; -> the summary dict (with the file paths)."""
     from vo.crosssite.figures import matching_figure, traverse_map
     from vo.crosssite.model_check import model_vs_ba
-    from vo.trajectory import Trajectory
-    from vo.trajfile import write_tum
+    from rigs.trajectory import Trajectory
+    from rigs.trajfile import write_tum
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     write_tum(out / "site_poses_tum.txt", Trajectory(np.asarray(run.site_t_ns, np.int64), run.T_w_b_est, ref="w", frame="b"))

@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from vo.dataset.base import Dataset
-from vo.dataset.types import ImuData, StereoFrame
+from rigs.records import ImuSamples, StereoFrame
 from vo.errors import DatasetError
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 IMAGE_TOPICS = ("/cam0/image_raw", "/cam1/image_raw")
 INFO_TOPICS = ("/cam0/camera_info", "/cam1/camera_info")
@@ -196,7 +196,7 @@ class BagDataset(Dataset):
         t = np.array([r[0] for r in rows], dtype=np.int64)
         if np.any(np.diff(t) <= 0):
             raise DatasetError(f"{self.root}: /imu0: header stamps not strictly increasing")
-        return ImuData(t, np.array([r[1] for r in rows], dtype=float), np.array([r[2] for r in rows], dtype=float))
+        return ImuSamples(t, np.array([r[1] for r in rows], dtype=float), np.array([r[2] for r in rows], dtype=float))
 
     @functools.cached_property
     def groundtruth(self):

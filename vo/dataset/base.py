@@ -12,9 +12,9 @@ from typing import Iterator, Optional
 import cv2
 import numpy as np
 
-from vo.dataset.types import Gcp, ImuData, StereoFrame, WheelData
+from rigs.records import Gcp, ImuSamples, StereoFrame, WheelSamples
 from vo.errors import DatasetError
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 def load_gray(path: Path) -> np.ndarray:
@@ -95,7 +95,7 @@ class Dataset:
 
     # -- loaders overridden by subclasses -------------------------------------------------
     @functools.cached_property
-    def imu(self) -> Optional[ImuData]:
+    def imu(self) -> Optional[ImuSamples]:
         return None
 
     @functools.cached_property
@@ -117,7 +117,7 @@ class Dataset:
         return {}
 
     @functools.cached_property
-    def wheels(self) -> Optional[WheelData]:
+    def wheels(self) -> Optional[WheelSamples]:
         """Wheel-encoder ticks from ``wheels.csv`` in the dataset root; None when none were recorded."""
         from vo.dataset.wheels import read_wheels_csv
         return read_wheels_csv(Path(getattr(self, "root", self.path)) / "wheels.csv")

@@ -17,9 +17,9 @@ import numpy as np
 from vo.dataset.base import Dataset, read_gcps_csv, read_metadata, rig_or_error
 from vo.dataset.csvio import data_lines, read_image_list, read_numeric_csv
 from vo.dataset.interp import interpolate_poses
-from vo.dataset.types import ImuData
+from rigs.records import ImuSamples
 from vo.errors import DatasetError
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 IMU_NAMES = ("w_x", "w_y", "w_z", "a_x", "a_y", "a_z")
 GT_NAMES = ("p_x", "p_y", "p_z", "q_w", "q_x", "q_y", "q_z")
@@ -97,7 +97,7 @@ class EurocDataset(Dataset):
         if not path.is_file():
             return None
         t, v = read_numeric_csv(path, 6, "IMU", IMU_NAMES)
-        return ImuData(t_ns=t, gyro=v[:, :3].copy(), accel=v[:, 3:].copy())
+        return ImuSamples(t_ns=t, gyro=v[:, :3].copy(), accel=v[:, 3:].copy())
 
     @functools.cached_property
     def groundtruth(self):
@@ -119,7 +119,7 @@ class EurocDataset(Dataset):
         IMU ground truth interpolated (linear position, SLERP) composed with ``T_i_c0``."""
         tum = self.root / "groundtruth_tum.txt"
         if self.ours and tum.is_file():
-            from vo.trajfile import read_tum
+            from rigs.trajfile import read_tum
             return read_tum(tum, ref="w", frame="c0")
         gt = self.groundtruth
         if gt is None:

@@ -20,7 +20,7 @@ from rigs.geometry import make_T
 from rigs.rectify import stereo_rectify
 from rigs.trajectory import Trajectory
 from vo.dataset.base import rig_or_error
-from vo.dataset.types import StereoFrame
+from rigs.records import StereoFrame
 from vo.errors import DatasetError
 
 

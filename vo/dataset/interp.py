@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 def interpolate_poses(traj: Trajectory, t_query_ns: np.ndarray) -> tuple[Trajectory, np.ndarray]:

@@ -16,7 +16,7 @@ import numpy as np
 from vo.dataset.base import Dataset, read_gcps_csv, read_metadata, rig_or_error
 from vo.dataset.csvio import read_column
 from vo.errors import DatasetError
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 def kitti_times_ns(seq: Path, t0_ns: int) -> np.ndarray:
@@ -84,7 +84,7 @@ class KittiDataset(Dataset):
     @functools.cached_property
     def groundtruth(self):
         """``T_c0_0_c0`` (ref "c0_0", frame "c0") at frame times, or None without poses/NN.txt."""
-        from vo.trajfile import read_kitti
+        from rigs.trajfile import read_kitti
         path = self.seq.parent.parent / "poses" / f"{self.seq.name}.txt"
         if not path.is_file():
             return None

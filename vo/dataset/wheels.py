@@ -1,4 +1,4 @@
-"""``wheels.csv`` (``#timestamp [ns],left_ticks,right_ticks``) -> :class:`vo.dataset.types.WheelData`."""
+"""``wheels.csv`` (``#timestamp [ns],left_ticks,right_ticks``) -> :class:`rigs.records.WheelSamples`."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -6,11 +6,11 @@ from typing import Optional
 
 import numpy as np
 
-from vo.dataset.types import WheelData
+from rigs.records import WheelSamples
 from vo.errors import DatasetError
 
 
-def read_wheels_csv(path: Path) -> Optional[WheelData]:
+def read_wheels_csv(path: Path) -> Optional[WheelSamples]:
     """Strictly parsed wheel ticks; None when the file does not exist (no wheels recorded)."""
     from vo.dataset.csvio import data_rows
     path = Path(path)
@@ -27,4 +27,4 @@ def read_wheels_csv(path: Path) -> Optional[WheelData]:
     if a.shape[0] > 1 and np.any(np.diff(a[:, 0]) <= 0):
         k = int(np.argmax(np.diff(a[:, 0]) <= 0))
         raise DatasetError(f"{path}: timestamps must increase strictly (row {k + 2} of the data)")
-    return WheelData(a[:, 0].copy(), a[:, 1].copy(), a[:, 2].copy())
+    return WheelSamples(a[:, 0].copy(), a[:, 1].copy(), a[:, 2].copy())

@@ -23,9 +23,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vo.dataset.image_noise import ImageNoiseDataset
+from rigs.image_noise import ImageNoiseDataset
 from vo.errors import VoError
-from vo.frontend.image import to_gray
+from rigs.image import to_gray
 from rigs.geometry import pose_error_cov
 
 RENOISE_TAG = 0x5E1F              # separates the replicates' noise streams from the Monte-Carlo runs'

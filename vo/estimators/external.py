@@ -33,8 +33,8 @@ from pathlib import Path
 from vo.errors import EstimatorError, VoError
 from vo.estimators.isolation import Isolation, Plan, clean_env, hidden_within, own_paths
 from vo.estimators.sensor_view import SensorView
-from vo.trajectory import Trajectory
-from vo.trajfile import read_tum
+from rigs.trajectory import Trajectory
+from rigs.trajfile import read_tum
 
 FIELDS = ("dataset", "out")
 TAIL_BYTES = 64 * 1024

@@ -15,7 +15,7 @@ import numpy as np
 
 from vo.errors import DatasetError
 from vo.estimators.base import FRAME_CLASSES, STATUS_CLASS, frame_class
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 STAGES = ("detect", "track", "stereo", "pnp", "total")
 LOG_NAME = "frames.csv"

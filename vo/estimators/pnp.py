@@ -31,7 +31,7 @@ from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
 from vo.frontend.grid import Grid
-from vo.frontend.image import to_gray
+from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
 from vo.frontend.stereo import epipolar_mask, triangulate, undistort_px
 from rigs.geometry import inv_T, transform_points

@@ -28,7 +28,7 @@ from rigs.geometry import inv_T, make_T, transform_points
 from rigs.geometry.pinhole import project
 from rigs.typed_config import check_fields, from_mapping, knob
 from vo.errors import EstimatorError
-from vo.frontend.image import to_gray  # noqa: F401  (re-exported: the estimators' grey conversion)
+from rigs.image import to_gray  # noqa: F401  (re-exported: the estimators' grey conversion)
 
 PNP_METHODS = {"iterative": cv2.SOLVEPNP_ITERATIVE, "epnp": cv2.SOLVEPNP_EPNP}
 CONSENSUS = ("prior", "largest")

@@ -16,8 +16,8 @@ from vo.estimators.progress import progress_iter
 from vo.estimators.external import run_external
 from vo.estimators.registry import is_external, make_estimator
 from vo.estimators.sensor_dataset import SensorDataset
-from vo.trajectory import Trajectory
-from vo.trajfile import write_kitti, write_tum
+from rigs.trajectory import Trajectory
+from rigs.trajfile import write_kitti, write_tum
 
 LOST_STATUSES = ("few_features", "lost")
 

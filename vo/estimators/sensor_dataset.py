@@ -12,7 +12,7 @@ from typing import Iterator, Optional
 
 import numpy as np
 
-from vo.dataset.types import ImuData, StereoFrame, WheelData
+from rigs.records import ImuSamples, StereoFrame, WheelSamples
 
 
 class SensorDataset:
@@ -45,9 +45,9 @@ class SensorDataset:
         return self._ds.frames(start, stop, step)
 
     @property
-    def imu(self) -> Optional[ImuData]:
+    def imu(self) -> Optional[ImuSamples]:
         return getattr(self._ds, "imu", None)
 
     @property
-    def wheels(self) -> Optional[WheelData]:
+    def wheels(self) -> Optional[WheelSamples]:
         return getattr(self._ds, "wheels", None)

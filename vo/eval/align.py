@@ -11,7 +11,7 @@ import numpy as np
 
 from vo.errors import VoError
 from rigs.geometry import inv_T
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 ALIGN_METHODS = ("se3", "sim3", "none", "first", "posyaw")
 DEFAULT_ALIGN = "first"          # the default of ``vo-testbed eval`` and :func:`vo.eval.evaluate`

@@ -8,7 +8,7 @@ import numpy as np
 from vo.errors import VoError
 from vo.eval.rotation import angle_rad
 from vo.eval.stats import ErrorStats
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from vo.errors import VoError
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 DEFAULT_MAX_DIFF_NS = 10_000_000  # 10 ms, evo's default ``t_max_diff``
 

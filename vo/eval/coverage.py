@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

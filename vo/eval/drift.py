@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vo.errors import VoError
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vo.dataset.types import Gcp
+from rigs.records import Gcp
 from vo.errors import VoError
 from vo.eval.align import AlignInfo, align as align_traj, alignment_header
 from vo.eval.associate import DEFAULT_MAX_DIFF_NS, associate
@@ -16,7 +16,7 @@ from vo.eval.timeoffset import offset_warning, shifted
 from vo.estimators.base import FRAME_CLASSES, PRODUCED_CLASSES
 from vo.eval.metrics import (ApeResult, DriftResult, GcpTable, KittiResult, RpeResult, ate, drift, gcp_errors,
                              kitti_errors, rpe)
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

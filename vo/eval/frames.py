@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from vo.eval.rotation import angle_rad
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 MAX_ROT_RMSE_DEG = 5.0      # VO on our routes stays below 2 deg; frame mix-ups give tens of degrees
 SAME_TURN_DEG = 1.0         # RMS difference of the angles turned since the first pose

@@ -5,11 +5,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vo.dataset.types import Gcp
+from rigs.records import Gcp
 from vo.errors import VoError
 from vo.eval.associate import interpolate_T
 from vo.eval.drift import DriftResult
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

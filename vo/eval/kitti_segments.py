@@ -8,7 +8,7 @@ import numpy as np
 from vo.errors import VoError
 from vo.eval.rotation import angle_rad
 from rigs.geometry import inv_T
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 KITTI_LENGTHS_M = (100.0, 200.0, 300.0, 400.0, 500.0, 600.0, 700.0, 800.0)
 STEP_SIZE = 10  # first frames every 10 frames, as the devkit

@@ -9,7 +9,7 @@ from vo.errors import VoError
 from vo.eval.rotation import angle_rad
 from vo.eval.stats import ErrorStats
 from rigs.geometry import inv_T
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 RPE_UNITS = ("frames", "m")
 PAIRS_FROM = ("est", "gt")

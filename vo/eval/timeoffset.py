@@ -20,7 +20,7 @@ import numpy as np
 from vo.errors import VoError
 from vo.eval.align import align as align_traj
 from vo.eval.associate import associate
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 FAR_BETTER = 3.0          # an ATE this many times smaller is "far better"
 MAX_CANDIDATES = 200      # coarse grid size; the refinement adds at most the candidates between two grid points

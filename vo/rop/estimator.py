@@ -43,11 +43,11 @@ import time
 import numpy as np
 
 from rigs.geometry import inv_T, make_T
-from vo.dataset.types import StereoFrame
+from rigs.records import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
 from vo.estimators.pnp_core import PnpConfig
-from vo.frontend.image import to_gray
+from rigs.image import to_gray
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
 from vo.rop.config import RopConfig

@@ -20,7 +20,7 @@ import numpy as np
 
 from vo.estimators.registry import make_estimator
 from vo.eval.rpe import rpe
-from vo.trajectory import Trajectory
+from rigs.trajectory import Trajectory
 
 # seed 002's four configurations (Tables 2/3 columns), then the perfect-detection row
 TABLE_CONFIGS = ("vins", "vins-ac-gf", "vins-ac", "vins-ac-me", "vins-oracle")

@@ -18,11 +18,11 @@ import numpy as np
 
 from sim.app.consistency.scoring import ConsistencyResult, evaluate_runs
 from sim.rng import stream
-from vo.dataset.image_noise import ImageNoiseDataset
+from rigs.image_noise import ImageNoiseDataset
 
 
 class NoisyDataset(ImageNoiseDataset):
-    """A reader-API dataset whose images (:class:`vo.dataset.image_noise.ImageNoiseDataset`, stream
+    """A reader-API dataset whose images (:class:`rigs.image_noise.ImageNoiseDataset`, stream
     ``seed``) and IMU get seeded noise on the fly. Delegates the rest."""
 
     def __init__(self, base, image_sigma: float, seed: int, imu_model=None):

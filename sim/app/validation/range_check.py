@@ -230,7 +230,7 @@ def render_board_frames(rig, ranges_m, seed: int = 0, half_angles_deg=(10.0, 7.0
 
 
 def _add_noise(img: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
-    from vo.dataset.image_noise import add_image_noise
+    from rigs.image_noise import add_image_noise
     return add_image_noise(img, sigma, rng)
 
 

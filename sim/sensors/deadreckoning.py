@@ -48,7 +48,7 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
 from rigs.geometry import make_T, so3_exp, so3_log
-from vo.errors import VoError
+from sim.errors import SimError
 
 G = 9.81
 N_X = 12                               # state size
@@ -77,16 +77,16 @@ class DeadReckoningConfig:
     def __post_init__(self):
         for f in ("wheel_radius_m", "tilt_sigma_rad", "tilt_sigma_moving_rad", "tilt_gate_mps2"):
             if not float(getattr(self, f)) > 0:
-                raise VoError(f"deadreckoning.{f}: must be positive, got {getattr(self, f)!r}")
+                raise SimError(f"deadreckoning.{f}: must be positive, got {getattr(self, f)!r}")
         if not -1.0 < float(self.slip_bias_mean) < 1.0:
-            raise VoError(f"deadreckoning.slip_bias_mean: must be in (-1, 1), got {self.slip_bias_mean!r}")
+            raise SimError(f"deadreckoning.slip_bias_mean: must be in (-1, 1), got {self.slip_bias_mean!r}")
         for f in ("gyro_noise_density", "slip_std", "slip_bias_std", "slip_bias_walk",
                   "gyro_bias_std", "gyro_bias_walk", "accel_bias_std", "accel_bias_walk"):
             if not float(getattr(self, f)) >= 0:
-                raise VoError(f"deadreckoning.{f}: must be non-negative, got {getattr(self, f)!r}")
+                raise SimError(f"deadreckoning.{f}: must be non-negative, got {getattr(self, f)!r}")
         for f in ("ticks_per_rev", "tilt_update_every"):
             if int(getattr(self, f)) < 1:
-                raise VoError(f"deadreckoning.{f}: must be a positive integer, got {getattr(self, f)!r}")
+                raise SimError(f"deadreckoning.{f}: must be a positive integer, got {getattr(self, f)!r}")
 
 
 def R_from_euler(rpy) -> np.ndarray:
@@ -146,7 +146,7 @@ class DeadReckoning:
         """(T_w_b (M,4,4), cov (M,6,6)) at the output sample nearest each of ``t_ns``."""
         t = np.atleast_1d(np.asarray(t_ns, np.int64))
         if t.min() < self.t_ns[0] or t.max() > self.t_ns[-1]:
-            raise VoError(f"dead reckoning: requested times outside [{self.t_ns[0]}, {self.t_ns[-1]}] ns")
+            raise SimError(f"dead reckoning: requested times outside [{self.t_ns[0]}, {self.t_ns[-1]}] ns")
         k = np.clip(np.searchsorted(self.t_ns, t), 1, len(self.t_ns) - 1)
         k = np.where(t - self.t_ns[k - 1] < self.t_ns[k] - t, k - 1, k)
         return self.T_w_b[k], self.cov[k]
@@ -172,9 +172,9 @@ def dead_reckon(imu, wheels, R_b_i: np.ndarray, T_w_b0: np.ndarray, P0: np.ndarr
     ticks ``wheels`` (t_ns, left_ticks, right_ticks)."""
     t = np.asarray(imu.t_ns, np.int64)
     if len(t) < 2 or np.any(np.diff(t) <= 0):
-        raise VoError("dead reckoning: need two or more strictly increasing IMU times")
+        raise SimError("dead reckoning: need two or more strictly increasing IMU times")
     if wheels.t_ns[0] > t[0] or wheels.t_ns[-1] < t[-1]:
-        raise VoError("dead reckoning: wheel ticks must cover the IMU time span")
+        raise SimError("dead reckoning: wheel ticks must cover the IMU time span")
     gyro_b, acc_b = np.asarray(imu.gyro) @ R_b_i.T, np.asarray(imu.accel) @ R_b_i.T
     per_tick = 2 * np.pi * cfg.wheel_radius_m / cfg.ticks_per_rev
     dist = 0.5 * (np.asarray(wheels.left_ticks) + np.asarray(wheels.right_ticks)) * per_tick

@@ -29,8 +29,8 @@ import math
 import cv2
 import numpy as np
 
-from vo.dataset.types import StereoFrame
-from vo.errors import VoError
+from rigs.records import StereoFrame
+from rigs.errors import RecordError
 
 MC_TAG = 0xC0FFEE           # the Monte-Carlo runs' stream tag (sim.app.consistency)
 TABLE_BITS = 16             # add_quantized_noise: one 16-bit uniform per pixel
@@ -94,7 +94,7 @@ def add_image_noise(img: np.ndarray, sigma: float, rng: np.random.Generator, dty
     sigma = _check_sigma(sigma)
     _check_uint8(img)
     if dtype not in (np.float32, np.float64):
-        raise VoError(f"image noise dtype: {dtype!r}; must be numpy float32 or float64")
+        raise RecordError(f"image noise dtype: {dtype!r}; must be numpy float32 or float64")
     if sigma == 0:
         return img.copy()
     noisy = img.astype(dtype) + rng.normal(0.0, sigma, size=img.shape).astype(dtype)
@@ -103,7 +103,7 @@ def add_image_noise(img: np.ndarray, sigma: float, rng: np.random.Generator, dty
 
 def _check_uint8(img) -> None:
     if not isinstance(img, np.ndarray) or img.dtype != np.uint8:
-        raise VoError(f"image noise: expected a uint8 image, got {getattr(img, 'dtype', type(img).__name__)}")
+        raise RecordError(f"image noise: expected a uint8 image, got {getattr(img, 'dtype', type(img).__name__)}")
 
 
 def _check_sigma(sigma) -> float:
@@ -112,7 +112,7 @@ def _check_sigma(sigma) -> float:
     except (TypeError, ValueError):
         value = float("nan")
     if not np.isfinite(value) or value < 0:
-        raise VoError(f"image noise sigma: {sigma!r}; must be a finite number >= 0")
+        raise RecordError(f"image noise sigma: {sigma!r}; must be a finite number >= 0")
     return value
 
 
