@@ -29,7 +29,8 @@ from scenes.base import GcpSite, Route
 from scenes.built import BuiltScene
 from scenes.errors import SceneError
 from scenes.routes import point_at, resample, rounded_polyline
-from scenes.urban_actors import Lane, actor_poses, add_actors, draw_actors, first_contact, segmentation_rows
+from scenes.urban_actors import (Lane, actor_poses, add_actor_meshes, add_actors, draw_actors, first_contact,
+                                 segmentation_rows)
 from scenes.urban_furniture import add_furniture, add_markings, add_parked_cars
 
 ROAD_HALF = 9.5
@@ -108,6 +109,7 @@ class UrbanScene(BuiltScene):
         self._buildings(b, self.rng("buildings"))
         add_markings(b, ROAD_HALF, MAIN_X, CROSS_Y)
         add_furniture(b, self.rng("furniture"), street_segments(), ROAD_HALF, BUILDING_LINE, CURB_H)
+        add_actor_meshes(b.spec)
         add_parked_cars(b, self.rng("parked"), street_segments(), ROAD_HALF)
         add_actors(b.spec, b, self.actors)
 
@@ -159,7 +161,7 @@ class UrbanScene(BuiltScene):
         if rng.random() < 0.6 and w > 6:
             front = seg.point(t_mid, side * (BUILDING_LINE - 0.08))
             b.box(f"building{k}/shop", (*front, 1.8), (w / 2 - 1.0, 0.08, 1.8),
-                  b.material("poster", variant=int(rng.integers(0, 12))), yaw=yaw, tile_m=3.6,
+                  b.material("poster", variant=int(rng.integers(0, 12)), size=128), yaw=yaw, tile_m=3.6,
                   category="building")
 
 
@@ -208,16 +210,16 @@ def actor_lanes() -> tuple:
              jitter=0.0, start_tau_s=7.3),                                       # ahead in the vehicle's lanes
         Lane("car", (-LANE, 0.0), south, (-464.5, -414.5), (7.95, 8.05), 2, bus_share=0.5, route_lane=True,
              jitter=0.0),
-        Lane("car", (0.0, -e), east, (-700.0, -100.0), (8.5, 12.5), 30, bus_share=0.5),   # overtake / fall behind
-        Lane("car", (0.0, e), west, (-400.0, 800.0), (8.0, 12.0), 60, bus_share=0.4),   # oncoming
-        Lane("car", (0.0, LANE), west, (-400.0, 800.0), (7.0, 11.0), 30),
-        Lane("car", (e, 0.0), north, (-1600.0, -300.0), (8.0, 12.0), 60, bus_share=0.4),   # crossing, then oncoming
-        Lane("car", (LANE, 0.0), north, (-1600.0, -300.0), (7.0, 11.0), 26),
-        Lane("car", (-e, 0.0), south, (450.0, 800.0), (9.5, 11.5), 18, bus_share=0.5),  # ahead after the turn
-        Lane("pedestrian", (0.0, -walk), east, (-420.0, 0.0), (1.0, 1.6), 20),
-        Lane("pedestrian", (0.0, walk), west, (-60.0, 420.0), (1.0, 1.6), 20),
-        Lane("pedestrian", (-walk, 0.0), south, (0.0, 500.0), (1.0, 1.6), 14),
-        Lane("pedestrian", (walk, 0.0), north, (-500.0, 0.0), (1.0, 1.6), 14),
+        Lane("car", (0.0, -e), east, (-700.0, -100.0), (8.5, 12.5), 40, bus_share=0.5, jitter=0.05),   # overtake / fall behind
+        Lane("car", (0.0, e), west, (-400.0, 800.0), (8.0, 12.0), 80, bus_share=0.4, jitter=0.05),   # oncoming
+        Lane("car", (0.0, LANE), west, (-400.0, 800.0), (7.0, 11.0), 50),
+        Lane("car", (e, 0.0), north, (-1600.0, -300.0), (8.0, 12.0), 80, bus_share=0.4, jitter=0.05),   # crossing, then oncoming
+        Lane("car", (LANE, 0.0), north, (-1600.0, -300.0), (7.0, 11.0), 52),
+        Lane("car", (-e, 0.0), south, (450.0, 800.0), (9.5, 11.5), 24, bus_share=0.5, jitter=0.05),  # ahead after the turn
+        Lane("pedestrian", (0.0, -walk), east, (-420.0, 0.0), (1.0, 1.6), 36),
+        Lane("pedestrian", (0.0, walk), west, (-60.0, 420.0), (1.0, 1.6), 36),
+        Lane("pedestrian", (-walk, 0.0), south, (0.0, 500.0), (1.0, 1.6), 26),
+        Lane("pedestrian", (walk, 0.0), north, (-500.0, 0.0), (1.0, 1.6), 26),
         Lane("pedestrian", (0.0, 13.0), east, (-1.0, 1.0), (1.1, 1.5), 3, mode="shuttle", width_m=2 * r),
         Lane("pedestrian", (13.0, 0.0), north, (-1.0, 1.0), (1.1, 1.5), 3, mode="shuttle", width_m=2 * r),
     )

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from sim.app.cli.options import echo_json, json_option
+from sim.app.cli.options import echo_json, json_option, set_option
 
 
 def _floats(text: str, option: str) -> tuple:
@@ -81,3 +81,44 @@ def allan_cmd(imu_name, hours, seed, as_json):
     from sim.app.validation.imu_check import allan_check
     res = allan_check(imu_name, hours, seed)
     echo_json(res.to_dict()) if as_json else click.echo(res.text())
+
+
+@validate.command("traffic")
+@click.option("--scenario", default="urban-dynamic", show_default=True, help="Scenario rendered (unless --data).")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--data", "data_dir", type=click.Path(file_okay=False), default=None,
+              help="Measure a generated EuRoC folder (written with --segmentation) instead of rendering.")
+@click.option("--blocks", type=click.IntRange(min=1), default=8, show_default=True,
+              help="Blocks of consecutive frames, spread evenly over the route.")
+@click.option("--block-frames", type=click.IntRange(min=2), default=12, show_default=True, help="Frames per block.")
+@click.option("--figure", type=click.Path(dir_okay=False), default=None,
+              help="Write a PNG of one frame with its tracked features coloured static / dynamic.")
+@click.option("--strict", is_flag=True, help="Exit with code 1 unless both targets are met.")
+@click.option("--no-progress", is_flag=True)
+@set_option
+@json_option
+def traffic_cmd(scenario, seed, data_dir, blocks, block_frames, figure, strict, no_progress, overrides, as_json):
+    """Shi-Tomasi corner density of the traffic against the background, and the fraction of tracked
+    features on moving actors (targets: ratio <= 1.5, fraction >= 15 %)."""
+    from sim.app.validation.traffic_texture import check_traffic, dataset_frames, plot_features, scenario_frames
+    if data_dir:
+        frames, actors, moving = dataset_frames(data_dir)
+        source = str(data_dir)
+    else:
+        from sim.scenarios import get_scenario
+        config = get_scenario(scenario, overrides, seed=seed)
+        frames, actors, moving = scenario_frames(config, blocks, block_frames, progress=not (no_progress or as_json))
+        source = f"{scenario} seed {seed}"
+    res = check_traffic(frames, actors, moving, source)
+    out = res.to_dict()
+    if figure:
+        k, n_s, n_d = plot_features(frames, moving, figure, f"{source}, ")
+        out["figure"] = {"path": figure, "frame": k, "static": n_s, "dynamic": n_d}
+    if as_json:
+        echo_json(out)
+    else:
+        click.echo(res.table())
+        if figure:
+            click.echo(f"wrote {figure}: frame {out['figure']['frame']}, {n_s} static / {n_d} dynamic features")
+    if strict and not res.passed:
+        raise SystemExit(1)
