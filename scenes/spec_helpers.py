@@ -19,6 +19,7 @@ from scenes.errors import SceneError
 from scenes.textures import make_texture, weather
 
 STATIC_PREFIX = "static/"
+GROUND_CATEGORIES = ("ground", "path")     # no stickers on what one drives and walks on
 UNIQUE_AREA_M2 = 8.0          # surfaces at least this large get their own pattern (SceneBuilder.instance_material)
 DYNAMIC_PREFIX = "dyn/"
 
@@ -115,13 +116,14 @@ class SceneBuilder:
             self._kinds[name] = (kind, int(variant), size or self.tex_size, plane_tile_m, specular)
         return name
 
-    def instance_material(self, material: str, part: str, area_m2: float) -> str:
+    def instance_material(self, material: str, part: str, area_m2: float, decals: bool = True) -> str:
         """The material a geom ``part`` of surface ``area_m2`` actually gets for the shared ``material`` (made by
         :meth:`material`): every surface instance has its own seeded variation, so no two places look alike.
 
         * ``area_m2 >= UNIQUE_AREA_M2`` (facades, walls, crowns, ground, signs): its own pattern, drawn by the
           kind's generator from stream ``texture/<kind>/<part>`` at the material's size, then weathered
-          (:func:`scenes.textures.weather`: colour, grime, decals; stream ``texture/weather/<part>``);
+          (:func:`scenes.textures.weather`: colour, grime, stains and, unless ``decals`` is false (the ground),
+          stickers; stream ``texture/weather/<part>``);
         * smaller parts (poles, benches, bins): the shared pattern under their own colour (material ``rgba``,
           stream ``texture/tint/<part>``), which costs no texture memory.
 
@@ -133,7 +135,7 @@ class SceneBuilder:
         name = f"mat/{kind}/i/{part}"
         if area_m2 >= UNIQUE_AREA_M2:
             img = make_texture(kind, self.streams(f"texture/{kind}/{part}"), self.richness, size)
-            img = weather(img, self.streams(f"texture/weather/{part}"))
+            img = weather(img, self.streams(f"texture/weather/{part}"), stickers=decals)
             tex_name = f"tex/{kind}/i/{part}"
             tex = self.spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_2D,
                                         width=img.shape[1], height=img.shape[0], nchannel=3)
@@ -214,7 +216,7 @@ class SceneBuilder:
         name = self._geom_name(part)
         v = np.asarray(mesh.v, float).reshape(-1, 3, 3)
         area = 0.5 * float(np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1).sum())
-        material = self.instance_material(material, part, area)
+        material = self.instance_material(material, part, area, decals=category not in GROUND_CATEGORIES)
         m = self.spec.add_mesh(name=f"mesh/{part}")
         m.uservert = np.asarray(mesh.v, float).ravel().tolist()
         m.usertexcoord = np.asarray(mesh.uv, float).ravel().tolist()
@@ -348,7 +350,7 @@ class SceneBuilder:
     def plane(self, part, center, half_xy, material, category="ground") -> str:
         """Finite rendered plane (ground/floor), normal +z."""
         name = self._geom_name(part)
-        material = self.instance_material(material, part, 4.0 * float(half_xy[0]) * float(half_xy[1]))
+        material = self.instance_material(material, part, 4.0 * float(half_xy[0]) * float(half_xy[1]), decals=False)
         self.spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_PLANE,
                                      size=[float(half_xy[0]), float(half_xy[1]), 1.0],
                                      pos=list(map(float, center)), material=material,

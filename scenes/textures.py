@@ -351,10 +351,10 @@ def texture_kinds() -> tuple:
     return tuple(sorted(GENERATORS))
 
 
-def weather(img: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def weather(img: np.ndarray, rng: np.random.Generator, stickers: bool = True) -> np.ndarray:
     """One surface instance's own look on a square ``(H, H, 3) uint8`` texture ``img``: a colour and brightness
-    shift, grime (darkening where a stretched fractal noise is positive) and one to four decals (stickers, stains),
-    all wrapping around the borders so the texture stays tileable. A generator in the same state gives the
+    shift, grime (darkening where a stretched fractal noise is positive) and one to four decals (stickers unless
+    ``stickers`` is false, stains), all wrapping around the borders so the texture stays tileable. A generator in the same state gives the
     same bytes."""
     H = img.shape[0]
     if img.ndim != 3 or img.shape[1] != H or img.dtype != np.uint8:
@@ -366,7 +366,7 @@ def weather(img: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     mean = f.reshape(-1, 3).mean(axis=0)
     for _ in range(int(rng.integers(1, 5))):
         y, x = rng.integers(0, H, 2)
-        if rng.random() < 0.5:                                            # a sticker / sign
+        if rng.random() < 0.5 and stickers:                               # a sticker / sign
             h, w = (H * rng.uniform(0.04, 0.12, 2)).astype(int) + 2
             _wrap_rect(f, y, x, h, w, rng.uniform(0.1, 0.95, 3), 0.9)
             _wrap_rect(f, y + h // 3, x + 1, max(1, h // 6), max(1, w - 2), rng.uniform(0.0, 0.3, 3), 0.9)

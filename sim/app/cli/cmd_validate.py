@@ -122,3 +122,37 @@ def traffic_cmd(scenario, seed, data_dir, blocks, block_frames, figure, strict, 
             click.echo(f"wrote {figure}: frame {out['figure']['frame']}, {n_s} static / {n_d} dynamic features")
     if strict and not res.passed:
         raise SystemExit(1)
+
+
+@validate.command("places")
+@click.option("--scenario", default="campus", show_default=True, help="Scenario whose route is sampled.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--spacing", type=click.FloatRange(min=0.5), default=2.0, show_default=True,
+              help="Distance between sampled places along the route (m).")
+@click.option("--figure", type=click.Path(dir_okay=False), default=None,
+              help="Write a PNG: similarity histogram and the most similar distinct places.")
+@click.option("--strict", is_flag=True, help="Exit with code 1 if a distinct pair is as similar as a revisit.")
+@click.option("--no-progress", is_flag=True)
+@set_option
+@json_option
+def places_cmd(scenario, seed, spacing, figure, strict, no_progress, overrides, as_json):
+    """Look-alike places: ORB + RANSAC similarity of distinct places (no co-visible surface) against revisits."""
+    from sim.app.validation.place_recognition import PlaceConfig, check_places, plot_places, render_views
+    from sim.scenarios import get_scenario
+    config = get_scenario(scenario, overrides, seed=seed)
+    place = PlaceConfig(spacing_m=spacing)
+    progress = not (no_progress or as_json)
+    places, revisits = render_views(config, place, progress=progress)
+    res, matcher = check_places(places, revisits, f"{scenario} seed {seed}", place, progress=progress)
+    out = res.to_dict()
+    if figure:
+        plot_places(res, places, revisits, matcher, figure)
+        out["figure"] = figure
+    if as_json:
+        echo_json(out)
+    else:
+        click.echo(res.table())
+        if figure:
+            click.echo(f"wrote {figure}")
+    if strict and not res.passed:
+        raise SystemExit(1)
