@@ -103,7 +103,13 @@ def test_corner_density_counts_by_region():
     assert d.actor_corners > 50 and d.actor_px == 100 * H
     assert d.background_px == (W - 100) * H and d.static_px == (W - 100) * (H - 40)
     assert d.background_corners <= 0.05 * d.actor_corners           # only along the 100-px border
-    assert d.ratio > 10
+    assert d.background_corners == 0 and np.isnan(d.ratio)          # no corner in the background: undefined
+    img2 = img.copy()
+    img2[100:, 200:] = tex[100:, 200:]                               # texture on part of the static geometry
+    d3 = corner_density([img2], [seg], {9})
+    assert d3.static_corners > 20 and d3.static_corners == d3.background_corners   # none in the sky
+    assert d3.ratio == pytest.approx((d3.actor_corners / d3.actor_px) / (d3.background_corners / d3.background_px))
+    assert d3.ratio_static < d3.ratio                                # the sky lowers the background's density
     d2 = corner_density([img], [np.where(seg == 9, 5, seg)], set())  # no actor: everything background
     assert d2.actor_px == 0 and d2.background_corners == d.actor_corners + d.background_corners
 
@@ -127,3 +133,22 @@ def test_place_check_separates_revisits_from_distinct_places():
     m = OrbMatcher(place)
     shifted = np.roll(v.image, 40, axis=1)
     assert m.inliers(m.features(0, v.image), m.features(1, shifted)) > LOOP_ACCEPT_INLIERS
+
+
+def test_validate_traffic_and_places_bad_input_one_line(capsys, tmp_path):
+    """A folder without segmentation, an unknown scenario: exit 2 and one line (docs/bad_input.md)."""
+    from sim.app.cli import main
+
+    def run(*args):
+        try:
+            main(list(args))
+            code = 0
+        except SystemExit as e:
+            code = e.code
+        return code, capsys.readouterr().err
+
+    for args, needle in ((("validate", "traffic", "--data", str(tmp_path)), "generate with --segmentation"),
+                         (("validate", "places", "--scenario", "nope"), "unknown scenario 'nope'")):
+        code, err = run(*args)
+        lines = [line for line in err.strip().splitlines() if line.strip()]
+        assert code == 2 and "Traceback" not in err and len(lines) == 1 and needle in lines[0], err
