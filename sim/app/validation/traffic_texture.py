@@ -185,7 +185,7 @@ def scenario_frames(config, n_blocks: int = 8, block_frames: int = 12, progress:
                 imgs, _, seg = camera.measure(T_w_b[k], setup.scene.actor_states(int(setup.frame_t_ns[k])))
                 imgs = add_noise(imgs, setup.image_noise, indexed_stream(config.seed, "image_noise", k))
                 images.append(imgs[0])
-                segs.append(seg[0][..., 0].astype(np.int64) + 1)
+                segs.append(seg[0][..., 0].astype(np.int32) + 1)
                 bar.update(1)
             blocks.append(Block(int(s), images, segs))
         bar.close()
