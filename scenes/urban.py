@@ -46,6 +46,8 @@ STOP_X = -19.0               # body origin at the stop (the car's front 2.2 m fu
 STOP_DWELL_S = 4.0
 CRUISE_MPS = 10.0
 ACCEL_MPS2 = 1.5
+ROAD_PIECE_M = 30.0          # asphalt pieces, each with its own texture
+WALK_PIECE_M = 50.0          # sidewalk pieces
 
 
 class UrbanScene(BuiltScene):
@@ -126,17 +128,24 @@ class UrbanScene(BuiltScene):
             b.light("fill", (0, 0, 60), (0.4, 0.5, -0.75), diffuse=0.25)
 
     def _ground(self, b) -> None:
+        """Base plane, asphalt and sidewalks; the long surfaces in pieces (:data:`ROAD_PIECE_M`,
+        :data:`WALK_PIECE_M`) so that each stretch has its own texture: no two distant places show the same
+        road (one repeating tile along 500 m is the look-alike a loop closure falls for)."""
         b.plane("ground/base", (-170, -200, -0.02), (300, 330), b.material("concrete", plane_tile_m=4.0))
-        asphalt, walk = b.material("asphalt", size=512), b.material("pavement", size=256)
-        cx, cy = 0.5 * sum(MAIN_X), 0.5 * sum(CROSS_Y)
-        b.box("road/main", (cx, 0, -0.01), ((MAIN_X[1] - MAIN_X[0]) / 2, ROAD_HALF, 0.01), asphalt,
-              tile_m=4.0, category="path")
+        asphalt, walk = b.material("asphalt", size=256), b.material("pavement", size=256)
+        for j, (x0, x1) in enumerate(_pieces(*MAIN_X, ROAD_PIECE_M)):
+            b.box(f"road/main/{j}", ((x0 + x1) / 2, 0, -0.01), ((x1 - x0) / 2, ROAD_HALF, 0.01), asphalt,
+                  tile_m=2.0, category="path")
         for name, y0, y1 in (("cross_s", CROSS_Y[0], -ROAD_HALF), ("cross_n", ROAD_HALF, CROSS_Y[1])):
-            b.box(f"road/{name}", (0, (y0 + y1) / 2, -0.01), (ROAD_HALF, (y1 - y0) / 2, 0.01), asphalt,
-                  tile_m=4.0, category="path")
+            for j, (a, c) in enumerate(_pieces(y0, y1, ROAD_PIECE_M)):
+                b.box(f"road/{name}/{j}", (0, (a + c) / 2, -0.01), (ROAD_HALF, (c - a) / 2, 0.01), asphalt,
+                      tile_m=2.0, category="path")
         for k, (x0, x1, y0, y1) in enumerate(sidewalk_rects()):
-            b.box(f"sidewalk{k}", ((x0 + x1) / 2, (y0 + y1) / 2, CURB_H / 2),
-                  ((x1 - x0) / 2, (y1 - y0) / 2, CURB_H / 2), walk, tile_m=2.0, category="ground")
+            along_x = x1 - x0 > y1 - y0
+            for j, (a, c) in enumerate(_pieces(*((x0, x1) if along_x else (y0, y1)), WALK_PIECE_M)):
+                xa, xb, ya, yb = (a, c, y0, y1) if along_x else (x0, x1, a, c)
+                b.box(f"sidewalk{k}/{j}", ((xa + xb) / 2, (ya + yb) / 2, CURB_H / 2),
+                      ((xb - xa) / 2, (yb - ya) / 2, CURB_H / 2), walk, tile_m=2.0, category="ground")
 
     def _buildings(self, b, rng) -> None:
         k = 0
@@ -163,6 +172,13 @@ class UrbanScene(BuiltScene):
             b.box(f"building{k}/shop", (*front, 1.8), (w / 2 - 1.0, 0.08, 1.8),
                   b.material("poster", variant=int(rng.integers(0, 12)), size=128), yaw=yaw, tile_m=3.6,
                   category="building")
+
+
+def _pieces(t0: float, t1: float, length: float) -> list:
+    """``[(a, b), ...]``: ``[t0, t1]`` cut into equal pieces of at most ``length``."""
+    n = max(1, int(np.ceil((t1 - t0) / length)))
+    edges = np.linspace(t0, t1, n + 1)
+    return list(zip(edges[:-1], edges[1:]))
 
 
 class Segment:

@@ -80,7 +80,7 @@ class Actor:
     amp: tuple
     omega: tuple
     phase: tuple
-    variant: int
+    variant: int                # drawn with the actor (keeps the stream's draws); the atlas is by actor id
     moving: bool
     start_tau: float = 0.0
 
