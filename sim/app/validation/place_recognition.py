@@ -3,8 +3,11 @@
 Places are sampled every ``spacing_m`` along the scenario's route (the vehicle on the route, looking along it);
 at each a *revisit* is rendered as well: the vehicle 1 m further on, 0.8 m to the side, turned by 10 deg (a
 second pass through the same place, within the width of a lane or path and an ordinary heading difference). Each image is compared with every other by what a loop closure verifies:
-ORB features (OpenCV, 1000 per image), nearest-neighbour matches that pass Lowe's ratio test (0.8) and then a
-fundamental-matrix RANSAC (2 px): the *similarity* of two images is the number of RANSAC inliers.
+ORB features (OpenCV, 1000 per image), nearest-neighbour matches that pass Lowe's ratio test (0.8), then the
+geometric check a loop closure makes: image A's matched features, back-projected with A's rendered depth, must
+project onto their matches in B under one rigid motion (PnP RANSAC, 2 px). The *similarity* of two images is the
+number of inliers. (A fundamental-matrix check is too weak here: driving along a straight street the epipolar
+lines are the street's own lines, so matches anywhere along a lane marking pass it.)
 
 Which pairs are distinct places is decided from the exact geometry, not from the route: a pixel grid of image A
 (every 8 px, rendered depth < 80 m) is back-projected and projected into image B; a point is *co-visible* when it
@@ -141,7 +144,10 @@ class OrbMatcher:
             self._cache[key] = (np.array([k.pt for k in kp], np.float32).reshape(-1, 2), des)
         return self._cache[key]
 
-    def inliers(self, fa, fb, return_matches: bool = False):
+    def inliers(self, fa, fb, return_matches: bool = False, view_a: "View | None" = None):
+        """Ratio-test matches of features ``fa`` -> ``fb`` that survive the geometric check: with ``view_a`` (its
+        depth and intrinsics) a PnP RANSAC of A's back-projected points in B (a rigid motion explains them, as a
+        loop closure's Sim3 / projection check demands), else a fundamental-matrix RANSAC."""
         cv2 = self.cv2
         (pa, da), (pb, db) = fa, fb
         none = (0, np.empty((0, 2)), np.empty((0, 2))) if return_matches else 0
@@ -152,10 +158,26 @@ class OrbMatcher:
             return none
         xa = pa[[m.queryIdx for m in good]]
         xb = pb[[m.trainIdx for m in good]]
-        _, mask = cv2.findFundamentalMat(xa, xb, cv2.FM_RANSAC, self.place.ransac_px, 0.999)
-        if mask is None:
-            return none
-        keep = mask.ravel() == 1
+        if view_a is not None:
+            ui = np.clip(np.rint(xa[:, 0]).astype(int), 0, view_a.depth.shape[1] - 1)
+            vi = np.clip(np.rint(xa[:, 1]).astype(int), 0, view_a.depth.shape[0] - 1)
+            z = view_a.depth[vi, ui]
+            ok = np.isfinite(z) & (z > 0) & (z < self.place.max_depth_m)
+            if ok.sum() < 6:
+                return none
+            xa, xb, z = xa[ok], xb[ok], z[ok]
+            P = (np.linalg.solve(view_a.K, np.vstack([xa.T, np.ones(len(xa))])) * z).T
+            found, _, _, idx = cv2.solvePnPRansac(P.astype(np.float64), xb.astype(np.float64), view_a.K, None,
+                                                  iterationsCount=300, reprojectionError=self.place.ransac_px,
+                                                  confidence=0.999, flags=cv2.SOLVEPNP_EPNP)
+            keep = np.zeros(len(xa), bool)
+            if found and idx is not None:
+                keep[idx.ravel()] = True
+        else:
+            _, mask = cv2.findFundamentalMat(xa, xb, cv2.FM_RANSAC, self.place.ransac_px, 0.999)
+            if mask is None:
+                return none
+            keep = mask.ravel() == 1
         return (int(keep.sum()), xa[keep], xb[keep]) if return_matches else int(keep.sum())
 
 
@@ -204,7 +226,7 @@ class PlaceCheck:
         d = self.to_dict()
         lines = [f"place recognition: {self.source}, {self.n_places} places + revisits, "
                  f"{d['distinct_pairs']} distinct pairs ({d['covisible_pairs_skipped']} co-visible pairs left out)",
-                 f"  ORB + ratio test + F-RANSAC inliers: revisits min {d['revisit_min']}, median "
+                 f"  ORB + ratio test + PnP-RANSAC inliers: revisits min {d['revisit_min']}, median "
                  f"{d['revisit_median']:.0f}"]
         if len(self.distinct):
             lines.append(f"  distinct places: max {d['distinct_max']} ({d['worst_pair'][0]} vs {d['worst_pair'][1]}), "
@@ -223,7 +245,7 @@ def check_places(places, revisits, source: str, place: PlaceConfig = PlaceConfig
     n = len(places)
     m = OrbMatcher(place)
     feats = [m.features(k, v.image) for k, v in enumerate(views)]
-    revisit = np.array([m.inliers(feats[i], feats[n + i]) for i in range(n)])
+    revisit = np.array([m.inliers(feats[i], feats[n + i], view_a=views[i]) for i in range(n)])
     dist, pairs, n_cov = [], [], 0
     todo = [(i, j) for i in range(2 * n) for j in range(i + 1, 2 * n) if j != i + n]
     for i, j in tqdm(todo, desc="compare", unit="pair", disable=not progress, mininterval=2.0):
@@ -231,7 +253,7 @@ def check_places(places, revisits, source: str, place: PlaceConfig = PlaceConfig
                 >= place.overlap_max:
             n_cov += 1
             continue
-        dist.append(m.inliers(feats[i], feats[j]))
+        dist.append(m.inliers(feats[i], feats[j], view_a=views[i]))
         pairs.append((i, j))
     res = PlaceCheck(source, n, revisit, np.array(dist, int), np.array(pairs, int).reshape(-1, 2),
                      np.array([v.arc_m for v in places]), n_cov)
@@ -257,13 +279,14 @@ def plot_places(res: PlaceCheck, places, revisits, matcher, path) -> None:
     ax.set_xscale("symlog", linthresh=1.0)
     ax.set_xlim(left=0)
     ax.set_yscale("log")
-    ax.set_xlabel("ORB matches surviving ratio test + F-RANSAC")
+    ax.set_xlabel("ORB matches surviving ratio test + PnP RANSAC")
     ax.set_ylabel("pairs")
     ax.set_title(f"{res.source}: {'PASS' if res.passed else 'FAIL'}", fontsize=10)
     ax.legend(fontsize=8)
     if len(res.distinct):
         i, j, n = res.worst()
-        _, xa, xb = matcher.inliers(matcher.features(i, views[i].image), matcher.features(j, views[j].image), True)
+        _, xa, xb = matcher.inliers(matcher.features(i, views[i].image), matcher.features(j, views[j].image), True,
+                                    view_a=views[i])
         a, b = views[i].image, views[j].image
         both = np.hstack([a, b])
         ax2 = fig.add_subplot(2, 1, 2)
