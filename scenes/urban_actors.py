@@ -44,6 +44,7 @@ WHEELS = {"car": (0.32, 0.12, tuple((x, y, 0.32) for x in (-1.36, 1.36) for y in
           "bus": (0.5, 0.15, tuple((x, y, 0.5) for x in (-3.3, 3.3) for y in (-1.15, 1.15))),
           "pedestrian": (0.0, 0.0, ())}
 SHAPES = {"car": (CAR_PARTS, 1.0), "bus": (BUS_PARTS, 2.0), "pedestrian": (PED_PARTS, 0.5)}   # parts, (unused) tile
+CAR_MODELS = ((1.0, 1.0, 1.0), (0.86, 0.97, 0.95), (1.08, 1.03, 1.1), (0.95, 1.0, 1.18), (1.12, 1.05, 0.92))
 ATLAS_POOL = {"car": 48, "bus": 24, "pedestrian": 32}             # distinct atlases per kind
 SPECULAR = {"car": 0.35, "bus": 0.25, "pedestrian": 0.05}           # painted bodies and glass shine, clothes do not
 
@@ -261,11 +262,21 @@ def actor_mesh_name(kind: str) -> str:
     return f"mesh/{ACTOR_SCOPE}{kind}"
 
 
+def car_model_mesh_name(j: int) -> str:
+    return f"mesh/{ACTOR_SCOPE}car/model{int(j)}"
+
+
 def add_actor_meshes(spec) -> None:
-    """The shared mesh of each actor kind (:func:`_parts_mesh`), named :func:`actor_mesh_name`."""
+    """The shared mesh of each actor kind (:func:`_parts_mesh`), named :func:`actor_mesh_name`, and the car
+    mesh scaled to each of :data:`CAR_MODELS` (:func:`car_model_mesh_name`; the parked cars)."""
     for kind in SHAPES:
         m = spec.add_mesh(name=actor_mesh_name(kind))
         m.uservert, m.usertexcoord, m.userface = _parts_mesh(kind)
+    car = _parts_mesh("car")
+    for j, scale in enumerate(CAR_MODELS):
+        m = spec.add_mesh(name=car_model_mesh_name(j))
+        m.uservert, m.usertexcoord, m.userface = car
+        m.scale = list(map(float, scale))
 
 
 def add_actors(spec, builder, actors) -> None:

@@ -83,9 +83,12 @@ def add_furniture(b, rng, segments, road_half: float, building_line: float, curb
 def add_parked_cars(b, rng, segments, road_half: float) -> None:
     """Cars in seeded slots of the parking lanes (not within 25 m of the intersection): the moving cars' mesh
     (:func:`scenes.urban_actors.add_actor_meshes`) with an atlas of their own (scene stream
-    ``texture/urban-parked/<k>``)."""
+    ``texture/urban-parked/<k>``), one of :data:`scenes.urban_actors.CAR_MODELS` (length, width, height) and a
+    pose of its own in the slot (stream ``urban/parked-pose``: +-0.6 m along, +-0.12 m across, +-2 deg), so no
+    two stretches of the parking lane repeat each other."""
     from scenes.actor_textures import actor_atlas
-    from scenes.urban_actors import CAR_PARTS, actor_mesh_name
+    from scenes.urban_actors import CAR_MODELS, CAR_PARTS, car_model_mesh_name
+    pose = b.streams("urban/parked-pose")
     off = road_half - 1.25
     half = np.asarray(CAR_PARTS[0][1])
     k = 0
@@ -94,11 +97,12 @@ def add_parked_cars(b, rng, segments, road_half: float) -> None:
             for t in np.arange(seg.t0 + 4.0, seg.t1 - 4.0, PARK_SLOT_M):
                 if abs(t) < 25.0 or rng.random() > 0.4:
                     continue
-                q = seg.point(t, side * off)
+                q = seg.point(t + pose.uniform(-0.6, 0.6), side * (off + pose.uniform(-0.12, 0.12)))
                 rng.integers(0, 6)                                   # (the former texture variant: keeps the draws)
-                yaw = seg.yaw + (np.pi if side > 0 else 0.0)            # parked in the direction of its lane
+                j = int(pose.integers(0, len(CAR_MODELS)))
+                yaw = seg.yaw + (np.pi if side > 0 else 0.0) + pose.uniform(-0.035, 0.035)   # along its lane
                 mat = b.image_material(f"parked/{k}", actor_atlas("car", b.streams(f"texture/urban-parked/{k}")),
                                        specular=0.35)
-                b.mesh_instance(f"parked{k}", actor_mesh_name("car"), (*q, 0.0), yaw, mat, half[:2],
-                                (0.0, 1.6), category="car")
+                b.mesh_instance(f"parked{k}", car_model_mesh_name(j), (*q, 0.0), yaw, mat,
+                                half[:2] * np.asarray(CAR_MODELS[j][:2]), (0.0, 1.6 * CAR_MODELS[j][2]), category="car")
                 k += 1
