@@ -131,16 +131,18 @@ def traffic_cmd(scenario, seed, data_dir, blocks, block_frames, figure, strict, 
               help="Distance between sampled places along the route (m).")
 @click.option("--figure", type=click.Path(dir_okay=False), default=None,
               help="Write a PNG: similarity histogram and the most similar distinct places.")
+@click.option("--verify", type=click.Choice(["pnp", "fundamental"]), default="pnp", show_default=True,
+              help="Geometric check of the matches: a rigid motion of A's 3-D points (pnp) or epipolar (fundamental).")
 @click.option("--strict", is_flag=True, help="Exit with code 1 if a distinct pair is as similar as a revisit.")
 @click.option("--no-progress", is_flag=True)
 @set_option
 @json_option
-def places_cmd(scenario, seed, spacing, figure, strict, no_progress, overrides, as_json):
+def places_cmd(scenario, seed, spacing, figure, verify, strict, no_progress, overrides, as_json):
     """Look-alike places: ORB + RANSAC similarity of distinct places (no co-visible surface) against revisits."""
     from sim.app.validation.place_recognition import PlaceConfig, check_places, plot_places, render_views
     from sim.scenarios import get_scenario
     config = get_scenario(scenario, overrides, seed=seed)
-    place = PlaceConfig(spacing_m=spacing)
+    place = PlaceConfig(spacing_m=spacing, verify=verify)
     progress = not (no_progress or as_json)
     places, revisits = render_views(config, place, progress=progress)
     res, matcher = check_places(places, revisits, f"{scenario} seed {seed}", place, progress=progress)

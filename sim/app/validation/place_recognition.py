@@ -44,6 +44,11 @@ class PlaceConfig:
     overlap_max: float = 0.01
     grid_px: int = 8
     max_depth_m: float = 80.0
+    verify: str = "pnp"          # geometric check: "pnp" (3-D, a rigid motion) or "fundamental" (2-D, epipolar)
+
+    def __post_init__(self):
+        if self.verify not in ("pnp", "fundamental"):
+            raise SimError(f"places verify: 'pnp' or 'fundamental', got {self.verify!r}")
 
 
 @dataclass
@@ -226,7 +231,7 @@ class PlaceCheck:
         d = self.to_dict()
         lines = [f"place recognition: {self.source}, {self.n_places} places + revisits, "
                  f"{d['distinct_pairs']} distinct pairs ({d['covisible_pairs_skipped']} co-visible pairs left out)",
-                 f"  ORB + ratio test + PnP-RANSAC inliers: revisits min {d['revisit_min']}, median "
+                 f"  ORB + ratio test + RANSAC inliers: revisits min {d['revisit_min']}, median "
                  f"{d['revisit_median']:.0f}"]
         if len(self.distinct):
             lines.append(f"  distinct places: max {d['distinct_max']} ({d['worst_pair'][0]} vs {d['worst_pair'][1]}), "
@@ -245,7 +250,8 @@ def check_places(places, revisits, source: str, place: PlaceConfig = PlaceConfig
     n = len(places)
     m = OrbMatcher(place)
     feats = [m.features(k, v.image) for k, v in enumerate(views)]
-    revisit = np.array([m.inliers(feats[i], feats[n + i], view_a=views[i]) for i in range(n)])
+    pnp = place.verify == "pnp"
+    revisit = np.array([m.inliers(feats[i], feats[n + i], view_a=views[i] if pnp else None) for i in range(n)])
     dist, pairs, n_cov = [], [], 0
     todo = [(i, j) for i in range(2 * n) for j in range(i + 1, 2 * n) if j != i + n]
     for i, j in tqdm(todo, desc="compare", unit="pair", disable=not progress, mininterval=2.0):
@@ -253,7 +259,7 @@ def check_places(places, revisits, source: str, place: PlaceConfig = PlaceConfig
                 >= place.overlap_max:
             n_cov += 1
             continue
-        dist.append(m.inliers(feats[i], feats[j], view_a=views[i]))
+        dist.append(m.inliers(feats[i], feats[j], view_a=views[i] if pnp else None))
         pairs.append((i, j))
     res = PlaceCheck(source, n, revisit, np.array(dist, int), np.array(pairs, int).reshape(-1, 2),
                      np.array([v.arc_m for v in places]), n_cov)
@@ -279,14 +285,14 @@ def plot_places(res: PlaceCheck, places, revisits, matcher, path) -> None:
     ax.set_xscale("symlog", linthresh=1.0)
     ax.set_xlim(left=0)
     ax.set_yscale("log")
-    ax.set_xlabel("ORB matches surviving ratio test + PnP RANSAC")
+    ax.set_xlabel(f"ORB matches surviving ratio test + {'PnP' if matcher.place.verify == 'pnp' else 'F'} RANSAC")
     ax.set_ylabel("pairs")
     ax.set_title(f"{res.source}: {'PASS' if res.passed else 'FAIL'}", fontsize=10)
     ax.legend(fontsize=8)
     if len(res.distinct):
         i, j, n = res.worst()
         _, xa, xb = matcher.inliers(matcher.features(i, views[i].image), matcher.features(j, views[j].image), True,
-                                    view_a=views[i])
+                                    view_a=views[i] if matcher.place.verify == "pnp" else None)
         a, b = views[i].image, views[j].image
         both = np.hstack([a, b])
         ax2 = fig.add_subplot(2, 1, 2)
