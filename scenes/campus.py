@@ -192,7 +192,7 @@ class CampusScene(BuiltScene):
                 w = min(rng.uniform(8.0, 16.0), half - t)
                 d, h = rng.uniform(6.0, 10.0), rng.uniform(5.0, 14.0)
                 ctr = c + n * (rng.uniform(14.0, 18.0) + d / 2) + u * (t + w / 2)
-                kind = ("facade", 6 + int(rng.integers(0, 6)), 512) if rng.random() < 0.7 else \
+                kind = ("facade", 6 + int(rng.integers(0, 6)), 256) if rng.random() < 0.7 else \
                        ("brick", int(rng.integers(1, 4)), 256)
                 b.box(f"building{k}", (*ctr, h / 2), (w / 2, d / 2, h / 2),
                       b.material(kind[0], variant=kind[1], size=kind[2]), yaw=yaw, tile_m=4.0,

@@ -16,9 +16,11 @@ import mujoco
 import numpy as np
 
 from scenes.errors import SceneError
-from scenes.textures import make_texture
+from scenes.textures import make_texture, weather
 
 STATIC_PREFIX = "static/"
+GROUND_CATEGORIES = ("ground", "path")     # no stickers on what one drives and walks on
+UNIQUE_AREA_M2 = 8.0          # surfaces at least this large get their own pattern (SceneBuilder.instance_material)
 DYNAMIC_PREFIX = "dyn/"
 
 
@@ -84,7 +86,9 @@ class SceneBuilder:
         self._names: set[str] = set()
         self._textures: dict[tuple, str] = {}
         self._materials: set[str] = set()
+        self._kinds: dict[str, tuple] = {}      # shared material -> (kind, variant, size, plane_tile_m, specular)
         self.texture_bytes = 0
+        self.instance_textures = 0
 
     # ------------------------------------------------------------------ assets
     def _texture_rng(self, kind: str, variant: int) -> np.random.Generator:
@@ -104,18 +108,72 @@ class SceneBuilder:
 
     def material(self, kind: str, variant: int = 0, size: int | None = None,
                  plane_tile_m: float | None = None, specular: float = 0.1) -> str:
-        """Textured material; for planes pass ``plane_tile_m`` (world size of one repeat)."""
+        """Textured material of ``kind`` for the geoms of this builder; for planes pass ``plane_tile_m`` (world
+        size of one repeat). The name stands for a family: each geom given it gets its own instance
+        (:meth:`instance_material`), made when the geom is added."""
         name = f"mat/{kind}/{variant}" + (f"/plane{plane_tile_m:g}" if plane_tile_m else "")
-        if name not in self._materials:
+        if name not in self._kinds:
+            self._kinds[name] = (kind, int(variant), size or self.tex_size, plane_tile_m, specular)
+        return name
+
+    def instance_material(self, material: str, part: str, area_m2: float, decals: bool = True) -> str:
+        """The material a geom ``part`` of surface ``area_m2`` actually gets for the shared ``material`` (made by
+        :meth:`material`): every surface instance has its own seeded variation, so no two places look alike.
+
+        * ``area_m2 >= UNIQUE_AREA_M2`` (facades, walls, crowns, ground, signs): its own pattern, drawn by the
+          kind's generator from stream ``texture/<kind>/<part>`` at the material's size, then weathered
+          (:func:`scenes.textures.weather`: colour, grime, stains and, unless ``decals`` is false (the ground),
+          stickers; stream ``texture/weather/<part>``);
+        * smaller parts (poles, benches, bins): the shared pattern under their own colour (material ``rgba``,
+          stream ``texture/tint/<part>``), which costs no texture memory.
+
+        Any other material (flat, texture-poor, images) is returned unchanged."""
+        info = self._kinds.get(material)
+        if info is None:
+            return material
+        kind, _, size, plane_tile_m, specular = info
+        name = f"mat/{kind}/i/{part}"
+        if area_m2 >= UNIQUE_AREA_M2:
+            img = make_texture(kind, self.streams(f"texture/{kind}/{part}"), self.richness, size)
+            img = weather(img, self.streams(f"texture/weather/{part}"), stickers=decals)
+            tex_name = f"tex/{kind}/i/{part}"
+            tex = self.spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_2D,
+                                        width=img.shape[1], height=img.shape[0], nchannel=3)
+            tex.data = img.tobytes()
+            self.texture_bytes += img.nbytes
+            self.instance_textures += 1
             mat = self.spec.add_material(name=name, specular=specular, shininess=0.1)
             tx = list(mat.textures)
-            tx[mujoco.mjtTextureRole.mjTEXROLE_RGB] = self.texture(kind, variant, size)
+            tx[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex_name
             mat.textures = tx
-            if plane_tile_m:
-                mat.texuniform = True
-                mat.texrepeat = [1.0 / plane_tile_m, 1.0 / plane_tile_m]
-            self._materials.add(name)
+        else:
+            rng = self.streams(f"texture/tint/{part}")
+            tint = np.clip(rng.uniform(0.82, 1.0) * (1.0 + rng.normal(0.0, 0.05, 3)), 0.0, 1.0)
+            mat = self.spec.add_material(name=name, specular=specular, shininess=0.1, rgba=[*map(float, tint), 1.0])
+            tx = list(mat.textures)
+            tx[mujoco.mjtTextureRole.mjTEXROLE_RGB] = self.texture(kind, info[1], size)
+            mat.textures = tx
+        if plane_tile_m:
+            mat.texuniform = True
+            mat.texrepeat = [1.0 / plane_tile_m, 1.0 / plane_tile_m]
+        self._materials.add(name)
         return name
+
+    def image_material(self, name: str, img: np.ndarray, specular: float = 0.1, shininess: float = 0.3) -> str:
+        """Material ``mat/<name>`` textured with the ``(H, W, 3) uint8`` image ``img`` (e.g. an actor's atlas)."""
+        mat_name, tex_name = f"mat/{name}", f"tex/{name}"
+        if mat_name in self._materials:
+            raise SceneError(f"scene material {mat_name!r} made twice")
+        tex = self.spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_2D,
+                                    width=img.shape[1], height=img.shape[0], nchannel=3)
+        tex.data = np.ascontiguousarray(img, np.uint8).tobytes()
+        self.texture_bytes += img.nbytes
+        mat = self.spec.add_material(name=mat_name, specular=specular, shininess=shininess)
+        tx = list(mat.textures)
+        tx[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex_name
+        mat.textures = tx
+        self._materials.add(mat_name)
+        return mat_name
 
     def poor_material(self, name: str, kind: str = "plaster", contrast: float = 0.3, white: float = 232.0,
                       variant: int = 0) -> str:
@@ -156,6 +214,9 @@ class SceneBuilder:
 
     def _add_mesh_geom(self, part, mesh: _Mesh, pos, material, category, footprint):
         name = self._geom_name(part)
+        v = np.asarray(mesh.v, float).reshape(-1, 3, 3)
+        area = 0.5 * float(np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1).sum())
+        material = self.instance_material(material, part, area, decals=category not in GROUND_CATEGORIES)
         m = self.spec.add_mesh(name=f"mesh/{part}")
         m.uservert = np.asarray(mesh.v, float).ravel().tolist()
         m.usertexcoord = np.asarray(mesh.uv, float).ravel().tolist()
@@ -273,9 +334,23 @@ class SceneBuilder:
                        z_range=(z_top - thickness, z_top))
         return self._add_mesh_geom(part, mesh, (0.0, 0.0, zc), material, category, fp)
 
+    def mesh_instance(self, part, meshname, pos, yaw, material, half_xy, z_range, category="object") -> str:
+        """A static geom of the existing mesh asset ``meshname`` at ``pos`` (3,) turned by ``yaw``; its footprint
+        is the rectangle ``half_xy`` (m) about ``pos``, ``z_range`` above ``pos[2]``."""
+        name = self._geom_name(part)
+        pos = np.asarray(pos, float)
+        self.spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=meshname,
+                                     pos=list(map(float, pos)), quat=[float(np.cos(yaw / 2)), 0.0, 0.0,
+                                                                      float(np.sin(yaw / 2))],
+                                     material=material, contype=0, conaffinity=0, group=0)
+        self.footprints.append(Footprint(name, category, tuple(pos[:2]), tuple(map(float, half_xy)), float(yaw),
+                                         0.0, (pos[2] + z_range[0], pos[2] + z_range[1])))
+        return name
+
     def plane(self, part, center, half_xy, material, category="ground") -> str:
         """Finite rendered plane (ground/floor), normal +z."""
         name = self._geom_name(part)
+        material = self.instance_material(material, part, 4.0 * float(half_xy[0]) * float(half_xy[1]), decals=False)
         self.spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_PLANE,
                                      size=[float(half_xy[0]), float(half_xy[1]), 1.0],
                                      pos=list(map(float, center)), material=material,

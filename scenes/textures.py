@@ -260,11 +260,29 @@ def _bark(rng, size):
     return img
 
 
+def _stamp_discs(img, ys, xs, rs, cols):
+    """Discs (centres ``ys``, ``xs``, radii ``rs``, colours ``cols`` (N, 3)) painted in order with wrap-around:
+    where discs overlap the later one wins (vectorised :func:`_wrap_disc` with alpha 1)."""
+    H, W = img.shape[:2]
+    r_max = int(np.ceil(np.max(rs)))
+    dy, dx = np.mgrid[-r_max:r_max + 1, -r_max:r_max + 1]
+    d2 = (dy ** 2 + dx ** 2).ravel()
+    inside = d2[None, :] <= np.square(rs)[:, None]                       # (N, K)
+    order, k = np.nonzero(inside)
+    pix = ((ys.astype(int)[order] + dy.ravel()[k]) % H) * W + (xs.astype(int)[order] + dx.ravel()[k]) % W
+    last = np.full(H * W, -1)
+    np.maximum.at(last, pix, order)
+    flat = img.reshape(-1, 3)
+    hit = last >= 0
+    flat[hit] = cols[last[hit]]
+
+
 def _foliage(rng, size, base=(0.2, 0.42, 0.16)):
     img = np.asarray(base) * 0.35 + 0.05 * fbm(rng, size, 4, 3)[..., None]
-    for _ in range(size * size // 40):
-        col = _jitter(rng, np.asarray(base) * rng.uniform(0.6, 1.5), 0.05)
-        _wrap_disc(img, rng.integers(0, size), rng.integers(0, size), rng.uniform(1.0, 3.5), col)
+    n = size * size // 40
+    base = np.asarray(base)
+    cols = np.clip(base * rng.uniform(0.6, 1.5, n)[:, None] + rng.normal(0, 0.05, (n, 3)), 0, 1)
+    _stamp_discs(img, rng.integers(0, size, n), rng.integers(0, size, n), rng.uniform(1.0, 3.5, n), cols)
     return img
 
 
@@ -331,6 +349,30 @@ GENERATORS = {
 
 def texture_kinds() -> tuple:
     return tuple(sorted(GENERATORS))
+
+
+def weather(img: np.ndarray, rng: np.random.Generator, stickers: bool = True) -> np.ndarray:
+    """One surface instance's own look on a square ``(H, H, 3) uint8`` texture ``img``: a colour and brightness
+    shift, grime (darkening where a stretched fractal noise is positive) and one to four decals (stickers unless
+    ``stickers`` is false, stains), all wrapping around the borders so the texture stays tileable. A generator in the same state gives the
+    same bytes."""
+    H = img.shape[0]
+    if img.ndim != 3 or img.shape[1] != H or img.dtype != np.uint8:
+        raise SceneError(f"weather: expected a square (H, H, 3) uint8 texture, got {img.shape} {img.dtype}")
+    f = img.astype(float) / 255.0
+    f = f * rng.uniform(0.88, 1.12) * np.clip(1.0 + rng.normal(0.0, 0.05, 3), 0.8, 1.2)
+    grime = fbm(rng, H, 2, 4, aspect=float(rng.choice([0.25, 1.0, 4.0])))
+    f *= (1.0 - rng.uniform(0.06, 0.2) * np.clip(grime, 0.0, None))[..., None]
+    mean = f.reshape(-1, 3).mean(axis=0)
+    for _ in range(int(rng.integers(1, 5))):
+        y, x = rng.integers(0, H, 2)
+        if rng.random() < 0.5 and stickers:                               # a sticker / sign
+            h, w = (H * rng.uniform(0.04, 0.12, 2)).astype(int) + 2
+            _wrap_rect(f, y, x, h, w, rng.uniform(0.1, 0.95, 3), 0.9)
+            _wrap_rect(f, y + h // 3, x + 1, max(1, h // 6), max(1, w - 2), rng.uniform(0.0, 0.3, 3), 0.9)
+        else:                                                             # a stain
+            _wrap_disc(f, y, x, H * rng.uniform(0.03, 0.1), mean * rng.uniform(0.4, 0.7), 0.5)
+    return np.clip(np.round(f * 255.0), 0, 255).astype(np.uint8)
 
 
 def make_texture(kind: str, rng: np.random.Generator, richness: float, size: int = 256) -> np.ndarray:

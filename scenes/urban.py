@@ -29,7 +29,8 @@ from scenes.base import GcpSite, Route
 from scenes.built import BuiltScene
 from scenes.errors import SceneError
 from scenes.routes import point_at, resample, rounded_polyline
-from scenes.urban_actors import Lane, actor_poses, add_actors, draw_actors, first_contact, segmentation_rows
+from scenes.urban_actors import (Lane, actor_poses, add_actor_meshes, add_actors, draw_actors, first_contact,
+                                 segmentation_rows)
 from scenes.urban_furniture import add_furniture, add_markings, add_parked_cars
 
 ROAD_HALF = 9.5
@@ -45,6 +46,8 @@ STOP_X = -19.0               # body origin at the stop (the car's front 2.2 m fu
 STOP_DWELL_S = 4.0
 CRUISE_MPS = 10.0
 ACCEL_MPS2 = 1.5
+ROAD_PIECE_M = 30.0          # asphalt pieces, each with its own texture
+WALK_PIECE_M = 50.0          # sidewalk pieces
 
 
 class UrbanScene(BuiltScene):
@@ -108,6 +111,7 @@ class UrbanScene(BuiltScene):
         self._buildings(b, self.rng("buildings"))
         add_markings(b, ROAD_HALF, MAIN_X, CROSS_Y)
         add_furniture(b, self.rng("furniture"), street_segments(), ROAD_HALF, BUILDING_LINE, CURB_H)
+        add_actor_meshes(b.spec)
         add_parked_cars(b, self.rng("parked"), street_segments(), ROAD_HALF)
         add_actors(b.spec, b, self.actors)
 
@@ -124,17 +128,24 @@ class UrbanScene(BuiltScene):
             b.light("fill", (0, 0, 60), (0.4, 0.5, -0.75), diffuse=0.25)
 
     def _ground(self, b) -> None:
+        """Base plane, asphalt and sidewalks; the long surfaces in pieces (:data:`ROAD_PIECE_M`,
+        :data:`WALK_PIECE_M`) so that each stretch has its own texture: no two distant places show the same
+        road (one repeating tile along 500 m is the look-alike a loop closure falls for)."""
         b.plane("ground/base", (-170, -200, -0.02), (300, 330), b.material("concrete", plane_tile_m=4.0))
-        asphalt, walk = b.material("asphalt", size=512), b.material("pavement", size=256)
-        cx, cy = 0.5 * sum(MAIN_X), 0.5 * sum(CROSS_Y)
-        b.box("road/main", (cx, 0, -0.01), ((MAIN_X[1] - MAIN_X[0]) / 2, ROAD_HALF, 0.01), asphalt,
-              tile_m=4.0, category="path")
+        asphalt, walk = b.material("asphalt", size=256), b.material("pavement", size=256)
+        for j, (x0, x1) in enumerate(_pieces(*MAIN_X, ROAD_PIECE_M)):
+            b.box(f"road/main/{j}", ((x0 + x1) / 2, 0, -0.01), ((x1 - x0) / 2, ROAD_HALF, 0.01), asphalt,
+                  tile_m=2.0, category="path")
         for name, y0, y1 in (("cross_s", CROSS_Y[0], -ROAD_HALF), ("cross_n", ROAD_HALF, CROSS_Y[1])):
-            b.box(f"road/{name}", (0, (y0 + y1) / 2, -0.01), (ROAD_HALF, (y1 - y0) / 2, 0.01), asphalt,
-                  tile_m=4.0, category="path")
+            for j, (a, c) in enumerate(_pieces(y0, y1, ROAD_PIECE_M)):
+                b.box(f"road/{name}/{j}", (0, (a + c) / 2, -0.01), (ROAD_HALF, (c - a) / 2, 0.01), asphalt,
+                      tile_m=2.0, category="path")
         for k, (x0, x1, y0, y1) in enumerate(sidewalk_rects()):
-            b.box(f"sidewalk{k}", ((x0 + x1) / 2, (y0 + y1) / 2, CURB_H / 2),
-                  ((x1 - x0) / 2, (y1 - y0) / 2, CURB_H / 2), walk, tile_m=2.0, category="ground")
+            along_x = x1 - x0 > y1 - y0
+            for j, (a, c) in enumerate(_pieces(*((x0, x1) if along_x else (y0, y1)), WALK_PIECE_M)):
+                xa, xb, ya, yb = (a, c, y0, y1) if along_x else (x0, x1, a, c)
+                b.box(f"sidewalk{k}/{j}", ((xa + xb) / 2, (ya + yb) / 2, CURB_H / 2),
+                      ((xb - xa) / 2, (yb - ya) / 2, CURB_H / 2), walk, tile_m=2.0, category="ground")
 
     def _buildings(self, b, rng) -> None:
         k = 0
@@ -159,8 +170,15 @@ class UrbanScene(BuiltScene):
         if rng.random() < 0.6 and w > 6:
             front = seg.point(t_mid, side * (BUILDING_LINE - 0.08))
             b.box(f"building{k}/shop", (*front, 1.8), (w / 2 - 1.0, 0.08, 1.8),
-                  b.material("poster", variant=int(rng.integers(0, 12))), yaw=yaw, tile_m=3.6,
+                  b.material("poster", variant=int(rng.integers(0, 12)), size=128), yaw=yaw, tile_m=3.6,
                   category="building")
+
+
+def _pieces(t0: float, t1: float, length: float) -> list:
+    """``[(a, b), ...]``: ``[t0, t1]`` cut into equal pieces of at most ``length``."""
+    n = max(1, int(np.ceil((t1 - t0) / length)))
+    edges = np.linspace(t0, t1, n + 1)
+    return list(zip(edges[:-1], edges[1:]))
 
 
 class Segment:
@@ -208,16 +226,16 @@ def actor_lanes() -> tuple:
              jitter=0.0, start_tau_s=7.3),                                       # ahead in the vehicle's lanes
         Lane("car", (-LANE, 0.0), south, (-464.5, -414.5), (7.95, 8.05), 2, bus_share=0.5, route_lane=True,
              jitter=0.0),
-        Lane("car", (0.0, -e), east, (-700.0, -100.0), (8.5, 12.5), 30, bus_share=0.5),   # overtake / fall behind
-        Lane("car", (0.0, e), west, (-400.0, 800.0), (8.0, 12.0), 60, bus_share=0.4),   # oncoming
-        Lane("car", (0.0, LANE), west, (-400.0, 800.0), (7.0, 11.0), 30),
-        Lane("car", (e, 0.0), north, (-1600.0, -300.0), (8.0, 12.0), 60, bus_share=0.4),   # crossing, then oncoming
-        Lane("car", (LANE, 0.0), north, (-1600.0, -300.0), (7.0, 11.0), 26),
-        Lane("car", (-e, 0.0), south, (450.0, 800.0), (9.5, 11.5), 18, bus_share=0.5),  # ahead after the turn
-        Lane("pedestrian", (0.0, -walk), east, (-420.0, 0.0), (1.0, 1.6), 20),
-        Lane("pedestrian", (0.0, walk), west, (-60.0, 420.0), (1.0, 1.6), 20),
-        Lane("pedestrian", (-walk, 0.0), south, (0.0, 500.0), (1.0, 1.6), 14),
-        Lane("pedestrian", (walk, 0.0), north, (-500.0, 0.0), (1.0, 1.6), 14),
+        Lane("car", (0.0, -e), east, (-700.0, -100.0), (8.5, 12.5), 40, bus_share=0.5, jitter=0.05),   # overtake / fall behind
+        Lane("car", (0.0, e), west, (-400.0, 800.0), (8.0, 12.0), 80, bus_share=0.4, jitter=0.05),   # oncoming
+        Lane("car", (0.0, LANE), west, (-400.0, 800.0), (7.0, 11.0), 50),
+        Lane("car", (e, 0.0), north, (-1600.0, -300.0), (8.0, 12.0), 80, bus_share=0.4, jitter=0.05),   # crossing, then oncoming
+        Lane("car", (LANE, 0.0), north, (-1600.0, -300.0), (7.0, 11.0), 52),
+        Lane("car", (-e, 0.0), south, (450.0, 800.0), (9.5, 11.5), 24, bus_share=0.5, jitter=0.05),  # ahead after the turn
+        Lane("pedestrian", (0.0, -walk), east, (-420.0, 0.0), (1.0, 1.6), 36),
+        Lane("pedestrian", (0.0, walk), west, (-60.0, 420.0), (1.0, 1.6), 36),
+        Lane("pedestrian", (-walk, 0.0), south, (0.0, 500.0), (1.0, 1.6), 26),
+        Lane("pedestrian", (walk, 0.0), north, (-500.0, 0.0), (1.0, 1.6), 26),
         Lane("pedestrian", (0.0, 13.0), east, (-1.0, 1.0), (1.1, 1.5), 3, mode="shuttle", width_m=2 * r),
         Lane("pedestrian", (13.0, 0.0), north, (-1.0, 1.0), (1.1, 1.5), 3, mode="shuttle", width_m=2 * r),
     )

@@ -28,13 +28,26 @@ ACTOR_SCOPE = "urban/actor_"
 GEOM_PREFIX = "dyn/"
 T_REF_NS = 1_000_000_000
 MAX_SWING_M = 1.0            # bound on an actor's position swing about its lane's steady motion (m)
-CAR_PARTS = (("body", (2.2, 0.9, 0.35), (0.0, 0.0, 0.65)),      # name, half size, centre in the actor frame
-             ("cabin", (1.2, 0.8, 0.3), (-0.2, 0.0, 1.3)))
-BUS_PARTS = (("body", (5.5, 1.25, 2.1), (0.0, 0.0, 2.3)),)     # a double-decker
-PED_PARTS = (("legs", (0.14, 0.2, 0.42), (0.0, 0.0, 0.42)),
-             ("torso", (0.16, 0.25, 0.3), (0.0, 0.0, 1.14)),
-             ("head", (0.11, 0.1, 0.13), (0.0, 0.0, 1.57)))
-SHAPES = {"car": (CAR_PARTS, 1.0), "bus": (BUS_PARTS, 2.0), "pedestrian": (PED_PARTS, 0.5)}   # parts, texture tile (m)
+# parts: (name, half size, centre in the actor frame, atlas cell per face +x, -x, +y, -y, +z, -z); the first is the
+# body whose footprint the contact check uses. Wheels: (radius, half width, centres).
+CAR_PARTS = (("body", (2.2, 0.9, 0.35), (0.0, 0.0, 0.65),
+              ("front", "rear", "body_side", "body_side", "paint", "under")),
+             ("cabin", (1.2, 0.8, 0.3), (-0.2, 0.0, 1.3),
+              ("windscreen", "windscreen", "cabin_side", "cabin_side", "paint", "under")))
+BUS_PARTS = (("body", (5.5, 1.25, 2.1), (0.0, 0.0, 2.3), ("front", "rear", "side", "side", "roof", "under")),)
+PED_PARTS = (("legs", (0.14, 0.2, 0.42), (0.0, 0.0, 0.42),
+              ("legs_front", "legs_front", "legs_side", "legs_side", "legs_side", "legs_side")),
+             ("torso", (0.16, 0.25, 0.3), (0.0, 0.0, 1.14),
+              ("torso_front", "torso_front", "torso_side", "torso_side", "shoulders", "shoulders")),
+             ("head", (0.11, 0.1, 0.13), (0.0, 0.0, 1.57), ("face", "hair", "head_side", "head_side", "hair", "head_side")))
+WHEELS = {"car": (0.32, 0.12, tuple((x, y, 0.32) for x in (-1.36, 1.36) for y in (-0.8, 0.8))),
+          "bus": (0.5, 0.15, tuple((x, y, 0.5) for x in (-3.3, 3.3) for y in (-1.15, 1.15))),
+          "pedestrian": (0.0, 0.0, ())}
+SHAPES = {"car": (CAR_PARTS, 1.0), "bus": (BUS_PARTS, 2.0), "pedestrian": (PED_PARTS, 0.5)}   # parts, (unused) tile
+CAR_MODELS = ((1.0, 1.0, 1.0), (0.86, 0.97, 0.95), (1.08, 1.03, 1.1), (0.95, 1.0, 1.18), (1.12, 1.05, 0.92))
+ATLAS_POOL = {"car": 48, "bus": 24, "pedestrian": 32}             # distinct atlases per kind
+SPECULAR = {"car": 0.35, "bus": 0.25, "pedestrian": 0.05}           # painted bodies and glass shine, clothes do not
+
 
 @dataclass(frozen=True)
 class Lane:
@@ -68,7 +81,7 @@ class Actor:
     amp: tuple
     omega: tuple
     phase: tuple
-    variant: int
+    variant: int                # drawn with the actor (keeps the stream's draws); the atlas is by actor id
     moving: bool
     start_tau: float = 0.0
 
@@ -199,44 +212,93 @@ def first_contact(actors, t_ns, T_w_b, footprint, near_m: float = 15.0):
 
 
 # ---------------------------------------------------------------------------- MJCF
-def _parts_mesh(parts, tile_m: float) -> tuple:
-    """(vertices, texcoords, faces) of the union of boxes ``(name, half, centre)``, outward faces."""
+def _parts_mesh(kind: str) -> tuple:
+    """(vertices, texcoords, faces) of a ``kind`` actor: the union of its boxes (each face onto its atlas cell,
+    :mod:`scenes.actor_textures`) and its wheels (octagonal prisms along y, caps onto the ``tyre`` cell)."""
+    from scenes.actor_textures import cell_uv
     v, uv, f = [], [], []
-    for _, half, centre in parts:
+
+    def face(pts, cells_uv, n):
+        k = len(v)
+        v.extend(pts)
+        uv.extend(cells_uv)
+        tris = [[k, k + j, k + j + 1] for j in range(1, len(pts) - 1)]            # a fan (convex faces)
+        if np.dot(np.cross(pts[1] - pts[0], pts[2] - pts[0]), n) < 0:
+            tris = [[a, c, b] for a, b, c in tris]
+        f.extend(tris)
+
+    for _, half, centre, cells in SHAPES[kind][0]:
         half, centre = np.asarray(half, float), np.asarray(centre, float)
         for ax in range(3):
             ua, va = [a for a in range(3) if a != ax]
-            for sgn in (1.0, -1.0):
-                k = len(v)
+            for j, sgn in enumerate((1.0, -1.0)):
+                pts, tex = [], []
                 for cu, cv in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
                     p = np.zeros(3)
                     p[ax], p[ua], p[va] = sgn * half[ax], cu * half[ua], cv * half[va]
-                    v.append(p + centre)
-                    uv.append(((p[ua] + centre[ua]) / tile_m, -(p[va] + centre[va]) / tile_m))
+                    pts.append(p + centre)
+                    tex.append(cell_uv(kind, cells[2 * ax + j], (cu + 1) / 2, (1 - cv) / 2))
                 n = np.zeros(3)
                 n[ax] = sgn
-                tri = [[k, k + 1, k + 2], [k, k + 2, k + 3]]
-                if np.dot(np.cross(v[k + 1] - v[k], v[k + 2] - v[k]), n) < 0:
-                    tri = [[k, k + 2, k + 1], [k, k + 3, k + 2]]
-                f += tri
+                face(pts, [tuple(map(float, t)) for t in tex], n)
+    radius, hw, centres = WHEELS[kind]
+    ang = np.linspace(0.0, 2 * np.pi, 9)[:-1]
+    for c in centres:
+        c = np.asarray(c, float)
+        ring = [np.array([radius * np.cos(a), 0.0, radius * np.sin(a)]) for a in ang]
+        for sgn in (1.0, -1.0):                                           # caps: the tyre and its hub
+            pts = [c + r + np.array([0.0, sgn * hw, 0.0]) for r in ring]
+            tex = [tuple(map(float, cell_uv(kind, "tyre", 0.5 + 0.5 * np.cos(a), 0.5 - 0.5 * np.sin(a)))) for a in ang]
+            face(pts, tex, np.array([0.0, sgn, 0.0]))
+        for i in range(8):                                                # tread
+            r0, r1 = ring[i], ring[(i + 1) % 8]
+            pts = [c + r0 + [0, -hw, 0], c + r1 + [0, -hw, 0], c + r1 + [0, hw, 0], c + r0 + [0, hw, 0]]
+            tex = [tuple(map(float, cell_uv(kind, "tyre", fu, fv))) for fu, fv in ((0, 0), (0.05, 0), (0.05, 0.05), (0, 0.05))]
+            face(pts, tex, 0.5 * (r0 + r1))
     return np.ravel(v).tolist(), np.ravel(uv).tolist(), np.ravel(f).tolist()
+
+
+def actor_mesh_name(kind: str) -> str:
+    return f"mesh/{ACTOR_SCOPE}{kind}"
+
+
+def car_model_mesh_name(j: int) -> str:
+    return f"mesh/{ACTOR_SCOPE}car/model{int(j)}"
+
+
+def add_actor_meshes(spec) -> None:
+    """The shared mesh of each actor kind (:func:`_parts_mesh`), named :func:`actor_mesh_name`, and the car
+    mesh scaled to each of :data:`CAR_MODELS` (:func:`car_model_mesh_name`; the parked cars)."""
+    for kind in SHAPES:
+        m = spec.add_mesh(name=actor_mesh_name(kind))
+        m.uservert, m.usertexcoord, m.userface = _parts_mesh(kind)
+    car = _parts_mesh("car")
+    for j, scale in enumerate(CAR_MODELS):
+        m = spec.add_mesh(name=car_model_mesh_name(j))
+        m.uservert, m.usertexcoord, m.userface = car
+        m.scale = list(map(float, scale))
 
 
 def add_actors(spec, builder, actors) -> None:
     """Add one mocap body per actor, posed at its start, carrying one textured mesh geom
-    ``dyn/urban/actor_<k>/body`` (one shared mesh per kind; the texture variant is the actor's)."""
+    ``dyn/urban/actor_<k>/body`` (the kind's mesh, added before by :func:`add_actor_meshes`); each actor has its
+    atlas (:func:`scenes.actor_textures.actor_atlas`): actor ``k`` of ``kind`` wears atlas ``k % ATLAS_POOL[kind]``
+    (scene stream ``texture/urban-actor/<kind>/<j>``), so consecutive actors of a lane look different while the
+    texture memory stays bounded (moving actors are no place a loop closure could confuse)."""
     import mujoco
-    for kind, (parts, tile_m) in SHAPES.items():
-        m = spec.add_mesh(name=f"mesh/{ACTOR_SCOPE}{kind}")
-        m.uservert, m.usertexcoord, m.userface = _parts_mesh(parts, tile_m)
+    from scenes.actor_textures import actor_atlas
+    made = {}
     for a in actors:
         h = a.heading
         body = spec.worldbody.add_body(name=a.body_name, mocap=True, pos=[*map(float, a.origin_xy), 0.0],
                                        quat=[float(np.cos(h / 2)), 0.0, 0.0, float(np.sin(h / 2))])
-        mat = builder.material("poster", 40 + a.variant) if a.kind != "pedestrian" else \
-            builder.material("graffiti", 10 + a.variant % 4)
+        key = (a.kind, a.actor_id % ATLAS_POOL[a.kind])
+        if key not in made:
+            img = actor_atlas(a.kind, builder.streams(f"texture/urban-actor/{key[0]}/{key[1]}"))
+            made[key] = builder.image_material(f"actor/{key[0]}/{key[1]}", img, specular=SPECULAR[a.kind])
+        mat = made[key]
         body.add_geom(name=f"{GEOM_PREFIX}{a.body_name}/body", type=mujoco.mjtGeom.mjGEOM_MESH,
-                      meshname=f"mesh/{ACTOR_SCOPE}{a.kind}", material=mat, contype=0, conaffinity=0, group=1)
+                      meshname=actor_mesh_name(a.kind), material=mat, contype=0, conaffinity=0, group=1)
 
 
 def actor_of_geom(geom_name: str) -> int:

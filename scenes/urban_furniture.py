@@ -63,7 +63,7 @@ def add_furniture(b, rng, segments, road_half: float, building_line: float, curb
                                segments=8, category="tree")
                     r = rng.uniform(1.4, 2.0)
                     b.ellipsoid(f"tree{k}/crown", (*tq, th + r * 0.8), (r, r, r * 1.2),
-                                b.material("foliage", variant=int(k % 3)), tile_m=1.5, n_lat=6, n_lon=10,
+                                b.material("foliage", variant=int(k % 3), size=128), tile_m=1.5, n_lat=6, n_lon=10,
                                 category="tree")
                 u = rng.random()
                 fq = seg.point(t + rng.uniform(3, 12), side * (building_line - 0.9))
@@ -81,19 +81,28 @@ def add_furniture(b, rng, segments, road_half: float, building_line: float, curb
 
 
 def add_parked_cars(b, rng, segments, road_half: float) -> None:
-    """Cars in seeded slots of the parking lanes (not within 25 m of the intersection)."""
+    """Cars in seeded slots of the parking lanes (not within 25 m of the intersection): the moving cars' mesh
+    (:func:`scenes.urban_actors.add_actor_meshes`) with an atlas of their own (scene stream
+    ``texture/urban-parked/<k>``), one of :data:`scenes.urban_actors.CAR_MODELS` (length, width, height) and a
+    pose of its own in the slot (stream ``urban/parked-pose``: +-0.6 m along, +-0.12 m across, +-2 deg), so no
+    two stretches of the parking lane repeat each other."""
+    from scenes.actor_textures import actor_atlas
+    from scenes.urban_actors import CAR_MODELS, CAR_PARTS, car_model_mesh_name
+    pose = b.streams("urban/parked-pose")
     off = road_half - 1.25
+    half = np.asarray(CAR_PARTS[0][1])
     k = 0
     for seg in segments:
         for side in (1, -1):
             for t in np.arange(seg.t0 + 4.0, seg.t1 - 4.0, PARK_SLOT_M):
                 if abs(t) < 25.0 or rng.random() > 0.4:
                     continue
-                q = seg.point(t, side * off)
-                v = int(rng.integers(0, 6))
-                b.box(f"parked{k}/body", (*q, 0.65), (2.1, 0.85, 0.35), b.material("poster", variant=30 + v),
-                      yaw=seg.yaw, tile_m=1.0, category="car")
-                q2 = seg.point(t - 0.2, side * off)
-                b.box(f"parked{k}/cabin", (*q2, 1.3), (1.1, 0.78, 0.3), b.material("noise", variant=v % 3),
-                      yaw=seg.yaw, tile_m=1.0, category="car")
+                q = seg.point(t + pose.uniform(-0.6, 0.6), side * (off + pose.uniform(-0.12, 0.12)))
+                rng.integers(0, 6)                                   # (the former texture variant: keeps the draws)
+                j = int(pose.integers(0, len(CAR_MODELS)))
+                yaw = seg.yaw + (np.pi if side > 0 else 0.0) + pose.uniform(-0.035, 0.035)   # along its lane
+                mat = b.image_material(f"parked/{k}", actor_atlas("car", b.streams(f"texture/urban-parked/{k}")),
+                                       specular=0.35)
+                b.mesh_instance(f"parked{k}", car_model_mesh_name(j), (*q, 0.0), yaw, mat,
+                                half[:2] * np.asarray(CAR_MODELS[j][:2]), (0.0, 1.6 * CAR_MODELS[j][2]), category="car")
                 k += 1

@@ -17,7 +17,7 @@ from pathlib import Path
 from sim.config import CalibError, GenerateConfig
 from sim.errors import SimError
 
-URBAN_DYNAMIC_DENSITY = 1.0      # all actors move: 25.5 % of tracked features on them (docs/dataset_layout.md)
+URBAN_DYNAMIC_DENSITY = 1.0      # all actors move: 15-19 % of tracked features on them (vo-testbed validate traffic)
 
 
 def _scenario(scene: str, rig: str, duration_s=None) -> GenerateConfig:

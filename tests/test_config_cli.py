@@ -52,7 +52,7 @@ def test_bad_set_or_flag_exits_2_with_one_line(tmp_path, capsys, args, expect):
 def test_unknown_key_error_lists_scene_motion_render_and_image_noise(tmp_path, capsys):
     code, err = run(capsys, "generate", "--no-images", "--out", str(tmp_path / "ds"), "--set", "baselin=0.12")
     assert code == 2 and len(err) == 1
-    for group in ("scene.<", "motion.<", "render.<supersample>", "noise.<image_sigma>", "image_noise", "baseline"):
+    for group in ("scene.<", "motion.<", "render.<supersample|png_compression", "noise.<image_sigma>", "image_noise", "baseline"):
         assert group in err[0], group
 
 

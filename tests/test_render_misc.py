@@ -97,6 +97,7 @@ def test_bench_runs_on_a_small_rig():
     rig = stereo_rig()
     (res,) = bench_render(rig=rig, n_pairs=4, scenes=[RenderTestScene(SceneConfig(name="render_test"))])
     assert res.width == 160 and res.pairs_per_s > 0 and res.ms_per_pair == pytest.approx(1e3 / res.pairs_per_s)
+    assert res.build_s > 0 and res.build_cpu_s > 0 and res.texture_mb >= 0
 
 
 def test_shadows_on_keeps_only_the_brightest_caster():

@@ -39,7 +39,7 @@ def test_builds_compiles_and_names_actors(built):
     assert all(n.startswith("dyn/urban/actor_") for n in dyn)
     assert m.nmocap == len(sc.actors)
     assert sum(n.startswith("static/building") for n in names) > 100 and m.ngeom < 2000
-    assert sc.texture_bytes < 20e6
+    assert sc.texture_bytes < 80e6          # ~64 MB: a texture per large surface and road piece, 104 actor atlases, parked cars
     rows = sc.segmentation_rows(names)
     assert {r[2] for r in rows if r[2] > 0} == {a.actor_id for a in sc.actors}
     assert all(r[3] == "static" and r[2] == -1 for r in rows if r[1].startswith("static/"))

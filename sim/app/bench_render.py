@@ -29,6 +29,9 @@ class BenchResult:
     ms_per_pair: float
     shadows: bool
     cpu_ms_per_pair: float = float("nan")   # process CPU time (all threads): robust to other load
+    build_s: float = float("nan")           # scene build + compile (textures, meshes), wall
+    build_cpu_s: float = float("nan")       # the same in process CPU time
+    texture_mb: float = float("nan")        # the compiled model's texture data
 
 
 def default_bench_rig(width: int = 752, height: int = 480, baseline: float = 0.11,
@@ -70,7 +73,9 @@ def bench_scene(scene: Scene, rig: Rig, n_pairs: int = 40) -> BenchResult:
     """Time ``n_pairs`` RGB stereo renders of ``scene`` along its route."""
     from sim.world import build_world
     from sim.render import StereoRenderer
+    b0, bc0 = time.perf_counter(), time.process_time()
     world = build_world(scene, rig)
+    build_s, build_cpu_s = time.perf_counter() - b0, time.process_time() - bc0
     poses = route_poses(scene, n_pairs)
     with StereoRenderer(world, rig) as r:
         for T in poses[:2]:
@@ -81,7 +86,8 @@ def bench_scene(scene: Scene, rig: Rig, n_pairs: int = 40) -> BenchResult:
         dt, dc = time.perf_counter() - t0, time.process_time() - c0
     cam = rig.cameras[0]
     return BenchResult(scene.name or type(scene).__name__, cam.width, cam.height,
-                       n_pairs / dt, 1e3 * dt / n_pairs, bool(scene.config.shadows), 1e3 * dc / n_pairs)
+                       n_pairs / dt, 1e3 * dt / n_pairs, bool(scene.config.shadows), 1e3 * dc / n_pairs,
+                       build_s, build_cpu_s, world.model.tex_data.nbytes / 1e6)
 
 
 def bench_render(scene_names=("campus", "indoor"), rig: Rig = None, n_pairs: int = 40,

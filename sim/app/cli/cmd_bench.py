@@ -27,10 +27,11 @@ def render(scenes, pairs, shadows, as_json):
     if as_json:
         echo_json([r.__dict__ if not hasattr(r, "to_dict") else r.to_dict() for r in results])
         return
-    click.echo(f"{'scene':<10} {'size':>9} {'shadows':>7} {'pairs/s':>8} {'ms/pair':>8} {'CPU ms/pair':>11}")
+    click.echo(f"{'scene':<10} {'size':>9} {'shadows':>7} {'pairs/s':>8} {'ms/pair':>8} {'CPU ms/pair':>11} "
+               f"{'build s':>8} {'build CPU s':>11} {'texture MB':>10}")
     for r in results:
         click.echo(f"{r.scene:<10} {r.width}x{r.height:<5} {str(r.shadows):>7} {r.pairs_per_s:8.1f} {r.ms_per_pair:8.1f} "
-                   f"{r.cpu_ms_per_pair:11.1f}")
+                   f"{r.cpu_ms_per_pair:11.1f} {r.build_s:8.1f} {r.build_cpu_s:11.1f} {r.texture_mb:10.1f}")
 
 
 @bench.command("vo")

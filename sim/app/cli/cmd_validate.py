@@ -86,3 +86,80 @@ def allan_cmd(imu_name, hours, seed, as_json):
     from sim.app.validation.imu_check import allan_check
     res = allan_check(imu_name, hours, seed)
     echo_json(res.to_dict()) if as_json else click.echo(res.text())
+
+
+@validate.command("traffic")
+@click.option("--scenario", default="urban-dynamic", show_default=True, help="Scenario rendered (unless --data).")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--data", "data_dir", type=click.Path(file_okay=False), default=None,
+              help="Measure a generated EuRoC folder (written with --segmentation) instead of rendering.")
+@click.option("--blocks", type=click.IntRange(min=1), default=8, show_default=True,
+              help="Blocks of consecutive frames, spread evenly over the route.")
+@click.option("--block-frames", type=click.IntRange(min=2), default=12, show_default=True, help="Frames per block.")
+@click.option("--figure", type=click.Path(dir_okay=False), default=None,
+              help="Write a PNG of one frame with its tracked features coloured static / dynamic.")
+@click.option("--strict", is_flag=True, help="Exit with code 1 unless both targets are met.")
+@click.option("--no-progress", is_flag=True)
+@set_option
+@json_option
+def traffic_cmd(scenario, seed, data_dir, blocks, block_frames, figure, strict, no_progress, overrides, as_json):
+    """Shi-Tomasi corner density of the traffic against the background, and the fraction of tracked
+    features on moving actors (targets: ratio <= 1.5, fraction >= 15 %)."""
+    from sim.app.validation.traffic_texture import check_traffic, dataset_frames, plot_features, scenario_frames
+    if data_dir:
+        frames, actors, moving = dataset_frames(data_dir)
+        source = str(data_dir)
+    else:
+        from sim.scenarios import get_scenario
+        config = get_scenario(scenario, overrides, seed=seed)
+        frames, actors, moving = scenario_frames(config, blocks, block_frames, progress=not (no_progress or as_json))
+        source = f"{scenario} seed {seed}"
+    res = check_traffic(frames, actors, moving, source)
+    out = res.to_dict()
+    if figure:
+        k, n_s, n_d = plot_features(frames, moving, figure, f"{source}, ")
+        out["figure"] = {"path": figure, "frame": k, "static": n_s, "dynamic": n_d}
+    if as_json:
+        echo_json(out)
+    else:
+        click.echo(res.table())
+        if figure:
+            click.echo(f"wrote {figure}: frame {out['figure']['frame']}, {n_s} static / {n_d} dynamic features")
+    if strict and not res.passed:
+        raise SystemExit(1)
+
+
+@validate.command("places")
+@click.option("--scenario", default="campus", show_default=True, help="Scenario whose route is sampled.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--spacing", type=click.FloatRange(min=0.5), default=2.0, show_default=True,
+              help="Distance between sampled places along the route (m).")
+@click.option("--figure", type=click.Path(dir_okay=False), default=None,
+              help="Write a PNG: similarity histogram and the most similar distinct places.")
+@click.option("--verify", type=click.Choice(["pnp", "fundamental"]), default="pnp", show_default=True,
+              help="Geometric check of the matches: a rigid motion of A's 3-D points (pnp) or epipolar (fundamental).")
+@click.option("--strict", is_flag=True, help="Exit with code 1 if a distinct pair is as similar as a revisit.")
+@click.option("--no-progress", is_flag=True)
+@set_option
+@json_option
+def places_cmd(scenario, seed, spacing, figure, verify, strict, no_progress, overrides, as_json):
+    """Look-alike places: ORB + RANSAC similarity of distinct places (no co-visible surface) against revisits."""
+    from sim.app.validation.place_recognition import PlaceConfig, check_places, plot_places, render_views
+    from sim.scenarios import get_scenario
+    config = get_scenario(scenario, overrides, seed=seed)
+    place = PlaceConfig(spacing_m=spacing, verify=verify)
+    progress = not (no_progress or as_json)
+    places, revisits = render_views(config, place, progress=progress)
+    res, matcher = check_places(places, revisits, f"{scenario} seed {seed}", place, progress=progress)
+    out = res.to_dict()
+    if figure:
+        plot_places(res, places, revisits, matcher, figure)
+        out["figure"] = figure
+    if as_json:
+        echo_json(out)
+    else:
+        click.echo(res.table())
+        if figure:
+            click.echo(f"wrote {figure}")
+    if strict and not res.passed:
+        raise SystemExit(1)

@@ -1,0 +1,222 @@
+"""Texture atlases of the urban actors: cars, double-decker buses and pedestrians that look like them to a
+feature tracker: painted bodies (one smooth colour, a mild vertical gradient and faint noise), dark glass with
+a sky reflection, tyres with hubs, head- and tail-lights, plates, seams; clothes and skin for pedestrians.
+No repetitive high-contrast pattern: the corners are where a real vehicle has them (window corners, lights,
+wheels, plates).
+
+One atlas per actor, ``(H, W, 3) uint8``, drawn from the generator the caller passes (the ``dynamic`` stream's
+per-actor draw), laid out in named *cells* (:data:`LAYOUTS`: ``name -> (x0, y0, w, h)`` pixels); a mesh face
+maps onto one cell (:func:`cell_uv`). Row 0 is the top of the image (MuJoCo's 2-D texture convention).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from scenes.errors import SceneError
+from scenes.textures import fbm
+
+# name -> (x0, y0, w, h) in texels
+LAYOUTS = {
+    "car": ((256, 128), {"paint": (0, 0, 64, 64), "body_side": (64, 0, 64, 64), "front": (128, 0, 64, 64),
+                         "rear": (192, 0, 64, 64), "cabin_side": (0, 64, 64, 64), "windscreen": (64, 64, 64, 64),
+                         "tyre": (128, 64, 64, 64), "under": (192, 64, 64, 64)}),
+    "bus": ((256, 128), {"side": (0, 0, 128, 64), "front": (128, 0, 64, 64), "rear": (192, 0, 64, 64),
+                         "paint": (0, 64, 64, 64), "tyre": (64, 64, 64, 64), "under": (128, 64, 64, 64),
+                         "roof": (192, 64, 64, 64)}),
+    "pedestrian": ((128, 64), {"legs_front": (0, 0, 32, 32), "legs_side": (32, 0, 32, 32),
+                               "torso_front": (64, 0, 32, 32), "torso_side": (96, 0, 32, 32),
+                               "face": (0, 32, 32, 32), "head_side": (32, 32, 32, 32), "hair": (64, 32, 32, 32),
+                               "shoulders": (96, 32, 32, 32)}),
+}
+
+# (colour, weight): a street's car colours (white, black, silver and grey dominate)
+CAR_COLOURS = (((0.88, 0.88, 0.86), 0.24), ((0.07, 0.07, 0.08), 0.18), ((0.62, 0.63, 0.65), 0.16),
+               ((0.38, 0.39, 0.41), 0.14), ((0.55, 0.08, 0.07), 0.08), ((0.10, 0.18, 0.42), 0.08),
+               ((0.12, 0.26, 0.17), 0.04), ((0.68, 0.6, 0.46), 0.04), ((0.85, 0.68, 0.1), 0.04))
+BUS_COLOURS = (((0.66, 0.07, 0.06), 0.5), ((0.9, 0.9, 0.88), 0.2), ((0.12, 0.25, 0.5), 0.15),
+               ((0.1, 0.4, 0.22), 0.15))
+CLOTHES = ((0.08, 0.08, 0.1), (0.15, 0.18, 0.3), (0.35, 0.3, 0.22), (0.5, 0.5, 0.52), (0.6, 0.15, 0.12),
+           (0.85, 0.85, 0.82), (0.2, 0.35, 0.25), (0.55, 0.45, 0.3))
+SKIN = ((0.93, 0.76, 0.65), (0.8, 0.6, 0.45), (0.6, 0.42, 0.3), (0.4, 0.27, 0.18))
+HAIR = ((0.08, 0.06, 0.05), (0.3, 0.2, 0.1), (0.6, 0.5, 0.3), (0.5, 0.5, 0.5))
+GLASS = np.array([0.07, 0.09, 0.11])
+RUBBER = np.array([0.06, 0.06, 0.065])
+
+
+def cell_uv(kind: str, cell: str, fu, fv, inset: float = 1.5) -> tuple:
+    """Texture coordinates (u, v) in [0, 1] of the fractions ``fu`` (left to right) and ``fv`` (top to bottom)
+    of ``cell`` of a ``kind`` atlas, ``inset`` texels inside its border (no bleeding across cells)."""
+    (W, H), cells = LAYOUTS[kind]
+    if cell not in cells:
+        raise SceneError(f"actor atlas {kind!r}: no cell {cell!r}; cells: {', '.join(cells)}")
+    x0, y0, w, h = cells[cell]
+    u = (x0 + inset + np.asarray(fu, float) * (w - 2 * inset)) / W
+    v = (y0 + inset + np.asarray(fv, float) * (h - 2 * inset)) / H
+    return u, v
+
+
+def _pick(rng, table):
+    cols = np.array([c for c, _ in table], float)
+    w = np.array([p for _, p in table], float)
+    return np.clip(cols[rng.choice(len(cols), p=w / w.sum())] + rng.normal(0, 0.015, 3), 0, 1)
+
+
+class _Atlas:
+    """Drawing in fractional cell coordinates on a float image."""
+
+    def __init__(self, kind, rng):
+        (W, H), self.cells = LAYOUTS[kind]
+        self.img = np.zeros((H, W, 3))
+        self.rng = rng
+
+    def _box(self, cell):
+        x0, y0, w, h = self.cells[cell]
+        return x0, y0, w, h
+
+    def fill(self, cell, colour, gradient=0.0, noise=0.0):
+        """Cell in ``colour`` x (1 + gradient (0.5 - row fraction)) plus faint noise of amplitude ``noise``."""
+        x0, y0, w, h = self._box(cell)
+        n = max(w, h)
+        shade = 1.0 + gradient * (0.5 - (np.arange(h) + 0.5) / h)[:, None, None]
+        grain = noise * fbm(self.rng, n, 4, 3)[:h, :w, None] if noise else 0.0
+        self.img[y0:y0 + h, x0:x0 + w] = np.asarray(colour, float) * shade + grain
+
+    def rect(self, cell, fx0, fy0, fx1, fy1, colour, gradient=0.0):
+        x0, y0, w, h = self._box(cell)
+        a, b = y0 + int(round(fy0 * h)), y0 + max(int(round(fy1 * h)), int(round(fy0 * h)) + 1)
+        c, d = x0 + int(round(fx0 * w)), x0 + max(int(round(fx1 * w)), int(round(fx0 * w)) + 1)
+        shade = 1.0 + gradient * (0.5 - (np.arange(b - a) + 0.5) / max(1, b - a))[:, None, None]
+        self.img[a:b, c:d] = np.asarray(colour, float) * shade
+
+    def glass(self, cell, fx0, fy0, fx1, fy1):
+        """Dark glass with the sky's reflection: lighter at the top, one soft diagonal highlight."""
+        x0, y0, w, h = self._box(cell)
+        a, b = y0 + int(round(fy0 * h)), y0 + int(round(fy1 * h))
+        c, d = x0 + int(round(fx0 * w)), x0 + int(round(fx1 * w))
+        if b <= a or d <= c:
+            return
+        yy, xx = np.mgrid[0:b - a, 0:d - c] / np.array([max(1, b - a), max(1, d - c)])[:, None, None]
+        refl = 0.10 * (1 - yy) + 0.07 * np.exp(-((xx - yy - self.rng.uniform(-0.3, 0.3)) / 0.25) ** 2)
+        self.img[a:b, c:d] = GLASS + refl[..., None] * np.array([0.9, 1.0, 1.1])
+
+    def disc(self, cell, fx, fy, fr, colour):
+        x0, y0, w, h = self._box(cell)
+        yy, xx = np.mgrid[0:h, 0:w]
+        m = ((xx + 0.5) / w - fx) ** 2 + ((yy + 0.5) / h - fy) ** 2 <= fr ** 2
+        sub = self.img[y0:y0 + h, x0:x0 + w]
+        sub[m] = colour
+
+    def done(self) -> np.ndarray:
+        return np.clip(np.round(np.clip(self.img, 0, 1) * 255), 0, 255).astype(np.uint8)
+
+
+def _tyre(at, cell, hub):
+    at.fill(cell, RUBBER, noise=0.01)
+    at.disc(cell, 0.5, 0.5, 0.32, hub)
+    at.disc(cell, 0.5, 0.5, 0.12, hub * 0.55)
+
+
+def car_atlas(rng: np.random.Generator) -> np.ndarray:
+    """A car: paint on ``paint``/``body_side``/``front``/``rear``, windows on ``cabin_side``/``windscreen``."""
+    at = _Atlas("car", rng)
+    paint = _pick(rng, CAR_COLOURS)
+    seam, trim = paint * 0.55, np.array([0.09, 0.09, 0.1])
+    at.fill("paint", paint, gradient=0.08, noise=0.012)
+    at.fill("under", RUBBER * 1.5)
+    at.fill("body_side", paint, gradient=0.15, noise=0.012)
+    for fx in (0.36, 0.62):                                               # door seams and handles
+        at.rect("body_side", fx, 0.08, fx + 0.012, 0.8, seam)
+        at.rect("body_side", fx + 0.04, 0.22, fx + 0.1, 0.3, paint * 0.7)
+    at.rect("body_side", 0.0, 0.84, 1.0, 1.0, trim)                     # sill
+    for fx in (0.19, 0.81):                                               # wheel arches
+        at.disc("body_side", fx, 1.0, 0.16, trim)
+    at.fill("front", paint, gradient=0.12, noise=0.012)
+    for fx in (0.05, 0.73):
+        at.rect("front", fx, 0.12, fx + 0.22, 0.36, (0.93, 0.92, 0.84))   # headlights
+    at.rect("front", 0.32, 0.2, 0.68, 0.46, trim)                         # grille
+    at.rect("front", 0.0, 0.66, 1.0, 0.84, trim * 1.4)                    # bumper
+    at.rect("front", 0.41, 0.62, 0.59, 0.76, (0.9, 0.9, 0.86))            # plate
+    at.fill("rear", paint, gradient=0.12, noise=0.012)
+    for fx in (0.03, 0.79):
+        at.rect("rear", fx, 0.14, fx + 0.18, 0.36, (0.62, 0.06, 0.05))    # tail-lights
+    at.rect("rear", 0.0, 0.66, 1.0, 0.84, trim * 1.4)
+    at.rect("rear", 0.4, 0.4, 0.6, 0.56, (0.9, 0.9, 0.86))                # plate
+    at.fill("cabin_side", paint, gradient=0.1)
+    at.glass("cabin_side", 0.1, 0.12, 0.47, 0.92)
+    at.glass("cabin_side", 0.53, 0.12, 0.88, 0.92)
+    at.fill("windscreen", paint, gradient=0.1)
+    at.glass("windscreen", 0.06, 0.1, 0.94, 0.95)
+    _tyre(at, "tyre", np.array([0.55, 0.56, 0.58]) + rng.normal(0, 0.03))
+    return at.done()
+
+
+def bus_atlas(rng: np.random.Generator) -> np.ndarray:
+    """A double-decker bus: two rows of windows with pillars on ``side``, a tall windscreen on ``front``."""
+    at = _Atlas("bus", rng)
+    paint = _pick(rng, BUS_COLOURS)
+    trim = np.array([0.09, 0.09, 0.1])
+    at.fill("paint", paint, gradient=0.05, noise=0.012)
+    at.fill("roof", paint * 0.9 + 0.05, noise=0.012)
+    at.fill("under", RUBBER * 1.5)
+    at.fill("side", paint, gradient=0.08, noise=0.012)
+    n_win = int(rng.integers(6, 9))
+    for fy0, fy1 in ((0.1, 0.33), (0.47, 0.7)):                          # upper and lower deck
+        for i in range(n_win):
+            at.glass("side", 0.04 + i * 0.92 / n_win + 0.01, fy0, 0.04 + (i + 1) * 0.92 / n_win - 0.01, fy1)
+    at.rect("side", 0.0, 0.39, 1.0, 0.42, paint * 0.75 + 0.1)            # between-decks band
+    at.rect("side", 0.0, 0.9, 1.0, 1.0, trim)
+    for fx in (0.2, 0.8):
+        at.disc("side", fx, 1.0, 0.14, trim)
+    at.fill("front", paint, gradient=0.06, noise=0.012)
+    at.glass("front", 0.06, 0.08, 0.94, 0.32)
+    at.rect("front", 0.1, 0.36, 0.9, 0.43, (0.05, 0.05, 0.05))            # destination display
+    at.rect("front", 0.2, 0.38, 0.6, 0.41, (0.9, 0.6, 0.1))
+    at.glass("front", 0.06, 0.46, 0.94, 0.78)
+    for fx in (0.06, 0.8):
+        at.rect("front", fx, 0.84, fx + 0.14, 0.9, (0.93, 0.92, 0.84))
+    at.fill("rear", paint, gradient=0.06, noise=0.012)
+    at.glass("rear", 0.15, 0.1, 0.85, 0.3)
+    for fx in (0.05, 0.83):
+        at.rect("rear", fx, 0.78, fx + 0.12, 0.88, (0.62, 0.06, 0.05))
+    at.rect("rear", 0.4, 0.84, 0.6, 0.9, (0.9, 0.9, 0.86))
+    _tyre(at, "tyre", np.array([0.45, 0.45, 0.47]))
+    return at.done()
+
+
+def pedestrian_atlas(rng: np.random.Generator) -> np.ndarray:
+    """A pedestrian: trousers and shoes, a top with arms, face (skin) and hair."""
+    at = _Atlas("pedestrian", rng)
+    cl = np.array(CLOTHES)
+    trousers, top = cl[rng.integers(0, len(cl))], cl[rng.integers(0, len(cl))]
+    skin, hair = np.array(SKIN[rng.integers(0, len(SKIN))]), np.array(HAIR[rng.integers(0, len(HAIR))])
+    shoes = np.array([0.06, 0.06, 0.06]) if rng.random() < 0.7 else np.array([0.8, 0.8, 0.78])
+    for c in ("legs_front", "legs_side"):
+        at.fill(c, trousers, gradient=0.1, noise=0.015)
+        at.rect(c, 0.0, 0.88, 1.0, 1.0, shoes)
+    at.rect("legs_front", 0.47, 0.0, 0.53, 0.88, trousers * 0.6)          # gap between the legs
+    for c in ("torso_front", "torso_side", "shoulders"):
+        at.fill(c, top, gradient=0.12, noise=0.015)
+    at.rect("torso_side", 0.3, 0.05, 0.7, 1.0, top * 0.85)               # the arm
+    at.rect("torso_side", 0.3, 0.85, 0.7, 1.0, skin)                     # the hand
+    at.rect("torso_front", 0.38, 0.0, 0.62, 0.1, skin)                   # neck
+    at.fill("face", skin, gradient=0.1)
+    at.rect("face", 0.0, 0.0, 1.0, 0.2, hair)
+    at.rect("face", 0.25, 0.4, 0.4, 0.48, (0.15, 0.1, 0.08))             # eyes
+    at.rect("face", 0.6, 0.4, 0.75, 0.48, (0.15, 0.1, 0.08))
+    at.fill("head_side", skin, gradient=0.1)
+    at.rect("head_side", 0.0, 0.0, 1.0, 0.3, hair)
+    at.rect("head_side", 0.6, 0.0, 1.0, 0.8, hair)
+    at.fill("hair", hair, noise=0.02)
+    return at.done()
+
+
+ATLASES = {"car": car_atlas, "bus": bus_atlas, "pedestrian": pedestrian_atlas}
+
+
+def actor_atlas(kind: str, rng: np.random.Generator) -> np.ndarray:
+    """The ``(H, W, 3) uint8`` atlas of one actor of ``kind`` (car, bus, pedestrian) drawn from ``rng``."""
+    if kind not in ATLASES:
+        raise SceneError(f"actor kind {kind!r}: no atlas; valid: {', '.join(ATLASES)}")
+    if not isinstance(rng, np.random.Generator):
+        raise SceneError(f"actor atlas rng: expected a numpy Generator, got {type(rng).__name__}")
+    return ATLASES[kind](rng)

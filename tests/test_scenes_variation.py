@@ -1,0 +1,154 @@
+"""Every textured surface instance has its own seeded look (no look-alike places), actors wear vehicle and
+clothing atlases, and the validations that measure both: corner density by region and ORB place similarity."""
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from scenes.actor_textures import LAYOUTS, actor_atlas, cell_uv  # noqa: E402
+from scenes.errors import SceneError  # noqa: E402
+from scenes.textures import make_texture, weather  # noqa: E402
+from sim.rng import scene_streams  # noqa: E402
+
+
+def test_weather_seeded_and_changes_every_instance():
+    base = make_texture("brick", scene_streams(0)("texture/brick/0"), 0.8, 64)
+    a = weather(base, scene_streams(0)("texture/weather/a"))
+    assert a.tobytes() == weather(base, scene_streams(0)("texture/weather/a")).tobytes()
+    b = weather(base, scene_streams(0)("texture/weather/b"))
+    assert a.shape == base.shape and a.dtype == np.uint8
+    # another instance: a visibly different image (mean absolute difference of several grey levels)
+    assert np.abs(a.astype(int) - b.astype(int)).mean() > 3.0
+    with pytest.raises(SceneError):
+        weather(base[:, :32], scene_streams(0)("texture/weather/a"))
+
+
+@pytest.mark.parametrize("kind", sorted(LAYOUTS))
+def test_actor_atlas_seeded_smooth_paint(kind):
+    import cv2
+    a = actor_atlas(kind, scene_streams(3)(f"texture/urban-actor/{kind}/0"))
+    (W, H), cells = LAYOUTS[kind]
+    assert a.shape == (H, W, 3) and a.dtype == np.uint8
+    assert a.tobytes() == actor_atlas(kind, scene_streams(3)(f"texture/urban-actor/{kind}/0")).tobytes()
+    # paint / clothes: one smooth colour, mild gradient and grain (no pattern): a small spread and no corner
+    name = {"car": "paint", "bus": "paint", "pedestrian": "hair"}[kind]
+    x0, y0, w, h = cells[name]
+    cell = a[y0 + 2:y0 + h - 2, x0 + 2:x0 + w - 2].astype(float)
+    assert cell.std(axis=(0, 1)).max() < 10.0
+    # corner strength (Shi-Tomasi's min eigenvalue): the paint has none of the front's (lights, windows, face)
+    def strength(c):
+        x0, y0, w, h = cells[c]
+        g = cv2.cvtColor(np.ascontiguousarray(a[y0 + 2:y0 + h - 2, x0 + 2:x0 + w - 2]), cv2.COLOR_RGB2GRAY)
+        return float(cv2.cornerMinEigenVal(g.astype(np.float32), 3).max())
+    front = {"car": "front", "bus": "front", "pedestrian": "face"}[kind]
+    assert strength(name) < 0.05 * strength(front)
+    with pytest.raises(SceneError):
+        actor_atlas("tram", scene_streams(3)("texture/x/0"))
+
+
+def test_cell_uv_stays_inside_the_cell():
+    (W, H), cells = LAYOUTS["car"]
+    x0, y0, w, h = cells["tyre"]
+    u, v = cell_uv("car", "tyre", np.array([0.0, 1.0]), np.array([0.0, 1.0]))
+    assert np.all(u * W > x0) and np.all(u * W < x0 + w) and np.all(v * H > y0) and np.all(v * H < y0 + h)
+    with pytest.raises(SceneError, match="no cell"):
+        cell_uv("car", "wing", 0.5, 0.5)
+
+
+def _texture_of_geoms(model):
+    """geom id -> (texture id, rgba) of its material (-1 when untextured)."""
+    import mujoco
+    out = {}
+    for g in range(model.ngeom):
+        m = model.geom_matid[g]
+        if m < 0:
+            continue
+        tex = int(model.mat_texid[m, int(mujoco.mjtTextureRole.mjTEXROLE_RGB)])
+        out[g] = (tex, tuple(np.round(model.mat_rgba[m], 4)))
+    return out
+
+
+@pytest.mark.parametrize("name", ["campus", "indoor"])
+def test_every_textured_instance_has_its_own_look(name):
+    """No two textured geoms share both texture and colour; geoms of the same shared material differ."""
+    import mujoco
+    from scenes import SceneConfig, make_scene
+    sc = make_scene(SceneConfig(name=name), scene_streams(0))
+    spec = mujoco.MjSpec()
+    sc.add_to_spec(spec)
+    m = spec.compile()
+    looks = [v for v in _texture_of_geoms(m).values() if v[0] >= 0]
+    assert len(looks) > 40
+    assert len(set(looks)) == len(looks)
+    role = int(mujoco.mjtTextureRole.mjTEXROLE_RGB)
+    texs = [int(m.mat_texid[m.geom_matid[g], role]) for g in range(m.ngeom) if m.geom_matid[g] >= 0]
+    big = [t for t in texs if t >= 0 and "/i/" in mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TEXTURE, t)]
+    assert len(big) > 10 and len(set(big)) == len(big)            # large surfaces: a texture each
+
+
+def test_corner_density_counts_by_region():
+    """Corners only where the texture is; the labelled regions get them, the sky none."""
+    from sim.app.validation.traffic_texture import corner_density
+    rng = np.random.default_rng(1)
+    H, W = 200, 320
+    tex = np.kron((rng.random((H // 8, W // 8)) * 255).astype(np.uint8), np.ones((8, 8), np.uint8))
+    img = np.full((H, W), 120, np.uint8)
+    img[:, :100] = tex[:, :100]                                      # textured actor on the left
+    seg = np.full((H, W), 5, np.int64)                               # static geometry
+    seg[:, :100] = 9                                                 # actor id 9
+    seg[:40, 100:] = 0                                               # sky
+    d = corner_density([img], [seg], {9})
+    assert d.actor_corners > 50 and d.actor_px == 100 * H
+    assert d.background_px == (W - 100) * H and d.static_px == (W - 100) * (H - 40)
+    assert d.background_corners <= 0.05 * d.actor_corners           # only along the 100-px border
+    assert d.background_corners == 0 and np.isnan(d.ratio)          # no corner in the background: undefined
+    img2 = img.copy()
+    img2[100:, 200:] = tex[100:, 200:]                               # texture on part of the static geometry
+    d3 = corner_density([img2], [seg], {9})
+    assert d3.static_corners > 20 and d3.static_corners == d3.background_corners   # none in the sky
+    assert d3.ratio == pytest.approx((d3.actor_corners / d3.actor_px) / (d3.background_corners / d3.background_px))
+    assert d3.ratio_static < d3.ratio                                # the sky lowers the background's density
+    d2 = corner_density([img], [np.where(seg == 9, 5, seg)], set())  # no actor: everything background
+    assert d2.actor_px == 0 and d2.background_corners == d.actor_corners + d.background_corners
+
+
+@pytest.mark.slow
+def test_place_check_separates_revisits_from_distinct_places():
+    """Campus at 8 m spacing (11 places): every revisit is far more similar than any pair of distinct places,
+    which stays below a loop closure's acceptance; a view and a shifted copy of itself (a look-alike) would be
+    accepted, so the measure does see aliasing."""
+    from sim.app.validation.place_recognition import (LOOP_ACCEPT_INLIERS, OrbMatcher, PlaceConfig, check_places,
+                                                      covisible_fraction, render_views)
+    from sim.scenarios import get_scenario
+    place = PlaceConfig(spacing_m=8.0)
+    places, revisits = render_views(get_scenario("campus"), place, progress=False)
+    assert len(places) == 11
+    v = places[0]
+    assert covisible_fraction(v, v) == pytest.approx(1.0)
+    assert covisible_fraction(v, revisits[0]) > 0.3
+    res, _ = check_places(places, revisits, "campus", place, progress=False)
+    assert len(res.distinct) > 100 and res.passed, res.table()
+    m = OrbMatcher(place)
+    shifted = np.roll(v.image, 40, axis=1)
+    assert m.inliers(m.features(0, v.image), m.features(1, shifted)) > LOOP_ACCEPT_INLIERS
+
+
+def test_validate_traffic_and_places_bad_input_one_line(capsys, tmp_path):
+    """A folder without segmentation, an unknown scenario: exit 2 and one line (docs/bad_input.md)."""
+    from sim.app.cli import main
+
+    def run(*args):
+        try:
+            main(list(args))
+            code = 0
+        except SystemExit as e:
+            code = e.code
+        return code, capsys.readouterr().err
+
+    for args, needle in ((("validate", "traffic", "--data", str(tmp_path)), "generate with --segmentation"),
+                         (("validate", "places", "--scenario", "nope"), "unknown scenario 'nope'")):
+        code, err = run(*args)
+        lines = [line for line in err.strip().splitlines() if line.strip()]
+        assert code == 2 and "Traceback" not in err and len(lines) == 1 and needle in lines[0], err
