@@ -9,6 +9,7 @@ Parent folders are created. Each function returns the final path.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
 import threading
@@ -77,3 +78,12 @@ def atomic_write_npz(path, arrays: dict) -> Path:
 def atomic_write_npy(path, array: np.ndarray) -> Path:
     """Write one array with ``np.save`` (C order) atomically."""
     return atomic_write(path, _to_file(lambda f: np.save(f, np.ascontiguousarray(array))))
+
+
+def sha256_file(path) -> str:
+    """SHA-256 (hex) of a file's bytes, read in 1 MiB blocks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()

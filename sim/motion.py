@@ -252,6 +252,18 @@ def _ground_attitude(xy, t_hat, ground_height, wheelbase, track):
     return z, -np.arctan(g_fwd), np.arctan(g_left / np.sqrt(1 + g_fwd**2))
 
 
+def path_length_m(states: Callable, t0_ns: int, t1_ns: int) -> float:
+    """3-D length (m) of the body origin's path over [t0_ns, t1_ns]: 16-point Gauss-Legendre on |v_w| over
+    0.25 s panels. ``states``: (N,) int64 ns -> :class:`BodyStates`."""
+    dur = (t1_ns - t0_ns) * 1e-9
+    n = max(1, int(math.ceil(dur / 0.25)))
+    edges = np.linspace(0.0, dur, n + 1)
+    half = np.diff(edges)[:, None] / 2
+    tt = (edges[:-1, None] + half * (_GL_X + 1)).ravel()
+    sp = np.linalg.norm(states(t0_ns + np.round(tt * 1e9).astype(np.int64)).v_w, axis=1)
+    return float((sp.reshape(n, -1) * _GL_W * half).sum())
+
+
 class VehicleTrajectory:
     """The vehicle's motion; query any time with :meth:`states` (vectorised over int64 ns)."""
 
@@ -346,13 +358,7 @@ class VehicleTrajectory:
 
     def path_length(self) -> float:
         """3-D length (m) of the body origin's path over [t0_ns, t1_ns] (Gauss-Legendre on |v_w|)."""
-        dur = (self.t1_ns - self.t0_ns) * 1e-9
-        n = max(1, int(math.ceil(dur / 0.25)))
-        edges = np.linspace(0.0, dur, n + 1)
-        half = np.diff(edges)[:, None] / 2
-        tt = (edges[:-1, None] + half * (_GL_X + 1)).ravel()
-        sp = np.linalg.norm(self.states(self.t0_ns + np.round(tt * 1e9).astype(np.int64)).v_w, axis=1)
-        return float((sp.reshape(n, -1) * _GL_W * half).sum())
+        return path_length_m(self.states, self.t0_ns, self.t1_ns)
 
     def pass_times_ns(self, points_xy) -> np.ndarray:
         """(K,2) world points -> (K,) int64 times the origin passes closest (first pass if tied)."""

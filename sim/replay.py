@@ -42,7 +42,7 @@ from rigs.trajectory import Trajectory
 from rigs.trajfile import read_trajectory
 from rigs.typed_config import check_fields, knob
 from sim.errors import SimError
-from sim.motion import BodyStates
+from sim.motion import BodyStates, path_length_m
 
 GAP_FACTOR = 5.0               # a step longer than 5 median steps is a gap
 MAX_ACCEL_MPS2 = 100.0         # ~10 g: beyond any hand-held, drone or car motion
@@ -50,7 +50,6 @@ MAX_RATE_RADPS = 20.0          # ~3 turns per second
 MAX_ANG_ACCEL_RADPS2 = 1000.0
 MAX_DEPARTURE_M = 0.02        # a pose 2 cm off the least-squares spline is not noise
 MAX_DEPARTURE_DEG = 1.0
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
 
 
 @dataclass(frozen=True)
@@ -258,13 +257,7 @@ class ReplayTrajectory:
     # ------------------------------------------------------------------ interface of VehicleTrajectory
     def path_length(self) -> float:
         """3-D length (m) of the body origin's path over [t0_ns, t1_ns] (Gauss-Legendre on |v_w|)."""
-        dur = (self.t1_ns - self.t0_ns) * 1e-9
-        n = max(1, int(math.ceil(dur / 0.25)))
-        edges = np.linspace(0.0, dur, n + 1)
-        half = np.diff(edges)[:, None] / 2
-        tt = (edges[:-1, None] + half * (_GL_X + 1)).ravel()
-        sp = np.linalg.norm(self.states(self.t0_ns + np.round(tt * 1e9).astype(np.int64)).v_w, axis=1)
-        return float((sp.reshape(n, -1) * _GL_W * half).sum())
+        return path_length_m(self.states, self.t0_ns, self.t1_ns)
 
     def pass_times_ns(self, points_xy) -> np.ndarray:
         """(K,2) world points -> (K,) int64 times (1 ms grid) the body origin passes closest in x, y."""

@@ -59,17 +59,19 @@ def render_site(r, T_w_b, pans_deg):
 
 def test_rendered_stereo_disparity_error_is_below_a_third_pixel(rendered):
     """ZNCC + median + LSM on corners of a rendered pair vs the true disparity f B / depth: robust
-    sigma (1.4826 MAD) below the paper's 1/3 px, and 85 % of matched points within 1 px (the rest are
-    gross errors on the periodic paving, which the later stages must reject)."""
+    sigma (1.4826 MAD) below the paper's 1/3 px, and 85 % of the matched points the localizer uses (within its
+    ``range_max_m``) within 1 px (the rest are gross errors on periodic texture, paving or brick, which the
+    later stages must reject; the brick wall 25 m away, beyond that range, is matched a period off)."""
     import cv2
     sc, r = rendered
     (pair, depth), = render_site(r, site_pose(sc, 2.0), [0.0])
     pts = cv2.goodFeaturesToTrack(pair.left, 400, 0.01, 15).reshape(-1, 2).astype(float)
     m = match_stereo(pair.left, pair.right, pts, CAL.f, CAL.baseline, CrossSiteConfig(**CAMPUS))
     z = depth[np.rint(pts[:, 1]).astype(int), np.rint(pts[:, 0]).astype(int)]
-    err = (pts[:, 0] - m.uv_r[:, 0] - CAL.f * CAL.baseline / z)[m.ok & np.isfinite(z)]
+    used = m.ok & np.isfinite(z) & (z <= CAMPUS["range_max_m"])
+    err = (pts[:, 0] - m.uv_r[:, 0] - CAL.f * CAL.baseline / z)[used]
     sigma = 1.4826 * np.median(np.abs(err - np.median(err)))
-    assert m.ok.sum() > 100 and sigma < 1 / 3 and np.mean(np.abs(err) < 1.0) > 0.85, (m.ok.sum(), sigma)
+    assert used.sum() > 100 and sigma < 1 / 3 and np.mean(np.abs(err) < 1.0) > 0.85, (used.sum(), sigma, np.mean(np.abs(err) < 1.0))
 
 
 def test_no_overlap_keeps_the_prior(rendered):

@@ -62,7 +62,7 @@ def test_exact_imu_and_wheels_track_the_truth(traj):
     assert abs(dyaw) < 1e-3
 
 
-@pytest.mark.slow
+@pytest.mark.long       # Monte-Carlo over a whole route: 1-2 min each on 2 cores
 def test_noisy_covariance_is_consistent_with_the_error(traj):
     """Gyro white noise + 5 % wheel slip, 8 seeds: mean final-position NEES (3 dof, horizontal
     and vertical) inside the 99.9 % interval of chi2(24)/8; the error is not negligible (> 0.2 % of distance)."""
@@ -77,7 +77,7 @@ def test_noisy_covariance_is_consistent_with_the_error(traj):
     assert np.mean(rel) > 0.002
 
 
-@pytest.mark.slow
+@pytest.mark.long       # Monte-Carlo over a whole route: 1-2 min each on 2 cores
 def test_common_slip_bias_is_in_the_covariance(traj):
     """A common slip drawn per seed from N(0, 0.1^2) (the filter's slip-bias prior) on top of 5 %
     white slip and gyro noise, 8 seeds: mean final-position NEES inside the 99.9 % interval of
@@ -127,7 +127,7 @@ def biased_run(traj, seed, bias_model: bool) -> tuple:
     return e[2] ** 2 / C_w[2, 2], e @ np.linalg.solve(C_w, e), e[2]
 
 
-@pytest.mark.slow
+@pytest.mark.long       # Monte-Carlo over a whole route: 1-2 min each on 2 cores
 def test_vertical_covariance_holds_the_accelerometer_bias(stop_and_go):
     """The height error is the pitch error integrated over the distance, and a tilt measured by the
     accelerometer carries its bias (b_a / g: 0.6 deg here), which averaging the static updates does

@@ -12,6 +12,7 @@ import pytest
 from sim.app.consistency import NoisyDataset
 from rigs.image_noise import MC_TAG, ImageNoiseDataset
 from rigs.records import StereoFrame
+from rigs.errors import TestbedError
 from vo.errors import VoError
 from vo.errorprop.renoise import renoise_covariance
 from vo.estimators.base import Estimator, FrameResult
@@ -76,9 +77,9 @@ def test_monte_carlo_runs_keep_their_bytes():
 
 
 def test_image_noise_rejects_bad_sigma():
-    with pytest.raises(VoError, match="sigma"):
+    with pytest.raises(TestbedError, match="sigma"):
         ImageNoiseDataset(TexturedDataset(), -1.0, 0)
-    with pytest.raises(VoError, match="sigma"):
+    with pytest.raises(TestbedError, match="sigma"):
         ImageNoiseDataset(TexturedDataset(), float("nan"), 0)
 
 

@@ -37,7 +37,7 @@ def test_a_planted_violation_breaks_its_contract(tmp_path, planted, contract):
         shutil.copytree(ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(ROOT / "pyproject.toml", tmp_path / "pyproject.toml")
     target = {"vo/_planted.py": "import sim.generate\n", "rigs/geometry/_planted.py": "import rigs.model\n",
-              "sim/_planted.py": "import sim.app.check\n", "sim/sensors/_planted.py": "import rigs.trajectory\n"}[planted]
+              "sim/_planted.py": "import sim.app.check\n", "sim/sensors/_planted.py": "import vo.eval.metrics\n"}[planted]
     (tmp_path / planted).write_text(target)
     res = _lint(tmp_path, tmp_path)
     assert res.returncode != 0

@@ -19,20 +19,13 @@ import hashlib
 import json
 from pathlib import Path
 
-from rigs.atomic_io import atomic_write_json
+from rigs.atomic_io import atomic_write_json, sha256_file
 
 MANIFEST = "manifest.json"
 HASHED = (".csv", ".yaml", ".yml", ".txt", ".json")
 IMAGES = (".png", ".npy", ".jpg")
 SKIP = {MANIFEST, "INCOMPLETE", ".vo-testbed.lock", ".vo-testbed-dataset"}
 
-
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def _files(folder: Path) -> list:
@@ -54,7 +47,7 @@ def build_manifest(folder) -> dict:
         size = p.stat().st_size
         entry = {"size": size}
         if p.suffix.lower() in HASHED:
-            entry["sha256"] = _sha256(p)
+            entry["sha256"] = sha256_file(p)
         files[rel] = entry
         if p.suffix.lower() in IMAGES:
             image_lines.append(f"{rel} {size}")

@@ -21,6 +21,7 @@ import stat
 import tempfile
 from pathlib import Path
 
+from rigs.atomic_io import sha256_file
 from vo.errors import EstimatorError
 
 EUROC_ROOT_FILES = ("rig.yaml", "wheels.csv")
@@ -68,7 +69,7 @@ class SensorView:
             if rel not in now:
                 raise EstimatorError(f"{who}: removed the sensor file {rel} from its input folder; programs must "
                                      f"treat their input as read-only (the dataset itself is untouched)")
-            if _sha256(self.root / rel) != digest:
+            if sha256_file(self.root / rel) != digest:
                 raise EstimatorError(f"{who}: changed the sensor file {rel} in its input folder (SHA-256 differs "
                                      f"after the run); programs must treat their input as read-only (the dataset "
                                      f"itself is untouched)")
@@ -108,13 +109,6 @@ def _copy_read_only(src: Path, dst: Path) -> str:
     os.chmod(dst, stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH)
     return h.hexdigest()
 
-
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _files(base: Path, rel, names):
