@@ -186,14 +186,14 @@ def rig_names() -> list[str]:
 
 def get_rig(name: str, overrides=()) -> Rig:
     """Preset ``name`` (or a path to a rig ``.yaml`` file, ours or a Kalibr ``camchain-imucam.yaml``, see
-    :func:`rigs.calib_io.read_kalibr`), with ``key=value`` overrides applied."""
+    :func:`rigs.kalibr_io.read_kalibr`), with ``key=value`` overrides applied."""
     from rigs.rig_yaml import load_rig
     from rigs.overrides import apply_overrides
 
     if name in _BUILDERS:
         rig = _BUILDERS[name]()
     elif isinstance(name, (str, Path)) and str(name).endswith((".yaml", ".yml")):
-        from rigs.calib_io import is_kalibr_camchain, read_kalibr
+        from rigs.kalibr_io import is_kalibr_camchain, read_kalibr
         rig = read_kalibr(name, name=Path(name).stem) if is_kalibr_camchain(name) else load_rig(name)
     else:
         raise RigError(f"rig {name!r}: unknown preset; valid names: {', '.join(rig_names())} "

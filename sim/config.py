@@ -167,7 +167,7 @@ def rig_of(value) -> Rig:
     if isinstance(value, Mapping) and "preset" in value and set(value) <= {"preset", "set"}:
         return get_rig(value["preset"], value.get("set") or ())
     if isinstance(value, Mapping) and "kalibr" in value and set(value) <= {"kalibr", "imu"}:
-        from rigs.calib_io import read_kalibr
+        from rigs.kalibr_io import read_kalibr
         return read_kalibr(value["kalibr"], value.get("imu"), name=Path(str(value["kalibr"])).stem)
     if isinstance(value, Mapping):
         return rig_from_dict(dict(value), source="rig")

@@ -132,7 +132,8 @@ def _rig_with_k3(rig, k3=0.0507):
 def test_sensor_yaml_and_kalibr_have_four_coefficients_and_say_k3_is_dropped(tmp_path):
     # As real EuRoC and Kalibr: 4 radtan coefficients in sensor.yaml and camchain-imucam.yaml. A rig with
     # k3 != 0 cannot be expressed there: the Kalibr files say so in a comment, rig.yaml stays exact.
-    from rigs.calib_io import read_euroc_camera_yaml, read_kalibr
+    from rigs.calib_io import read_euroc_camera_yaml
+    from rigs.kalibr_io import read_kalibr
     from rigs.config_io import read_yaml_file
     s = Synth(n_frames=2)
     rig = _rig_with_k3(s.rig)
@@ -163,7 +164,7 @@ def test_real_layout_with_five_coefficient_camchain_takes_exact_distortion(tmp_p
     # A folder without rig.yaml read as real EuRoC: a mav0/camchain.yaml with a fifth coefficient
     # (a Kalibr-like file some tools write) gives the exact distortion.
     import yaml
-    from rigs.calib_io import kalibr_camchain_dict
+    from rigs.kalibr_io import kalibr_camchain_dict
     s = Synth(n_frames=2)
     rig = _rig_with_k3(s.rig)
     s.write(EurocWriter(tmp_path / "k3", rig, s.metadata))

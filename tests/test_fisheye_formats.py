@@ -13,7 +13,8 @@ import yaml
 from test_dataset_synth import Synth, make_rig
 from test_rosbag_export import read_bag
 
-from rigs.calib_io import read_kalibr, read_kitti_calib
+from rigs.calib_io import read_kitti_calib
+from rigs.kalibr_io import read_kalibr
 from rigs.rectify import stereo_rectify
 from sim.dataset import EurocWriter, KittiWriter
 from sim.dataset.rosbag_writer import export_rosbag

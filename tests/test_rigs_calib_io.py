@@ -6,10 +6,9 @@ import pytest
 import yaml
 
 from rigs import RigError
-from rigs.calib_io import (kalibr_camchain_dict, read_euroc_camera_yaml, read_euroc_imu_yaml, read_kalibr,
-                           read_kalibr_timeshift,
-                           read_kitti_calib, write_euroc_camera_yaml, write_euroc_imu_yaml, write_kalibr,
-                           write_kitti_calib)
+from rigs.calib_io import (read_euroc_camera_yaml, read_euroc_imu_yaml, read_kitti_calib, write_euroc_camera_yaml,
+                            write_euroc_imu_yaml, write_kitti_calib)
+from rigs.kalibr_io import kalibr_camchain_dict, read_kalibr, read_kalibr_timeshift, write_kalibr
 from rigs.presets import get_rig
 from rigs.rectify import stereo_rectify
 from rigs.geometry.se3 import inv_T

@@ -154,8 +154,8 @@ class EurocWriter:
                 (d / "segmentation").mkdir(exist_ok=True)
             cio.write_euroc_camera_yaml(d / "sensor.yaml", self.rig.cameras[k], T_i_c(self.rig, k),
                                         self.rig.camera_rate_hz, four=True)
-        cio.write_kalibr(self.rig, self.mav0 / cio.KALIBR_CAMCHAIN, self.mav0 / cio.KALIBR_IMU,
-                         timeshift_s=timeshift_s(self.metadata))
+        from rigs.kalibr_io import KALIBR_CAMCHAIN, KALIBR_IMU, write_kalibr
+        write_kalibr(self.rig, self.mav0 / KALIBR_CAMCHAIN, self.mav0 / KALIBR_IMU, timeshift_s=timeshift_s(self.metadata))
         (self.mav0 / "imu0").mkdir(parents=True, exist_ok=True)
         cio.write_euroc_imu_yaml(self.mav0 / "imu0" / "sensor.yaml", self.rig.imu, np.eye(4))
         atomic_write_text(self.mav0 / "state_groundtruth_estimate0" / "sensor.yaml", GT_SENSOR_YAML)

@@ -64,7 +64,7 @@ def _camchain_distortion(path: Path):
     cv2.fisheye 4-tuples), or None without one."""
     if not path.is_file():
         return None
-    from rigs.calib_io import read_kalibr
+    from rigs.kalibr_io import read_kalibr
     chain = rig_or_error(read_kalibr, path)
     if len(chain.cameras) < 2:
         raise DatasetError(f"{path}: expected cam0 and cam1, got {len(chain.cameras)} camera(s)")

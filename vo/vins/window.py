@@ -365,29 +365,26 @@ class Window:
         where LM's damping does not mind. Each landmark gets a weak prior (``LANDMARK_PRIOR_M`` std at its
         estimate; 1e-6 m^-2 of information) so that ``H`` is invertible; it changes the pose marginal by far
         less than its own size."""
-        g = self.graph()
-        for i in self.lm:
-            g.add(self._weak_landmark_prior(i))
-        lm_keys = [L(key) for key in self.lm.values()]
-        lm_set = set(lm_keys)
-        keys = list(dict.fromkeys([X(st.k)] + [k for k in g.keyVector() if k not in lm_set])) + lm_keys
-        H, _ = g.linearize(self.values).hessian(gtsam.Ordering(keys))
-        d = 1 if self.inv_depth else 3
-        return pose_block_marginal(H, H.shape[0] - d * len(lm_keys), d)
+        return self._leading_marginal([X(st.k)])
 
     def velocity_covariance(self, st: State) -> np.ndarray:
         """3x3 marginal covariance of V(k) in w, computed as :meth:`pose_covariance` (the same weak landmark
         priors and Schur complements). At speed, the relative standard deviation of the speed is that of the
         window's scale: the camera sees the motion only up to scale, the IMU fixes it."""
+        return self._leading_marginal([V(st.k), X(st.k)])[:3, :3]
+
+    def _leading_marginal(self, first_keys: list) -> np.ndarray:
+        """6x6 marginal covariance of the leading block of ``first_keys`` (ordered first), landmarks and the
+        other states Schur-complemented out of the window's information with weak landmark priors."""
         g = self.graph()
         for i in self.lm:
             g.add(self._weak_landmark_prior(i))
         lm_keys = [L(key) for key in self.lm.values()]
         lm_set = set(lm_keys)
-        keys = list(dict.fromkeys([V(st.k), X(st.k)] + [k for k in g.keyVector() if k not in lm_set])) + lm_keys
+        keys = list(dict.fromkeys(first_keys + [k for k in g.keyVector() if k not in lm_set])) + lm_keys
         H, _ = g.linearize(self.values).hessian(gtsam.Ordering(keys))
         d = 1 if self.inv_depth else 3
-        return pose_block_marginal(H, H.shape[0] - d * len(lm_keys), d)[:3, :3]
+        return pose_block_marginal(H, H.shape[0] - d * len(lm_keys), d)
 
     def _weak_landmark_prior(self, track: int):
         """``LANDMARK_PRIOR_M`` std at the estimate; for an inverse depth the same std along the ray
