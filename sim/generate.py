@@ -241,15 +241,26 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
                         out = exposer.finish(k, images, gains[k])
                 writers.write_frame_files(k, t_ns, out, depth=depth, seg=seg, timer=timer)
 
-            def commit(_, t_ns=t_ns):
-                writers.add_frame(t_ns, files_written=True)
-                bar.update(1)
-            pipeline.submit(work, commit)
-        pipeline.drain()
-        timer.add("frame loop", time.perf_counter() - t0)
-        timer.add("frame loop CPU", time.process_time() - c0)
-        bar.close()
+            _submit_in_order(pipeline, writers, bar, t_ns, work)
+        _close_frame_loop(pipeline, timer, bar, t0, c0)
     return gains if effects else None
+
+
+def _submit_in_order(pipeline, writers, bar, t_ns: int, work) -> None:
+    """Queue ``work`` (a frame's files, on a worker); its CSV rows and progress marker are committed in frame
+    order, after its files exist."""
+    def commit(_):
+        writers.add_frame(t_ns, files_written=True)
+        bar.update(1)
+    pipeline.submit(work, commit)
+
+
+def _close_frame_loop(pipeline, timer, bar, t0: float, c0: float) -> None:
+    """Wait for every queued frame, record the loop's wall and CPU time, close the progress bar."""
+    pipeline.drain()
+    timer.add("frame loop", time.perf_counter() - t0)
+    timer.add("frame loop CPU", time.process_time() - c0)
+    bar.close()
 
 
 def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, timer, workers, scheduler,
@@ -280,14 +291,8 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
                 def work(k=k, t_ns=t_ns, images=images, depth=depth, seg=seg):
                     writers.write_frame_files(k, t_ns, images, depth=depth, seg=seg, timer=timer)
 
-                def commit(_, t_ns=t_ns):
-                    writers.add_frame(t_ns, files_written=True)
-                    bar.update(1)
-                pipeline.submit(work, commit)
-        pipeline.drain()
-    timer.add("frame loop", time.perf_counter() - t0)
-    timer.add("frame loop CPU", time.process_time() - c0)
-    bar.close()
+                _submit_in_order(pipeline, writers, bar, t_ns, work)
+        _close_frame_loop(pipeline, timer, bar, t0, c0)
     writers.add_metadata({"rendering": sorted(devices)})
     return None
 
