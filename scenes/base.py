@@ -113,8 +113,9 @@ class Scene(abc.ABC):
         return np.zeros(np.broadcast(np.asarray(x), np.asarray(y)).shape)
 
     @abc.abstractmethod
-    def add_to_spec(self, spec) -> None:
-        """Add the scene's static geometry, textures, materials and lights to a ``mujoco.MjSpec``."""
+    def add_to_spec(self, spec, textures=None) -> None:
+        """Add the scene's static geometry, textures, materials and lights to a ``mujoco.MjSpec``; ``textures``:
+        a :class:`scenes.texture_store.TextureStore` that keeps drawn textures between processes (None: draw)."""
 
     def extent_xy(self) -> tuple:
         """(xmin, xmax, ymin, ymax) for top-down plots."""

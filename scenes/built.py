@@ -50,10 +50,10 @@ class BuiltScene(Scene):
     def _build(self, b) -> None:
         """Add everything through the ``SceneBuilder`` ``b``."""
 
-    def add_to_spec(self, spec) -> None:
+    def add_to_spec(self, spec, textures=None) -> None:
         from scenes.spec_helpers import SceneBuilder   # mujoco only when building
         c = self.config
-        b = SceneBuilder(spec, self.streams, c.texture_richness, c.lighting, c.shadows)
+        b = SceneBuilder(spec, self.streams, c.texture_richness, c.lighting, c.shadows, textures=textures)
         self._build(b)
         self._footprints = list(b.footprints)
         self._object_ids = b.object_ids()

@@ -28,6 +28,7 @@ import numpy as np
 from scenes.base import GcpSite, Route, Scene
 from scenes.routes import distance_to_polyline
 from scenes import terrain
+from scenes.texture_store import TextureStore
 
 EXTENT = (-80.0, 80.0, -80.0, 80.0)
 RES_M = 0.25
@@ -134,9 +135,9 @@ class LunarScene(Scene):
         el, az = np.radians(self.config.sun_elevation_deg), np.radians(self.config.sun_azimuth_deg)
         return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
 
-    def add_to_spec(self, spec) -> None:
+    def add_to_spec(self, spec, textures=None) -> None:
         import mujoco
-        self._add_materials(spec)
+        self._add_materials(spec, textures if textures is not None else TextureStore(None))
         self._add_mesh_chunks(spec)
         vis = spec.visual
         vis.headlight.active = 0
@@ -152,10 +153,13 @@ class LunarScene(Scene):
                                  diffuse=[d] * 3, ambient=[0.0] * 3, specular=[0.0] * 3,
                                  castshadow=bool(self.config.shadows))
 
-    def _add_materials(self, spec) -> None:
+    def _add_materials(self, spec, textures: TextureStore) -> None:
         import mujoco
+        richness = self.config.texture_richness
         for v in range(N_TEX_VARIANTS):
-            img = regolith_texture(self.streams(f"texture/regolith/{v}"), TEX_SIZE, self.config.texture_richness)
+            key = f"texture/regolith/{v}"
+            img = textures.get((self.streams(key),), ("regolith", TEX_SIZE, richness),
+                               lambda: regolith_texture(self.streams(key), TEX_SIZE, richness))
             tex = spec.add_texture(name=f"tex/regolith/{v}", type=mujoco.mjtTexture.mjTEXTURE_2D,
                                    width=TEX_SIZE, height=TEX_SIZE, nchannel=3)
             tex.data = img.tobytes()

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from scenes.errors import SceneError
+from scenes.texture_store import TextureStore
 from scenes.textures import make_texture, weather
 
 STATIC_PREFIX = "static/"
@@ -79,8 +80,9 @@ class SceneBuilder:
     """
 
     def __init__(self, spec, streams, richness: float, lighting: float = 1.0,
-                 shadows: bool = False, tex_size: int = 256):
+                 shadows: bool = False, tex_size: int = 256, textures: TextureStore | None = None):
         self.spec, self.streams, self.richness = spec, streams, float(richness)
+        self.textures = textures if textures is not None else TextureStore(None)
         self.lighting, self.shadows, self.tex_size = float(lighting), bool(shadows), int(tex_size)
         self.footprints: list[Footprint] = []
         self._names: set[str] = set()
@@ -97,7 +99,9 @@ class SceneBuilder:
     def texture(self, kind: str, variant: int = 0, size: int | None = None) -> str:
         key = (kind, int(variant))
         if key not in self._textures:
-            img = make_texture(kind, self._texture_rng(kind, variant), self.richness, size or self.tex_size)
+            size = size or self.tex_size
+            img = self.textures.get((self._texture_rng(kind, variant),), ("shared", kind, self.richness, size),
+                                    lambda: make_texture(kind, self._texture_rng(kind, variant), self.richness, size))
             name = f"tex/{kind}/{variant}"
             tex = self.spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D,
                                         width=img.shape[1], height=img.shape[0], nchannel=3)
@@ -134,8 +138,11 @@ class SceneBuilder:
         kind, _, size, plane_tile_m, specular = info
         name = f"mat/{kind}/i/{part}"
         if area_m2 >= UNIQUE_AREA_M2:
-            img = make_texture(kind, self.streams(f"texture/{kind}/{part}"), self.richness, size)
-            img = weather(img, self.streams(f"texture/weather/{part}"), stickers=decals)
+            keys = (f"texture/{kind}/{part}", f"texture/weather/{part}")
+            img = self.textures.get(
+                tuple(self.streams(k) for k in keys), ("instance", kind, self.richness, size, bool(decals)),
+                lambda: weather(make_texture(kind, self.streams(keys[0]), self.richness, size),
+                                self.streams(keys[1]), stickers=decals))
             tex_name = f"tex/{kind}/i/{part}"
             tex = self.spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_2D,
                                         width=img.shape[1], height=img.shape[0], nchannel=3)
@@ -182,7 +189,9 @@ class SceneBuilder:
         corners, but not the perfectly blank surface no visual method could ever track."""
         name = f"mat/poor/{name}"
         if name not in self._materials:
-            img = make_texture(kind, self._texture_rng(kind, variant), contrast, self.tex_size).astype(float)
+            img = self.textures.get((self._texture_rng(kind, variant),), ("poor", kind, contrast, self.tex_size),
+                                    lambda: make_texture(kind, self._texture_rng(kind, variant), contrast,
+                                                         self.tex_size)).astype(float)
             img = np.clip(img - img.mean() + white, 0, 255).astype(np.uint8)
             tex_name = f"tex/poor/{name}"
             tex = self.spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_2D,

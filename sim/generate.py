@@ -276,7 +276,7 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
     n = len(setup.frame_t_ns)
     devices, ids_written = [], not c.segmentation
     bar = tqdm(total=n, initial=start, desc="render", unit="pair", disable=not progress, dynamic_ncols=True)
-    t0, c0 = time.perf_counter(), time.process_time()
+    t0, c0, first_s = time.perf_counter(), time.process_time(), 0.0
     with ChunkSource(c, workers, resolve, scheduler, egl_devices) as source, FramePipeline(threads) as pipeline:
         for chunk in source.chunks(start, n):
             if not ids_written:
@@ -284,6 +284,12 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
                 ids_written = True
             if chunk.device not in devices:
                 devices.append(chunk.device)
+            if not first_s:
+                first_s = time.perf_counter() - t0
+                timer.add("first chunk", first_s)
+                timer.add("first chunk frames", len(chunk.frames))
+            for name, seconds in chunk.stage_s.items():
+                timer.add(name, seconds)
             for j, (images, depth, seg) in enumerate(chunk.frames):
                 k = chunk.start + j
                 t_ns = int(setup.frame_stamp_ns[k])

@@ -23,8 +23,9 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from sim.errors import SimError
 
@@ -34,11 +35,14 @@ CHUNK_FRAMES = 16           # frames per task: the unit of progress, of scheduli
 @dataclass(frozen=True)
 class RenderedChunk:
     """Frames ``start .. start + len(frames) - 1``: ``frames[j] = (images [left, right] uint8, depth, seg)``,
-    noise and effects applied; ``geom_names`` (segmentation only) and the ``device`` that drew them."""
+    noise and effects applied; ``geom_names`` (segmentation only) and the ``device`` that drew them;
+    ``stage_s``: the worker's seconds per stage for this chunk (``render``, ``read-back``, ``noise/effects``,
+    and ``start-up``, the building of its scene and GL context, on the chunk that paid for it)."""
     start: int
     frames: list
     geom_names: list
     device: str
+    stage_s: dict = field(default_factory=dict)
 
 
 def check_splittable(config) -> None:
@@ -68,16 +72,21 @@ class _WorkerState:
 
     def __init__(self, config, resolve):
         from sim.sensors.camera import FrameExposer, StereoCamera
+        from sim.stage_timer import StageTimer
+        t0 = time.perf_counter()
+        self.timer = StageTimer()
         self.key = config.config_hash()
         self.setup = setup = resolve(config)
         c = config
         self.T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
         self.camera = StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth,
-                                   segmentation=c.segmentation, supersample=setup.supersample, rgb=c.rgb)
+                                   segmentation=c.segmentation, supersample=setup.supersample, rgb=c.rgb,
+                                   timer=self.timer)
         self.exposer = FrameExposer(self.camera, setup.rig, c.camera, 1.0 / setup.rig.camera_rate_hz, c.seed,
                                     setup.image_noise, noisy=not c.ideal) if c.camera.image_effects else None
         self.geom_names = self.camera.geom_names() if c.segmentation else []
         self.device = device_label(self.camera.gl_renderer)
+        self.timer.add("start-up", time.perf_counter() - t0)
 
     def close(self) -> None:
         self.camera.close()
@@ -90,23 +99,30 @@ def render_chunk(config, a: int, b: int, resolve) -> RenderedChunk:
     from sim.rng import indexed_stream
     from sim.sensors.camera import add_noise
     check_splittable(config)
-    state = getattr(_LOCAL, "state", None)
+    state, before = getattr(_LOCAL, "state", None), {}
     if state is None or state.key != config.config_hash():
         if state is not None:
             state.close()
-        state = _LOCAL.state = _WorkerState(config, resolve)
-    s, frames = state.setup, []
+        state = _LOCAL.state = _WorkerState(config, resolve)     # its start-up counts in this chunk
+    else:
+        before = state.timer.totals()
+    s, frames, timer = state.setup, [], state.timer
     pose_at = lambda t_ns: s.trajectory.states(t_ns).T_w_b  # noqa: E731
     for k in range(a, b):
         t_ns = int(s.frame_t_ns[k])
         if state.exposer is None:
-            images, depth, seg = state.camera.measure(state.T_w_b[k], s.scene.actor_states(t_ns))
-            images = add_noise(images, s.image_noise, indexed_stream(config.seed, "image_noise", k))
+            with timer.stage("render"):
+                images, depth, seg = state.camera.measure(state.T_w_b[k], s.scene.actor_states(t_ns))
+            with timer.stage("noise/effects"):
+                images = add_noise(images, s.image_noise, indexed_stream(config.seed, "image_noise", k))
         else:
-            images, depth, seg, gain = state.exposer.render(k, t_ns, pose_at, s.scene.actor_states)
-            images = state.exposer.finish(k, images, gain)
+            with timer.stage("render"):
+                images, depth, seg, gain = state.exposer.render(k, t_ns, pose_at, s.scene.actor_states)
+            with timer.stage("noise/effects"):
+                images = state.exposer.finish(k, images, gain)
         frames.append((images, depth, seg))
-    return RenderedChunk(a, frames, state.geom_names, state.device)
+    stage_s = {name: sec - before.get(name, 0.0) for name, sec in timer.totals().items()}
+    return RenderedChunk(a, frames, state.geom_names, state.device, stage_s)
 
 
 def _init_process(devices, counter) -> None:

@@ -9,11 +9,11 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import os
 import shutil
 import sys
 from pathlib import Path
 
+from sim.cache_dir import cache_root
 from sim.config import CalibError, GenerateConfig
 from sim.errors import SimError
 
@@ -113,10 +113,6 @@ def get_scenario(name: str, overrides=(), seed=None, source: str = "--set") -> G
     if seed is not None:
         cfg = cfg.with_value("seed", seed)
     return cfg.with_overrides(tuple(overrides), source=source)
-
-
-def cache_root() -> Path:
-    return Path(os.environ.get("VO_TESTBED_CACHE", Path.home() / ".cache" / "vo-testbed"))
 
 
 def renderer_versions() -> dict:

@@ -23,6 +23,7 @@ from scenes.base import Scene
 from sim import mjcam
 from sim.distortion import DistortionMap
 from sim.errors import SimError
+from sim.texture_cache import texture_store
 from sim.vehicles import VehicleHandles, add_vehicle
 
 ZNEAR_M = 0.05
@@ -151,16 +152,18 @@ def _render_rig(rig: Rig, distort: bool) -> tuple:
 
 
 def build_world(scene: Scene, rig: Rig, vehicle: str = "cart",
-                extra: Optional[Callable] = None, distort: bool = True) -> World:
+                extra: Optional[Callable] = None, distort: bool = True, textures=None) -> World:
     """Compile ``scene`` + vehicle ``vehicle`` carrying ``rig``; ``extra(spec)`` may add more.
 
     With ``distort`` (default), cameras with lens distortion are rendered as pinhole canvases
     and :class:`sim.render.StereoRenderer` warps them to the exact distorted image; with
-    ``distort=False`` every camera renders its pinhole ``K`` only (distortion ignored).
+    ``distort=False`` every camera renders its pinhole ``K`` only (distortion ignored). ``textures``: the
+    :class:`scenes.texture_store.TextureStore` the scene's textures come from (None: the machine's,
+    :func:`sim.texture_cache.texture_store`).
     """
     spec = mujoco.MjSpec()
     spec.modelname = f"{getattr(scene, 'name', '') or 'scene'}_{rig.name}"
-    scene.add_to_spec(spec)
+    scene.add_to_spec(spec, textures=textures if textures is not None else texture_store())
     render_rig, maps = _render_rig(rig, distort)
     handles = add_vehicle(spec, render_rig, kind=vehicle)
     if extra is not None:

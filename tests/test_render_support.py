@@ -56,7 +56,7 @@ class RenderTestScene(Scene):
     def gcp_sites(self):
         return ()
 
-    def add_to_spec(self, spec) -> None:
+    def add_to_spec(self, spec, textures=None) -> None:
         spec.visual.headlight.active = 0
         rng = np.random.default_rng(self.config.seed)
         tex = spec.add_texture(name="noise", type=mujoco.mjtTexture.mjTEXTURE_2D, width=256, height=256,

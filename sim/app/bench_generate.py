@@ -7,7 +7,9 @@ One run of :func:`bench_generate` on a scenario's first ``frames`` frames, side 
 - *end to end*: :func:`sim.generate.generate` into a temporary folder (render, noise and effects, PNG
   encoding, writing), timed over its frame loop (scene building, IMU and truth files left out, as for
   render only the GL context's creation); with ``workers > 1`` the frames are rendered by that many
-  processes (:mod:`sim.render_workers`), their start-up included.
+  processes (:mod:`sim.render_workers`), their start-up included (each builds its scene and GL context;
+  ``start-up`` in the stage figures); *after start-up* is the end-to-end rate from the arrival of the first
+  rendered chunk to the end, the rate a long route approaches.
 
 ``repeat`` alternates the two and keeps each one's best run (the machine may be shared). Per-stage
 figures are thread-milliseconds per pair (:class:`sim.stage_timer.StageTimer`; the worker threads run
@@ -27,7 +29,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-STAGES = ("render", "read-back", "noise/effects", "rectify", "encode", "write")
+STAGES = ("render", "read-back", "noise/effects", "rectify", "encode", "write", "start-up")
 
 
 @dataclass(frozen=True)
@@ -45,6 +47,7 @@ class GenerateBench:
     end_to_end_cpu_ms: float = 0.0                    # and end to end: robust to other load
     cpus: int = 0
     load_avg: tuple = ()                              # 1-minute load average before and after
+    after_start_pairs_per_s: float = 0.0             # with workers: end to end once the first chunk is in
 
     @property
     def ratio(self) -> float:
@@ -104,12 +107,16 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     load0 = os.getloadavg()[0]
     setup = resolve(config)
     best_render, best_e2e, best_timer, n = (np.inf, np.inf), (np.inf, np.inf), None, 0
+    after_start = 0.0
     for r in range(max(1, repeat)):
         n, dt, dc = render_only(setup)
         best_render = min(best_render, (dt, dc))
         n, dt, dc, timer = end_to_end(config, threads, workdir, workers, scheduler)
         if dt < best_e2e[0]:
             best_e2e, best_timer = (dt, dc), timer
+        first_s, first_n = timer.seconds("first chunk"), timer.seconds("first chunk frames")
+        if first_s and n > first_n and dt > first_s:
+            after_start = max(after_start, (n - first_n) / (dt - first_s))
         if progress:
             progress(f"run {r + 1}/{repeat}: render only {n / best_render[0]:.1f}, "
                      f"end to end {n / best_e2e[0]:.1f} pairs/s")
@@ -122,7 +129,7 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     return GenerateBench(scenario, n, threads, workers, png, n / best_render[0],
                          n / best_e2e[0], stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n,
                          os.cpu_count() or 0,
-                         (round(load0, 2), round(os.getloadavg()[0], 2)))
+                         (round(load0, 2), round(os.getloadavg()[0], 2)), after_start)
 
 
 def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -> list:
@@ -184,6 +191,8 @@ def format_bench(b: GenerateBench) -> str:
              f"end to end    {b.end_to_end_pairs_per_s:7.1f} pairs/s   "
              f"(CPU {b.end_to_end_cpu_ms:.1f} ms/pair, all threads)",
              f"ratio         {b.ratio:7.2f}",
+             *([f"after start-up {b.after_start_pairs_per_s:6.1f} pairs/s   (workers' first chunk in; ratio "
+                f"{b.after_start_pairs_per_s / b.render_pairs_per_s:.2f})"] if b.after_start_pairs_per_s else []),
              "stage ms/pair " + "  ".join(f"{s} {b.stage_ms[s]:.1f}" for s in STAGES),
              f"peak memory   {b.peak_rss_mb:7.0f} MB"]
     return "\n".join(lines)

@@ -140,7 +140,7 @@ class TargetScene(Scene):
         c = np.array([b.center_w for b in self.boards] + [[0.0, 0.0, 0.0]])
         return (c[:, 0].min() - 5, c[:, 0].max() + 5, c[:, 1].min() - 5, c[:, 1].max() + 5)
 
-    def add_to_spec(self, spec) -> None:
+    def add_to_spec(self, spec, textures=None) -> None:
         lit = float(self.config.lighting)
         spec.visual.headlight.ambient = [0.35 * lit] * 3
         spec.visual.headlight.diffuse = [0.45 * lit] * 3
