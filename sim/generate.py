@@ -284,6 +284,8 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
                 ids_written = True
             if chunk.device not in devices:
                 devices.append(chunk.device)
+            for stage, seconds in (chunk.stage_s or {}).items():
+                timer.add(stage, seconds)               # the worker processes' thread-seconds
             for j, (images, depth, seg) in enumerate(chunk.frames):
                 k = chunk.start + j
                 t_ns = int(setup.frame_stamp_ns[k])

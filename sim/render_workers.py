@@ -34,11 +34,13 @@ CHUNK_FRAMES = 16           # frames per task: the unit of progress, of scheduli
 @dataclass(frozen=True)
 class RenderedChunk:
     """Frames ``start .. start + len(frames) - 1``: ``frames[j] = (images [left, right] uint8, depth, seg)``,
-    noise and effects applied; ``geom_names`` (segmentation only) and the ``device`` that drew them."""
+    noise and effects applied; ``geom_names`` (segmentation only) and the ``device`` that drew them;
+    ``stage_s``: the worker's seconds per stage (``render``, ``read-back``, ``noise/effects``) for them."""
     start: int
     frames: list
     geom_names: list
     device: str
+    stage_s: dict = None
 
 
 def check_splittable(config) -> None:
@@ -68,12 +70,15 @@ class _WorkerState:
 
     def __init__(self, config, resolve):
         from sim.sensors.camera import FrameExposer, StereoCamera
+        from sim.stage_timer import StageTimer
+        self.timer = StageTimer()                # read-back is timed inside the camera, for every chunk
         self.key = config.config_hash()
         self.setup = setup = resolve(config)
         c = config
         self.T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
         self.camera = StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth,
-                                   segmentation=c.segmentation, supersample=setup.supersample, rgb=c.rgb)
+                                   segmentation=c.segmentation, supersample=setup.supersample, rgb=c.rgb,
+                                   timer=self.timer)
         self.exposer = FrameExposer(self.camera, setup.rig, c.camera, 1.0 / setup.rig.camera_rate_hz, c.seed,
                                     setup.image_noise, noisy=not c.ideal) if c.camera.image_effects else None
         self.geom_names = self.camera.geom_names() if c.segmentation else []
@@ -95,18 +100,24 @@ def render_chunk(config, a: int, b: int, resolve) -> RenderedChunk:
         if state is not None:
             state.close()
         state = _LOCAL.state = _WorkerState(config, resolve)
-    s, frames = state.setup, []
+    s, frames, timer = state.setup, [], state.timer
+    before = timer.totals()
     pose_at = lambda t_ns: s.trajectory.states(t_ns).T_w_b  # noqa: E731
     for k in range(a, b):
         t_ns = int(s.frame_t_ns[k])
         if state.exposer is None:
-            images, depth, seg = state.camera.measure(state.T_w_b[k], s.scene.actor_states(t_ns))
-            images = add_noise(images, s.image_noise, indexed_stream(config.seed, "image_noise", k))
+            with timer.stage("render"):
+                images, depth, seg = state.camera.measure(state.T_w_b[k], s.scene.actor_states(t_ns))
+            with timer.stage("noise/effects"):
+                images = add_noise(images, s.image_noise, indexed_stream(config.seed, "image_noise", k))
         else:
-            images, depth, seg, gain = state.exposer.render(k, t_ns, pose_at, s.scene.actor_states)
-            images = state.exposer.finish(k, images, gain)
+            with timer.stage("render"):
+                images, depth, seg, gain = state.exposer.render(k, t_ns, pose_at, s.scene.actor_states)
+            with timer.stage("noise/effects"):
+                images = state.exposer.finish(k, images, gain)
         frames.append((images, depth, seg))
-    return RenderedChunk(a, frames, state.geom_names, state.device)
+    stage_s = {k: v - before.get(k, 0.0) for k, v in timer.totals().items()}
+    return RenderedChunk(a, frames, state.geom_names, state.device, stage_s)
 
 
 def _init_process(devices, counter) -> None:
