@@ -9,13 +9,16 @@ One run of :func:`bench_generate` on a scenario's first ``frames`` frames, side 
   render only the GL context's creation); with ``workers > 1`` the frames are rendered by that many
   processes (:mod:`sim.render_workers`), their start-up included (each builds its scene and GL context;
   ``start-up`` in the stage figures); *after start-up* is the end-to-end rate from the arrival of the first
-  rendered chunk to the end, the rate a long route approaches.
+  rendered chunk to the end, the rate a long route approaches. The workers' stage times come back
+  with each chunk and are summed over the processes; the render-only run stays one process.
 
 ``repeat`` alternates the two and keeps each one's best run (the machine may be shared). Per-stage
 figures are thread-milliseconds per pair (:class:`sim.stage_timer.StageTimer`; the worker threads run
 concurrently, so they may add up to more than the elapsed time); ``render`` excludes ``read-back``
 (``mjr_readPixels``, which also waits for the renderer to finish). Peak memory is the process's peak
-resident set (``ru_maxrss``). :func:`png_levels` times PNG encoding of the scenario's noisy frames at
+resident set (``ru_maxrss``), and with workers the largest worker process's;
+``renderer`` names the GL renderer and EGL device of the render-only run, ``end_to_end_renderers`` those of
+the end-to-end run (``metadata.yaml``'s ``rendering``). :func:`png_levels` times PNG encoding of the scenario's noisy frames at
 every zlib level, strategy and row filter (``render.png_compression``, ``png_strategy``, ``png_filter``).
 """
 from __future__ import annotations
@@ -28,6 +31,7 @@ import time
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+import yaml
 
 STAGES = ("render", "read-back", "noise/effects", "rectify", "encode", "write", "start-up")
 
@@ -48,6 +52,9 @@ class GenerateBench:
     cpus: int = 0
     load_avg: tuple = ()                              # 1-minute load average before and after
     after_start_pairs_per_s: float = 0.0             # with workers: end to end once the first chunk is in
+    renderer: str = ""                                # render only: GL renderer and EGL device (device_label)
+    end_to_end_renderers: tuple = ()                  # end to end: metadata.yaml's ``rendering`` (per process)
+    peak_rss_children_mb: float = 0.0                 # the largest render worker process's peak (workers > 1)
 
     @property
     def ratio(self) -> float:
@@ -68,7 +75,9 @@ def frames_config(scenario: str, frames: int | None, overrides=()):
 
 
 def render_only(setup, timer=None) -> tuple:
-    """``(pairs, seconds, CPU seconds)``: every frame of ``setup`` rendered by the camera sensor, nothing else."""
+    """``(pairs, seconds, CPU seconds, device label)``: every frame of ``setup`` rendered by the camera
+    sensor, nothing else; the label names the GL renderer and EGL device (:func:`sim.render_workers.device_label`)."""
+    from sim.render_workers import device_label
     from sim.sensors.camera import StereoCamera
     c = setup.config
     T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
@@ -77,12 +86,14 @@ def render_only(setup, timer=None) -> tuple:
         t0, c0 = time.perf_counter(), time.process_time()
         for k, t_ns in enumerate(setup.frame_t_ns):
             camera.measure(T_w_b[k], setup.scene.actor_states(int(t_ns)))
-        return len(setup.frame_t_ns), time.perf_counter() - t0, time.process_time() - c0
+        return (len(setup.frame_t_ns), time.perf_counter() - t0, time.process_time() - c0,
+                device_label(camera.gl_renderer))
 
 
 def end_to_end(config, threads, workdir, workers: int = 1, scheduler=None) -> tuple:
-    """``(pairs, seconds of the frame loop, its CPU seconds, StageTimer)`` of one
-    :func:`sim.generate.generate` run."""
+    """``(pairs, seconds of the frame loop, its CPU seconds, StageTimer, renderers)`` of one
+    :func:`sim.generate.generate` run; ``renderers``: its ``metadata.yaml``'s ``rendering`` list."""
+    from sim.dataset.common import METADATA
     from sim.generate import generate
     from sim.stage_timer import StageTimer
     timer = StageTimer()
@@ -90,9 +101,11 @@ def end_to_end(config, threads, workdir, workers: int = 1, scheduler=None) -> tu
     try:
         res = generate(config, os.path.join(out, "ds"), progress=False, threads=threads, timer=timer,
                        workers=workers, scheduler=scheduler)
+        with open(os.path.join(res.out_dir, METADATA)) as f:
+            renderers = tuple((yaml.safe_load(f) or {}).get("rendering") or ())
     finally:
         shutil.rmtree(out, ignore_errors=True)
-    return res.n_frames, timer.seconds("frame loop"), timer.seconds("frame loop CPU"), timer
+    return res.n_frames, timer.seconds("frame loop"), timer.seconds("frame loop CPU"), timer, renderers
 
 
 def bench_generate(scenario: str = "campus-short", frames: int | None = 100, threads: int | None = None,
@@ -109,9 +122,9 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     best_render, best_e2e, best_timer, n = (np.inf, np.inf), (np.inf, np.inf), None, 0
     after_start = 0.0
     for r in range(max(1, repeat)):
-        n, dt, dc = render_only(setup)
+        n, dt, dc, device = render_only(setup)
         best_render = min(best_render, (dt, dc))
-        n, dt, dc, timer = end_to_end(config, threads, workdir, workers, scheduler)
+        n, dt, dc, timer, renderers = end_to_end(config, threads, workdir, workers, scheduler)
         if dt < best_e2e[0]:
             best_e2e, best_timer = (dt, dc), timer
         first_s, first_n = timer.seconds("first chunk"), timer.seconds("first chunk frames")
@@ -124,12 +137,14 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     stage_ms = {s: 1e3 * tot.get(s, 0.0) / n for s in STAGES}
     stage_ms["render"] -= stage_ms["read-back"]
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    peak_children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
     r = config.render
     png = f"level {r.png_compression}, {r.png_strategy}, {r.png_filter} filter"
     return GenerateBench(scenario, n, threads, workers, png, n / best_render[0],
                          n / best_e2e[0], stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n,
                          os.cpu_count() or 0,
-                         (round(load0, 2), round(os.getloadavg()[0], 2)), after_start)
+                         (round(load0, 2), round(os.getloadavg()[0], 2)), after_start, device, renderers,
+                         peak_children)
 
 
 def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -> list:
@@ -163,10 +178,12 @@ def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -
     return rows
 
 
-def noise_cost(width: int = 752, height: int = 480, sigma: float = 1.0, pairs: int = 50) -> dict:
+def noise_cost(width: int = 752, height: int = 480, sigma: float = 1.0, pairs: int = 200, rounds: int = 3) -> dict:
     """CPU ms per stereo pair of ``width x height`` grey images for the camera's noise step
     (:func:`rigs.image_noise.add_quantized_noise`) and for the Gaussian sum in float32 and float64
-    (:func:`rigs.image_noise.add_image_noise`), each frame from its own indexed stream, one thread."""
+    (:func:`rigs.image_noise.add_image_noise`), each frame from its own indexed stream (its creation
+    included), one thread; after one warm-up pair, the least of ``rounds`` rounds of ``pairs`` pairs
+    (process CPU time: other processes' load inflates it, never lowers it)."""
     from sim.rng import indexed_stream
     from rigs.image_noise import add_image_noise, add_quantized_noise
     img = np.random.default_rng(0).integers(0, 256, (height, width), dtype=np.uint8)
@@ -175,11 +192,15 @@ def noise_cost(width: int = 752, height: int = 480, sigma: float = 1.0, pairs: i
              "gaussian sum, float64": lambda im, s, rng: add_image_noise(im, s, rng, np.float64)}
     out = {}
     for name, draw in draws.items():
-        t0 = time.process_time()
-        for k in range(pairs):
-            rng = indexed_stream(0, "image_noise", k)
-            draw(img, sigma, rng), draw(img, sigma, rng)
-        out[name] = 1e3 * (time.process_time() - t0) / pairs
+        draw(img, sigma, indexed_stream(0, "image_noise", 0))
+        best = float("inf")
+        for _ in range(rounds):
+            t0 = time.process_time()
+            for k in range(pairs):
+                rng = indexed_stream(0, "image_noise", k)
+                draw(img, sigma, rng), draw(img, sigma, rng)
+            best = min(best, 1e3 * (time.process_time() - t0) / pairs)
+        out[name] = best
     return out
 
 
@@ -194,7 +215,10 @@ def format_bench(b: GenerateBench) -> str:
              *([f"after start-up {b.after_start_pairs_per_s:6.1f} pairs/s   (workers' first chunk in; ratio "
                 f"{b.after_start_pairs_per_s / b.render_pairs_per_s:.2f})"] if b.after_start_pairs_per_s else []),
              "stage ms/pair " + "  ".join(f"{s} {b.stage_ms[s]:.1f}" for s in STAGES),
-             f"peak memory   {b.peak_rss_mb:7.0f} MB"]
+             f"peak memory   {b.peak_rss_mb:7.0f} MB" + (f" (largest worker process {b.peak_rss_children_mb:.0f} MB)"
+                                                     if b.workers > 1 else ""),
+             f"renderer      {b.renderer}"]
+    lines += [f"end to end on {r}" for r in b.end_to_end_renderers if r != b.renderer]
     return "\n".join(lines)
 
 
