@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.config import GenerateConfig
+from sim.dataset.common import PngOptions
 from sim.errors import SimError
 from sim.rng import indexed_stream, scene_streams, stream
 
@@ -277,7 +278,9 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
     devices, ids_written = [], not c.segmentation
     bar = tqdm(total=n, initial=start, desc="render", unit="pair", disable=not progress, dynamic_ncols=True)
     t0, c0, first_s = time.perf_counter(), time.process_time(), 0.0
-    with ChunkSource(c, workers, resolve, scheduler, egl_devices) as source, FramePipeline(threads) as pipeline:
+    png = PngOptions.of(c.render) if c.format == "euroc" else None    # EuRoC images: encoded by the workers
+    with ChunkSource(c, workers, resolve, scheduler, egl_devices, png) as source, \
+            FramePipeline(threads) as pipeline:
         for chunk in source.chunks(start, n):
             if not ids_written:
                 writers.add_segmentation_ids(setup.scene.segmentation_rows(chunk.geom_names))

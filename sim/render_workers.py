@@ -27,6 +27,7 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 
+from sim.dataset.common import EncodedPng, encode_png
 from sim.errors import SimError
 
 CHUNK_FRAMES = 16           # frames per task: the unit of progress, of scheduling and of memory in flight
@@ -92,10 +93,12 @@ class _WorkerState:
         self.camera.close()
 
 
-def render_chunk(config, a: int, b: int, resolve) -> RenderedChunk:
+def render_chunk(config, a: int, b: int, resolve, png=None) -> RenderedChunk:
     """Frames ``a .. b-1`` of ``config`` with noise and effects (module docstring); any process, any order.
     ``resolve``: config -> setup (scene, rig, trajectory, frame times): :func:`sim.generate.resolve`, passed in
-    (pickled by reference) so that this module does not import the generator that imports it."""
+    (pickled by reference) so that this module does not import the generator that imports it. With ``png``
+    (:class:`sim.dataset.common.PngOptions`) the images come back PNG-encoded (:class:`EncodedPng`, as the
+    EuRoC writer encodes them), so that encoding is spread over the processes too."""
     from sim.rng import indexed_stream
     from sim.sensors.camera import add_noise
     check_splittable(config)
@@ -120,6 +123,9 @@ def render_chunk(config, a: int, b: int, resolve) -> RenderedChunk:
                 images, depth, seg, gain = state.exposer.render(k, t_ns, pose_at, s.scene.actor_states)
             with timer.stage("noise/effects"):
                 images = state.exposer.finish(k, images, gain)
+        if png is not None:
+            with timer.stage("encode"):
+                images = [EncodedPng(encode_png(img, True, png)) for img in images]
         frames.append((images, depth, seg))
     stage_s = {name: sec - before.get(name, 0.0) for name, sec in timer.totals().items()}
     return RenderedChunk(a, frames, state.geom_names, state.device, stage_s)
@@ -145,8 +151,9 @@ class ChunkSource:
     """Chunks of ``config`` rendered by ``workers`` local processes (each builds its setup with ``resolve``) or by the Dask cluster at ``scheduler``,
     yielded in frame order by :meth:`chunks`, at most ``2 x workers`` in flight. Use as a context manager."""
 
-    def __init__(self, config, workers: int, resolve, scheduler: str | None = None, egl_devices=()):
+    def __init__(self, config, workers: int, resolve, scheduler: str | None = None, egl_devices=(), png=None):
         check_splittable(config)
+        self._png = png                        # PngOptions: images come back encoded (render_chunk)
         self._resolve = resolve                # sim.generate.resolve: config -> setup, run in each worker
         self.config, self.workers, self.scheduler = config, max(1, int(workers)), scheduler
         self.egl_devices = tuple(str(d) for d in egl_devices)
@@ -174,8 +181,8 @@ class ChunkSource:
 
     def _submit(self, a: int, b: int):
         if self._client is not None:
-            return self._client.submit(render_chunk, self.config, a, b, self._resolve, pure=False)
-        return self._pool.submit(render_chunk, self.config, a, b, self._resolve)
+            return self._client.submit(render_chunk, self.config, a, b, self._resolve, self._png, pure=False)
+        return self._pool.submit(render_chunk, self.config, a, b, self._resolve, self._png)
 
     def chunks(self, start: int, stop: int, size: int = CHUNK_FRAMES):
         """Yield the :class:`RenderedChunk` of ``start .. stop-1`` in order; chunks of ``size`` frames, fewer

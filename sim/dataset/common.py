@@ -238,11 +238,22 @@ def encode_png(image: np.ndarray, rgb: bool = True, png: PngOptions = PngOptions
     return buf.tobytes()
 
 
-def write_png(path: Path, image: np.ndarray, rgb: bool = True, png: PngOptions = PngOptions(),
+@dataclass(frozen=True)
+class EncodedPng:
+    """An image already encoded by :func:`encode_png` (by a render process, :mod:`sim.render_workers`), with
+    the options and ``rgb`` flag of the writer that will write it; :func:`write_png` writes its bytes as they are."""
+    data: bytes
+
+
+def write_png(path: Path, image, rgb: bool = True, png: PngOptions = PngOptions(),
               timer=NO_TIMER) -> None:
-    """Write ``image`` as PNG (:func:`encode_png`); deterministic bytes. Written to a temp name then
-    renamed, so a file under the final name is always whole. Safe to call from several threads.
-    ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``encode`` and ``write``."""
+    """Write ``image`` (an array, or an :class:`EncodedPng`) as PNG (:func:`encode_png`); deterministic bytes.
+    Written to a temp name then renamed, so a file under the final name is always whole. Safe to call from
+    several threads. ``timer`` (:class:`sim.stage_timer.StageTimer`) gets the stages ``encode`` and ``write``."""
+    if isinstance(image, EncodedPng):
+        with timer.stage("write"):
+            atomic_write_bytes(path, image.data)
+        return
     with timer.stage("encode"):
         data = encode_png(image, rgb, png)
     with timer.stage("write"):
