@@ -67,13 +67,18 @@ STAGES = ("detect", "track", "stereo", "essential", "initial", "adjust")
 
 
 class RopEstimator(Estimator):
-    """``RopEstimator(rig, config=None, uncertainty=None, **options)``: ``config`` a
+    """``RopEstimator(rig, config=None, uncertainty=None, tracker=None, **options)``: ``config`` a
     :class:`~vo.rop.config.RopConfig`, or its fields as keyword options (``--opt``); ``uncertainty``
-    an :class:`~vo.rop.uncertainty.UncertaintyModel` instead of the one ``config.cov`` names."""
+    an :class:`~vo.rop.uncertainty.UncertaintyModel` instead of the one ``config.cov`` names; ``tracker``
+    the four-view tracker of the KLT front-end (``keyframe`` / ``track`` / ``normalize`` / ``view`` of
+    :class:`~vo.rop.tracks.KltFourView`, the default built from ``klt_config`` and ``klt_refine``), e.g. a
+    validation's exact tracks; ``step_observer(pairs, R_1_3, priors)`` is called with the inputs of each
+    frame's ROP solve (studies: what a step was solved from)."""
 
     name = "rop"
 
-    def __init__(self, rig, config: RopConfig | None = None, uncertainty: UncertaintyModel | None = None, **options):
+    def __init__(self, rig, config: RopConfig | None = None, uncertainty: UncertaintyModel | None = None,
+                 tracker=None, step_observer=None, **options):
         super().__init__(rig, **options)
         if config is not None and options:
             raise EstimatorError(f"rop: give either config or options, not both (options {sorted(options)})")
@@ -87,7 +92,11 @@ class RopEstimator(Estimator):
         self.adjustment_config = AdjustmentConfig()
         self.uncertainty = uncertainty if uncertainty is not None else make_uncertainty(c, self.adjustment_config,
                                                                                         self.focal)
-        self.klt = KltFourView(rig, c.klt_config, c.klt_refine) if c.frontend == "klt" else None
+        if tracker is not None and c.frontend != "klt":
+            raise EstimatorError(f"rop: a tracker is the KLT front-end's; frontend is {c.frontend!r}")
+        self.klt = (tracker if tracker is not None else KltFourView(rig, c.klt_config, c.klt_refine)
+                    ) if c.frontend == "klt" else None
+        self.step_observer = step_observer
         self._moving_pnp = PnpConfig(ransac_reproj_px=c.moving_reproj_px, min_model_fraction=c.moving_min_fraction)
         self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
         self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
@@ -180,6 +189,17 @@ class RopEstimator(Estimator):
         T = make_T(R_1_3, np.zeros(3))
         return T, cov, ("rotation_only", T, T, None, None)
 
+    def rop_set(self, pairs, R_1_3, priors):
+        """The four ROPs of one step from its pairs (``{pair: (x_i, x_j)}``), the rotation-only ``R_1_3`` and
+        the predicted ROPs ``priors``, after the rotation consensus (:mod:`vo.rop.consensus`)."""
+        return rotation_consensus(solve_rops(pairs, priors, self.focal, self.T_c1_c2, self.config), R_1_3,
+                                  self.config.max_rop_rotation_deg)
+
+    def solve_step(self, pairs, R_1_3, priors):
+        """``T_kf_c`` (4,4) of one step solved from the inputs a ``step_observer`` receives (ROPs, consensus,
+        adjustment), None when the adjustment fails; the estimator's state is not touched."""
+        return self._adjust(self.rop_set(pairs, R_1_3, priors), dict(essential=0.0, initial=0.0, adjust=0.0))[0]
+
     def _adjust(self, ropset, timings) -> tuple:
         """-> (T_kf_c, cov_step, epoch, message); T None on failure."""
         if len(ropset.ok_pairs) < 3:
@@ -210,8 +230,9 @@ class RopEstimator(Estimator):
             return (*self._rotation_only_step(R_1_3, parallax, len(x1), disparity),
                     f"parallax {parallax:.2f} px < {min_par} px: no translation (rotation only)", R_rot)
         priors = predicted_rops(R_1_3, (self._T_kf_cur @ self._last_motion)[:3, 3], self.T_c1_c2)
-        ropset = rotation_consensus(solve_rops(pairs, priors, self.focal, self.T_c1_c2, self.config), R_1_3,
-                                    self.config.max_rop_rotation_deg)
+        if self.step_observer is not None:
+            self.step_observer(pairs, R_1_3, priors)
+        ropset = self.rop_set(pairs, R_1_3, priors)
         timings["essential"] += (time.perf_counter() - t0) * 1e3
         T, cov, epoch, msg = self._adjust(ropset, timings)
         if T is None and parallax < 2.0 * min_par:
