@@ -231,7 +231,7 @@ def test_rop_prior_from_the_filter_pnp_survives_a_rop_step_pulled_onto_the_car(s
     rig, view, T_o_c3, is_car = _rop_exact_view(seed)
     kept = {}
     for prior_kind in ("pnp", "velocity"):
-        est = RopEstimator(rig, moving_prior=prior_kind)
+        est = RopEstimator(rig, experimental={"moving_prior": prior_kind})
         est._kf_imgs, est._n_solved = (None, None), 1
         est._last_motion = np.eye(4)                          # the ROP step said "standing still" (the car)
         est._pnp_motion = _prior(T_o_c3)                      # the filter's PnP step: 5 cm, 0.3 deg off

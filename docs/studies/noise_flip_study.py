@@ -37,7 +37,7 @@ def _end_error(args) -> np.ndarray:
     from sim.app.consistency import NoisyDataset, pose_errors
     from vo.estimators.runner import run_estimator
     base = _base()
-    T = run_estimator("rop", NoisyDataset(base, sigma, 1000 + k), {"klt_config": {"win": WIN}, "rop_loss": loss},
+    T = run_estimator("rop", NoisyDataset(base, sigma, 1000 + k), {"klt_config": {"win": WIN}, "experimental.rop_loss": loss},
                       progress=False).trajectory.T
     gt = base.groundtruth_cam0()
     T_true = np.linalg.inv(gt.T[0]) @ gt.T
@@ -67,7 +67,7 @@ def _resolve(rig, inputs, loss, rows=None) -> float:
     pairs, R_1_3, priors = inputs
     if rows is not None:
         pairs = {p: (a[rows[p]], b[rows[p]]) for p, (a, b) in pairs.items()}
-    T = RopEstimator(rig, klt_config={"win": WIN}, rop_loss=loss).solve_step(pairs, R_1_3, priors)
+    T = RopEstimator(rig, klt_config={"win": WIN}, experimental={"rop_loss": loss}).solve_step(pairs, R_1_3, priors)
     return float(T[2, 3]) * 1e3 if T is not None else float("nan")
 
 

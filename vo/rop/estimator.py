@@ -262,10 +262,10 @@ class RopEstimator(Estimator):
               keep_tracks=False) -> FrameResult:
         """The track filter's PnP pose when it may stand for the frame's (:meth:`_pnp_pose`); else coast: the
         rotation-only fit's rotation when there was one (tracks survive a failed ROP solve), the translation
-        held or, with ``constant_velocity``, extrapolated; then a fresh keyframe. The pose's class
+        extrapolated at constant velocity (held after :data:`MAX_COAST_FRAMES`); then a fresh keyframe. The pose's class
         (:data:`~vo.estimators.base.FRAME_CLASSES`): ok from PnP, coasting when extrapolated, lost when held."""
         T_prev = self.T_o_c0
-        coast = self.config.constant_velocity and self._n_coast < MAX_COAST_FRAMES
+        coast = self._n_coast < MAX_COAST_FRAMES
         T_step = self._T_kf_cur @ self._last_motion if coast else self._T_kf_cur.copy()
         T_pnp = self._pnp_pose()
         if T_pnp is not None:
