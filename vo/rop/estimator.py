@@ -97,7 +97,7 @@ class RopEstimator(Estimator):
         self.klt = (tracker if tracker is not None else KltFourView(rig, c.klt_config, c.klt_refine)
                     ) if c.frontend == "klt" else None
         self.step_observer = step_observer
-        self._moving_pnp = PnpConfig(ransac_reproj_px=c.moving_reproj_px, min_model_fraction=c.moving_min_fraction)
+        self.track_filter_config = PnpConfig(ransac_reproj_px=c.moving_reproj_px, min_model_fraction=c.moving_min_fraction)
         self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
         self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
         self._kf_imgs = None          # (left, right) of the keyframe; None before the first frame
@@ -143,7 +143,7 @@ class RopEstimator(Estimator):
         if self.config.moving_objects == "none" or len(v) == 0:
             return v
         t0 = time.perf_counter()
-        self._filter = f = filter_tracks(v, self.rig, self._prior(), self._moving_pnp)
+        self._filter = f = filter_tracks(v, self.rig, self._prior(), self.track_filter_config)
         if f.keep is not None:          # fewer than min_matches left: a failed frame (coasts), not the car's motion
             v = self.klt.view = v.subset(f.keep)
         timings["track"] += (time.perf_counter() - t0) * 1e3
@@ -154,11 +154,8 @@ class RopEstimator(Estimator):
         :data:`MIN_COAST_PNP_INLIERS` inliers and within ``moving_prior_gate_m`` of the prediction (unless
         that rests on no solved frame or on a held pose: the first frame, or after the coasting limit) - a
         car's motion as the only candidate (crossing traffic) is far from it. Else None."""
-        f = self._filter
-        if f.T_kf_c is None or f.n_inliers < MIN_COAST_PNP_INLIERS:
-            return None
         trusted = self._n_solved > 0 and self._n_coast < MAX_COAST_FRAMES
-        return None if trusted and f.prior_offset_m > self.config.moving_prior_gate_m else f.T_kf_c
+        return self._filter.frame_pose(trusted, self.config.moving_prior_gate_m, MIN_COAST_PNP_INLIERS)
 
     def _step_miss(self, T_kf_c: np.ndarray) -> str:
         """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): the track filter saw competing rigid
@@ -168,11 +165,9 @@ class RopEstimator(Estimator):
         stereo depth and the four-view geometry disagree in scale (a calibration error: on the real KITTI
         turn the PnP steps ran 8-16 % long against ROP steps within 3 % of the truth), and the ROP step
         stands (docs/estimators.md, "Real recordings")."""
-        T_pnp, gate = self._pnp_pose(), self.config.moving_step_gate_m
-        if T_pnp is None or self.config.moving_objects == "none" or self._filter.keep is None:
+        if self.config.moving_objects == "none":
             return ""
-        d = float(np.linalg.norm(T_kf_c[:3, 3] - T_pnp[:3, 3]))
-        return f"ROP step {d:.2f} m > {gate} m from the track filter's PnP pose" if d > gate else ""
+        return self._filter.step_miss(T_kf_c, self._pnp_pose(), self.config.moving_step_gate_m)
 
     def _advance_prior(self, T_kf_c: np.ndarray) -> None:
         """Extend the PnP chain of the prediction by this frame (its PnP pose, else the frame's own)."""
