@@ -115,3 +115,17 @@ def test_rop_step_observer_inputs_resolve_the_step(campus_short):
         T = solver.solve_step(pairs, R_1_3, priors)
         assert T is not None
         np.testing.assert_allclose(T, T_run, atol=1e-9)
+
+
+def test_rop_takes_its_tracker_through_the_constructor():
+    """The injected tracker is the one the KLT front-end uses; with a descriptor front-end there is none to
+    replace, which is an error rather than a silently unused collaborator."""
+    from vo.errors import EstimatorError
+    from vo.rop.estimator import RopEstimator
+    from vo.rop.tracks import KltFourView
+    rig = make_rig()
+    tracker = KltFourView(rig)
+    assert RopEstimator(rig, tracker=tracker).klt is tracker
+    assert isinstance(RopEstimator(rig).klt, KltFourView) and RopEstimator(rig).klt is not tracker
+    with pytest.raises(EstimatorError, match=r"rop: a tracker is the KLT front-end's; frontend is 'orb'"):
+        RopEstimator(rig, tracker=tracker, frontend="orb")
