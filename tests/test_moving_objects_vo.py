@@ -226,27 +226,21 @@ def test_rop_prior_from_the_filter_pnp_survives_a_rop_step_pulled_onto_the_car(s
     the prediction from the estimator's poses (``"velocity"``) selects the car. A ROP step 0.36 m off that PnP
     pose fails the frame (``moving_step_gate_m``), the true one does not; the failed frame takes the PnP pose
     (the true pose, where constant-velocity coasting would stay 1 m behind)."""
-    from types import SimpleNamespace
-    from vo.rop.estimator import RopEstimator
+    from vo.rop.estimator import MIN_COAST_PNP_INLIERS, RopEstimator
+    from vo.rop.moving import filter_tracks
     rig, view, T_o_c3, is_car = _rop_exact_view(seed)
-    kept = {}
-    for prior_kind in ("pnp", "velocity"):
-        est = RopEstimator(rig, moving_prior=prior_kind)
-        est._kf_imgs, est._n_solved = (None, None), 1
-        est._last_motion = np.eye(4)                          # the ROP step said "standing still" (the car)
-        est._pnp_motion = _prior(T_o_c3)                      # the filter's PnP step: 5 cm, 0.3 deg off
-        kept[prior_kind] = est._static_tracks(view, dict.fromkeys(("track",), 0.0))
-        if prior_kind == "velocity":
-            continue
-        assert np.array_equal(est._filter.keep, ~is_car) and len(kept["pnp"]) == (~is_car).sum()
-        T_pnp = est._filter.T_kf_c
-        assert np.linalg.norm(T_pnp[:3, 3] - T_o_c3[:3, 3]) < 1e-6
-        assert not est._step_miss(T_o_c3)
-        assert est._step_miss(T_o_c3 @ make_T(np.eye(3), np.array([0.0, 0.0, 0.36])))
-        img = np.zeros((400, 640), np.uint8)
-        res = est._fail(SimpleNamespace(t_ns=1), img, img, "few_features", 12, "12 four-view features", {}, 0.0)
-        assert np.linalg.norm(res.T_o_c0[:3, 3] - T_o_c3[:3, 3]) < 1e-6 and "PnP" in res.message
-    assert len(kept["velocity"]) < len(view) and np.isin(kept["velocity"].p1[:, 0], view.p1[is_car, 0]).all()
+    est = RopEstimator(rig)
+    c, pnp_config = est.config, est.track_filter_config
+    priors = {"pnp": _prior(T_o_c3),               # the filter's PnP step: 5 cm, 0.3 deg off
+              "velocity": np.eye(4)}               # the ROP step said "standing still" (the car)
+    f = filter_tracks(view, rig, priors["pnp"], pnp_config)
+    assert np.array_equal(f.keep, ~is_car)
+    T_pnp = f.frame_pose(True, c.moving_prior_gate_m, MIN_COAST_PNP_INLIERS)
+    assert T_pnp is not None and np.linalg.norm(T_pnp[:3, 3] - T_o_c3[:3, 3]) < 1e-6
+    assert not f.step_miss(T_o_c3, T_pnp, c.moving_step_gate_m)
+    assert f.step_miss(T_o_c3 @ make_T(np.eye(3), np.array([0.0, 0.0, 0.36])), T_pnp, c.moving_step_gate_m)
+    car = filter_tracks(view, rig, priors["velocity"], pnp_config)
+    assert car.keep is not None and car.keep.any() and not car.keep[~is_car].any()      # the car's tracks only
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -256,14 +250,16 @@ def test_rop_step_cross_check_needs_competing_motions(seed):
     0.36 m off the filter's PnP pose stands (ROP and PnP then fit the same motion and differ only where stereo
     depth and four-view geometry disagree in scale, e.g. under a calibration error); with the car's tracks
     present the same step fails the frame."""
-    from vo.rop.estimator import RopEstimator
+    from vo.rop.estimator import MIN_COAST_PNP_INLIERS, RopEstimator
+    from vo.rop.moving import filter_tracks
     rig, view, T_o_c3, is_car = _rop_exact_view(seed)
+    est = RopEstimator(rig)
+    c = est.config
     off = T_o_c3 @ make_T(np.eye(3), np.array([0.0, 0.0, 0.36]))
     for v, competing in ((view.subset(~is_car), False), (view, True)):
-        est = RopEstimator(rig)
-        est._kf_imgs, est._n_solved = (None, None), 1
-        est._pnp_motion = _prior(T_o_c3)
-        est._static_tracks(v, dict.fromkeys(("track",), 0.0))
-        assert (est._filter.keep is not None) == competing
-        assert np.linalg.norm(est._filter.T_kf_c[:3, 3] - T_o_c3[:3, 3]) < 1e-6
-        assert bool(est._step_miss(off)) == competing and not est._step_miss(T_o_c3)
+        f = filter_tracks(v, rig, _prior(T_o_c3), est.track_filter_config)
+        assert (f.keep is not None) == competing
+        T_pnp = f.frame_pose(True, c.moving_prior_gate_m, MIN_COAST_PNP_INLIERS)
+        assert np.linalg.norm(T_pnp[:3, 3] - T_o_c3[:3, 3]) < 1e-6
+        assert bool(f.step_miss(off, T_pnp, c.moving_step_gate_m)) == competing
+        assert not f.step_miss(T_o_c3, T_pnp, c.moving_step_gate_m)

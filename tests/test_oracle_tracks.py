@@ -80,7 +80,7 @@ def test_affine_refinement_brings_klt_closer_to_exact(campus_depth_ideal):
     rms = {}
     for refine in ("translation", "affine"):
         rec = []
-        run_oracle(ds, {"klt_refine": refine}, exact=(), record=rec)
+        run_oracle(ds, {"experimental.klt_refine": refine}, exact=(), record=rec)
         err = {"p2": [(r["p2_klt"] - r["p2"])[r["ok"]] for r in rec if r["kf"]],
                "p3": [r["p3_klt"] - r["p3"] for r in rec if not r["kf"]],
                "p4": [(r["p4_klt"] - r["p4"])[r["ok4"]] for r in rec if not r["kf"]]}

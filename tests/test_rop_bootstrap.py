@@ -12,7 +12,7 @@ from vo.rop.ropset import PAIRS, RopSet, camera_poses
 T_C1_C2 = make_T(R_from_opk_deg(-0.01406, -0.75671, 0.80437), [0.2857, 0.0005, -0.0041])
 T_TRUE = make_T(so3_exp([0.01, -0.03, 0.005]), [0.04, -0.01, 0.6])     # forward step, 2x baseline
 FOCAL, N_POINTS = 500.0, 120
-RANSAC = dict(max_iters=200, prob=0.999, method="ransac")
+RANSAC = dict(max_iters=200, prob=0.999)
 
 
 def _scene(rng):

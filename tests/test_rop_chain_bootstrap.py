@@ -15,7 +15,7 @@ from vo.rop.ropset import PAIRS, RopSet
 
 T_C1_C2 = make_T(so3_exp([0.0, -0.01, 0.0]), [0.27, 0.0, 0.0])
 FOCAL, N_POINTS, N_STEPS = 500.0, 150, 4
-RANSAC = dict(max_iters=200, prob=0.999, method="ransac")
+RANSAC = dict(max_iters=200, prob=0.999)
 SIGMA_IID, SIGMA_DRIFT = 0.1, 0.15           # px: per image; per track and epoch, persistent (tracking drift)
 
 

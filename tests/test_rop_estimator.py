@@ -9,7 +9,7 @@ from rigs.records import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import STATUSES
 from rigs.geometry import make_T, rot_y, rotation_angle, skew
-from vo.rop.config import RopConfig
+from vo.rop.config import EXPERIMENTAL, RopConfig
 from vo.rop.estimator import RopEstimator
 from vo.rop.uncertainty import PropagatedCovariance, propagate_cov
 
@@ -113,37 +113,37 @@ def test_options_are_validated():
     with pytest.raises(EstimatorError, match=r"rop\.frontends: unknown key; valid keys: frontend, "):
         RopEstimator(RIG, frontends="orb")
     with pytest.raises(EstimatorError, match=r"rop\.rop_loss: unknown 'huber'; valid: gate, cauchy, tukey"):
-        RopEstimator(RIG, rop_loss="huber")
+        RopEstimator(RIG, **{"experimental.rop_loss": "huber"})
     with pytest.raises(EstimatorError, match="either config or options"):
-        RopEstimator(RIG, RopConfig(), weights="sampson")
+        RopEstimator(RIG, RopConfig(), min_matches=40)
 
 
 @pytest.mark.parametrize("field, value, message", [
     ("cov", "apost", r"rop\.cov: unknown 'apost'; valid: propagated, chain_bootstrap"),
     ("weights", "equal", r"rop\.weights: unknown 'equal'; valid: inliers, sampson"),
     ("klt_refine", "quadratic", r"rop\.klt_refine: unknown 'quadratic'; valid: translation, affine"),
-    ("ransac_method", "lmeds", r"rop\.ransac_method: unknown 'lmeds'; valid: ransac, magsac"),
     ("bootstrap_replicates", 3, r"rop\.bootstrap_replicates: must be >= 8, got 3"),
     ("min_matches", 30.5, r"rop\.min_matches: must be an integer, got 30.5"),
     ("ransac_prob", 1.0, r"rop\.ransac_prob: must be in \(0, 1\), got 1.0"),
     ("ransac_threshold_px", float("nan"), r"rop\.ransac_threshold_px: must be a finite number, got nan"),
     ("min_inlier_ratio", 1.5, r"rop\.min_inlier_ratio: must be in \[0, 1\], got 1.5"),
-    ("constant_velocity", "yes", r"rop\.constant_velocity: must be true or false, got 'yes'"),
     ("klt_config", {"wn": 11}, r"rop.klt_config: unknown field\(s\) \['wn'\]"),
 ])
 def test_rop_config_rejects_bad_values_in_one_line(field, value, message):
     """Every bad value of a RopConfig field: one-line EstimatorError naming ``rop.<field>``, the value
     and what is valid, from the dataclass and from ``--opt``-style keyword options alike."""
-    for build in (lambda: RopConfig(**{field: value}), lambda: RopEstimator(RIG, **{field: value})):
+    key = f"experimental.{field}" if field in EXPERIMENTAL else field
+    for build in (lambda: RopConfig(**{field: value}), lambda: RopEstimator(RIG, **{key: value})):
         with pytest.raises(EstimatorError, match=message) as e:
             build()
         assert "\n" not in str(e.value)
 
 
 def test_rop_config_fields_are_the_option_keys():
-    cfg = RopConfig.from_options({"weights": "sampson", "klt_config": {"win": 11}, "cov": "chain_bootstrap"})
+    cfg = RopConfig.from_options({"experimental.weights": "sampson", "klt_config": {"win": 11},
+                                  "cov": "chain_bootstrap"})
     assert cfg.weights == "sampson" and cfg.klt_config.win == 11 and cfg.cov == "chain_bootstrap"
-    est = RopEstimator(RIG, weights="sampson", klt_config={"win": 11})
+    est = RopEstimator(RIG, experimental={"weights": "sampson"}, klt_config={"win": 11})
     assert est.config == RopConfig(weights="sampson", klt_config={"win": 11})
     assert RopEstimator(RIG, cfg).config is cfg
     with pytest.raises(EstimatorError, match=r"rop\.sigma_rot_deg: unknown key; valid keys: frontend, ransac_threshold_px"):

@@ -84,7 +84,7 @@ def test_end_to_end_on_ideal_campus(campus_ideal, landmark):
     within 5 % of the distance travelled (measured 0.3 % on the same route over 20 s), with either landmark
     parametrization."""
     ds = open_dataset(campus_ideal)
-    res = run_estimator("vins", ds, progress=False, options={"landmark": landmark})
+    res = run_estimator("vins", ds, progress=False, options={"experimental.landmark": landmark})
     T = np.array([f.T_o_c0 for f in res.frames])
     assert np.all(np.isfinite(T))
     ok = [k for k, f in enumerate(res.frames) if f.status in ("ok", "keyframe")]

@@ -109,8 +109,8 @@ def test_adaptive_huber_threshold_in_pixels_is_n_free_and_its_pull_grows_as_n_sq
     ({"init": "gps"}, r"vins\.init: unknown 'gps'; valid: vi, truth"),
     ({"covariance": "every"}, r"vins\.covariance: unknown 'every'; valid: frame, off"),
     ({"init_min_keyframes": 12}, r"vins\.init_min_keyframes: must be <= init_keyframes \(11\), got 12"),
-    ({"weight_max": True}, r"vins\.weight_max: must be a positive number or \.inf, got True"),
-    ({"weight_min": 2.0, "weight_max": 1.0}, r"vins\.weight_min: must be below weight_max \(1\.0\), got 2\.0"),
+    ({"experimental.weight_max": True}, r"vins\.weight_max: must be a positive number or \.inf, got True"),
+    ({"experimental": {"weight_min": 2.0, "weight_max": 1.0}}, r"vins\.weight_min: must be below weight_max \(1\.0\), got 2\.0"),
 ])
 def test_bad_options_are_one_line_errors(options, match):
     with pytest.raises(EstimatorError, match=match) as e:
@@ -197,7 +197,7 @@ def test_registered_names_are_vins_presets(name):
     preset = "base" if name == "vins" else name[len("vins-"):]
     assert make_estimator("vins", rig, preset=preset).config == est.config
     assert is_oracle(name) == (name == "vins-oracle") and is_oracle(name, {"init": "truth"})
-    assert make_estimator(name, rig, landmark="inverse-depth").config.landmark == "inverse-depth"
+    assert make_estimator(name, rig, experimental={"landmark": "inverse-depth"}).config.landmark == "inverse-depth"
     if name != "vins":
         with pytest.raises(EstimatorError, match="preset"):
             make_estimator(name, rig, preset="base")

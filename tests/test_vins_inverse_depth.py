@@ -118,10 +118,10 @@ def test_window_inverse_depth_landmarks():
 def test_landmark_options_are_validated():
     from vo.errors import EstimatorError
     with pytest.raises(EstimatorError, match="landmark"):
-        VinsConfig.from_options("base", {"landmark": "inverse_depth"})
+        VinsConfig.from_options("base", {"experimental.landmark": "inverse_depth"})
     with pytest.raises(EstimatorError, match="min_triangulation_deg"):
         VinsConfig.from_options("base", {"min_triangulation_deg": 90.0})
-    assert VinsConfig.from_options("ac-me", {"landmark": "inverse-depth"}).landmark == "inverse-depth"
+    assert VinsConfig.from_options("ac-me", {"experimental.landmark": "inverse-depth"}).landmark == "inverse-depth"
 
 
 @pytest.mark.parametrize("landmark", ["point3", "inverse-depth"])

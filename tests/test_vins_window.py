@@ -19,7 +19,7 @@ def _standing_window(n_states=4, preset="base", count=8, landmark="point3"):
     t = np.arange(0, int(1e9) * n_states, int(5e6), dtype=np.int64)
     z = np.zeros((len(t), 3))
     imu = ImuSamples(t, z, np.tile([0.0, 0.0, GRAVITY], (len(t), 1)))
-    cfg = VinsConfig.from_options(preset, {"landmark": landmark})
+    cfg = VinsConfig.from_options(preset, {"experimental.landmark": landmark})
     w = Window(cfg, CAM, np.eye(4), ImuStream(imu), imu_params(cfg))
     p_w = {1: [0.5, 0.2, 8.0], 2: [-1.0, 0.4, 12.0], 3: [0.8, -0.6, 6.0], 4: [-0.3, -0.9, 15.0], 9: [2.0, 1.0, 400.0]}
     ids = np.array(sorted(p_w))
@@ -65,6 +65,6 @@ def test_inverse_depth_moves_to_the_next_observer_on_marginalization():
     w3.marginalize_oldest()
     assert not w3.lm
     w3 = _standing_window(4)
-    w3.cfg = VinsConfig.from_options("base", {"shift_depth": True})     # point3: continue at once
+    w3.cfg = VinsConfig.from_options("base", {"experimental.shift_depth": True})     # point3: continue at once
     w3.marginalize_oldest()
     assert set(w3.lm) == set(before) and all(np.allclose(w3.landmark_w(i), p) for i, p in before.items())

@@ -60,7 +60,6 @@ from vo.frontend.stereo import triangulate
 from vo.vins.oracle import FeatureLabels
 
 sys.path.insert(0, str(Path(__file__).parent))
-from urban_dynamic_vo import _capture_pnp  # noqa: E402
 from urban_pnp_drift_ablation import Ablation, _Instrumented  # noqa: E402
 
 WINDOWS = (7, 9, 11)
@@ -109,7 +108,7 @@ class _Recorder(_Instrumented):
     window disagreements."""
 
     def __init__(self, ds, labels, **options):
-        super().__init__(ds, Ablation("product", depth_ok="all"), {}, 0, **options)
+        super().__init__(ds, Ablation("product", depth_ok="all"), {}, 0, labels=labels, **options)
         self.labels, self.rows = labels, []
 
     def _add_landmarks(self, left, right, new_ids, timings) -> int:
@@ -149,9 +148,7 @@ def collect(dataset: str, max_frames: int) -> dict:
     ds = open_dataset(dataset)
     labels = FeatureLabels.of(ds)
     est = _Recorder(ds, labels)
-    _capture_pnp(est, {}, (lambda px: labels.dynamic(est.k, px)) if labels is not None else None)
-    for k, frame in enumerate(ds.frames(stop=min(max_frames, len(ds)))):
-        est.k = k
+    for frame in ds.frames(stop=min(max_frames, len(ds))):
         est.process(frame)
     return {key: np.concatenate([r[key] for r in est.rows]) for key in est.rows[0]}
 

@@ -37,7 +37,7 @@ def _end_error(args) -> np.ndarray:
     from sim.app.consistency import NoisyDataset, pose_errors
     from vo.estimators.runner import run_estimator
     base = _base()
-    T = run_estimator("rop", NoisyDataset(base, sigma, 1000 + k), {"klt_config": {"win": WIN}, "rop_loss": loss},
+    T = run_estimator("rop", NoisyDataset(base, sigma, 1000 + k), {"klt_config": {"win": WIN}, "experimental.rop_loss": loss},
                       progress=False).trajectory.T
     gt = base.groundtruth_cam0()
     T_true = np.linalg.inv(gt.T[0]) @ gt.T
@@ -48,20 +48,16 @@ def _step_inputs(args) -> list:
     """Per keyframe step of one run: the pairs, R_1_3 and ROP priors that rop solved it from."""
     k, sigma = args
     from sim.app.consistency import NoisyDataset
-    from vo.rop.estimator import RopEstimator
-    ds = NoisyDataset(_base(), sigma, 1000 + k)
-    est = RopEstimator(ds.rig, klt_config={"win": WIN})
-    seen, solve = {}, est._rops
+    from vo.estimators.runner import run_estimator
+    seen, out = {}, []
 
-    def rops(pairs, R_1_3):
-        seen["in"] = (pairs, R_1_3, est._priors(R_1_3))
-        return solve(pairs, R_1_3)
-    est._rops = rops
-    out = []
-    for frame in ds.frames():
-        seen.clear()
-        if est.process(frame).status == "keyframe" and "in" in seen:
+    def keep(frame, res, est):
+        if res.status == "keyframe" and "in" in seen:
             out.append(seen["in"])
+        seen.clear()
+    run_estimator("rop", NoisyDataset(_base(), sigma, 1000 + k),
+                  {"klt_config": {"win": WIN}, "step_observer": lambda *inputs: seen.update({"in": inputs})},
+                  progress=False, on_frame=keep)
     return out
 
 
@@ -71,10 +67,8 @@ def _resolve(rig, inputs, loss, rows=None) -> float:
     pairs, R_1_3, priors = inputs
     if rows is not None:
         pairs = {p: (a[rows[p]], b[rows[p]]) for p, (a, b) in pairs.items()}
-    est = RopEstimator(rig, klt_config={"win": WIN}, rop_loss=loss)
-    est._priors = lambda R: priors
-    T, _, _ = est._adjust(est._rops(pairs, R_1_3), dict(essential=0.0, initial=0.0, adjust=0.0))
-    return float(T[2, 3]) * 1e3
+    T = RopEstimator(rig, klt_config={"win": WIN}, experimental={"rop_loss": loss}).solve_step(pairs, R_1_3, priors)
+    return float(T[2, 3]) * 1e3 if T is not None else float("nan")
 
 
 def _common_rows(a, b, tol=0.5 / 504):

@@ -175,6 +175,28 @@ class RopBootstrap(RopEstimator):
         self.uncertainty = IndependentBootstrap(self.config, self.adjustment_config, self.focal)
 
 
+class RecordingBootstrap(RopEstimator):
+    """``rop`` with :class:`IndependentBootstrap` that also keeps each keyframe step's covariance
+    (``uncertainty.step_covs``: ``t_ns`` -> (6, 6); docs/studies/step_correlation.py)."""
+
+    name = "rop-bootstrap-recording"
+
+    def __init__(self, rig, **options):
+        super().__init__(rig, RopConfig.from_options(options))
+        self.uncertainty = _Recording(self.config, self.adjustment_config, self.focal)
+
+
+class _Recording(IndependentBootstrap):
+    def __init__(self, *args):
+        super().__init__(*args)
+        self.step_covs = {}
+
+    def step_cov(self, step: Step) -> tuple:
+        out = super().step_cov(step)
+        self.step_covs[step.t_ns] = out[0]
+        return out
+
+
 class RopAposteriori(RopEstimator):
     """``rop`` with :class:`Aposteriori`."""
 

@@ -4,7 +4,7 @@ consecutive steps independent? (docs/studies/rop_consistency.md, "Bootstraps ove
 Usage: .venv/bin/python docs/studies/step_correlation.py [--runs 30] [--workers 2] [KEY=VALUE ...]
 Run k: campus-short rendered at 3x (``render.supersample=3``, cached) from scenario seed 1 + k, image
 noise seed 1000 + k, as ``vo-testbed consistency --vary scene``; ``rop`` with the independent-steps
-track bootstrap (:class:`rop_models.RopBootstrap`) and the RopConfig options given.
+track bootstrap (:class:`rop_models.RecordingBootstrap`, which keeps each step's covariance) and the RopConfig options given.
 Per keyframe-to-keyframe step ``j``: the error of the estimated ``T_kf_kf'``
 against the truth (left perturbation in the keyframe frame) and the step's bootstrap covariance.
 Prints the per-axis std of the step errors over their bootstrap std (demeaned per step index), the
@@ -33,27 +33,20 @@ def one_run(k: int, options: dict):
     from sim.scenarios import cached_dataset, get_scenario
     from vo.dataset import open_dataset
     from rigs.geometry import pose_error_left
-    from rop_models import RopBootstrap
+    from vo.estimators.runner import run_estimator
     cfg = replace(get_scenario("campus-short", overrides=("render.supersample=3",)), ideal=True)
     base = open_dataset(cached_dataset(replace(cfg, seed=cfg.seed + 1 + k), progress=False))
     gt = base.groundtruth_cam0().T
-    est = RopBootstrap(base.rig, **options)
-    est.set_imu(None)
-    step_cov, inner = {}, est.uncertainty.step_cov
-
-    def recording(step):                                       # keep the keyframe steps' covariance
-        out = inner(step)
-        step_cov[step.t_ns] = out[0]
-        return out
-
-    est.uncertainty.step_cov = recording
     T, kf, cov = [], [0], []
-    for frame in NoisyDataset(base, 1.0, 1000 + k, imu_model=None).frames():
-        r = est.process(frame)
+
+    def on_frame(frame, r, est):
         T.append(r.T_o_c0)
         if r.status == "keyframe":
             kf.append(frame.index)
-            cov.append(step_cov[int(frame.t_ns)])
+            cov.append(est.uncertainty.step_covs[int(frame.t_ns)])
+
+    run_estimator("rop_models:RecordingBootstrap", NoisyDataset(base, 1.0, 1000 + k, imu_model=None), options,
+                  progress=False, on_frame=on_frame)
     err = [pose_error_left(np.linalg.inv(T[a]) @ T[b], np.linalg.inv(gt[a]) @ gt[b]) for a, b in zip(kf, kf[1:])]
     return np.array(err), np.array(cov)
 

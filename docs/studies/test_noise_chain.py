@@ -18,7 +18,7 @@ from vo.rop.tracks import FourView
 
 T_C1_C2 = make_T(so3_exp([0.0, -0.01, 0.0]), [0.27, 0.0, 0.0])
 FOCAL, N_POINTS, N_STEPS, SIGMA_PX = 500.0, 150, 4, 0.1
-RANSAC = dict(max_iters=200, prob=0.999, method="ransac")
+RANSAC = dict(max_iters=200, prob=0.999)
 
 
 def _poses():

@@ -25,28 +25,10 @@ import yaml
 
 from rigs.geometry import inv_T, rotation_angle
 from vo.dataset import open_dataset
-from vo.estimators.registry import make_estimator
+from vo.estimators.runner import run_estimator
 from vo.vins.oracle import FeatureLabels
 
-
-def _capture_pnp(est, log: dict, oracle=None) -> None:
-    """Wrap ``est._pnp`` to record the pixels and the inlier mask of each frame's PnP. With ``oracle`` (a
-    function ``px -> moving (n,) bool`` of the current frame) the PnP sees only the features the true
-    segmentation calls static: the bound any moving-object rule can reach."""
-    inner = est._pnp
-
-    def pnp(p_o, px_raw, timings):
-        px_raw = np.asarray(px_raw)
-        if oracle is None:
-            T, inl = inner(p_o, px_raw, timings)
-        else:
-            static = ~oracle(px_raw)
-            T, inl_static = inner(np.asarray(p_o)[static], px_raw[static], timings)
-            inl = np.zeros(len(px_raw), bool)
-            inl[static] = inl_static
-        log["px"], log["inl"] = px_raw.copy(), inl.copy()
-        return T, inl
-    est._pnp = pnp
+PNP_ESTIMATORS = ("klt-pnp", "orb-pnp")     # estimators with the pnp_observer / pnp_select hooks
 
 
 def _rop_features(est, log: dict) -> None:
@@ -58,24 +40,31 @@ def _rop_features(est, log: dict) -> None:
 
 
 def run(dataset_dir: str, estimator: str, max_frames: int | None, options: dict, oracle: bool = False) -> dict:
+    """Per frame: status, features, moving fractions, true and estimated step, step errors. A PnP estimator's
+    pixels and inlier masks come from its ``pnp_observer`` hook; with ``oracle`` (a function of the current
+    frame's true segmentation, its ``pnp_select`` hook) the PnP sees only the features the true
+    segmentation calls static: the bound any moving-object rule can reach."""
     ds = open_dataset(dataset_dir)
     labels = FeatureLabels.of(ds)
     T_w_c = ds.groundtruth_cam0().T
-    est = make_estimator(estimator, ds.rig, **options)
-    log: dict = {}
-    current = {"k": 0}
-    if oracle and (labels is None or not hasattr(est, "_pnp")):
+    pnp = estimator in PNP_ESTIMATORS
+    if oracle and (labels is None or not pnp):
         raise SystemExit("--oracle needs a dataset with --segmentation and a PnP estimator (klt-pnp, orb-pnp)")
-    if hasattr(est, "_pnp"):
-        _capture_pnp(est, log, (lambda px: labels.dynamic(current["k"], px)) if oracle else None)
-    n = len(ds) if max_frames is None else min(max_frames, len(ds))
-    rows, T_prev = [], None
-    for k, frame in enumerate(ds.frames()):
-        if k >= n:
-            break
+    log: dict = {}
+    current = {"k": 0, "T_prev": None}
+    opts = dict(options)
+    if pnp:
+        opts["pnp_observer"] = lambda px, inl: log.update(px=px, inl=inl)
+        if oracle:
+            opts["pnp_select"] = lambda px: ~labels.dynamic(current["k"], px)
+    rows = []
+
+    def before(frame):
         log.clear()
-        current["k"] = k
-        res = est.process(frame)
+        current["k"] = frame.index
+
+    def after(frame, res, est):
+        k, T_prev = frame.index, current["T_prev"]
         if estimator == "rop":
             _rop_features(est, log)
         dyn_inl = dyn_all = np.nan
@@ -90,8 +79,11 @@ def run(dataset_dir: str, estimator: str, max_frames: int | None, options: dict,
                          np.linalg.norm(T_true[:3, 3]), np.linalg.norm(T_est[:3, 3]),
                          np.linalg.norm(T_est[:3, 3] - T_true[:3, 3]),
                          np.degrees(rotation_angle(T_true[:3, :3].T @ T_est[:3, :3]))))
-        T_prev = res.T_o_c0.copy()
-    return {"rows": rows, "T_w_c": T_w_c[:n], "est_end": T_prev}
+        current["T_prev"] = res.T_o_c0.copy()
+
+    n = len(ds) if max_frames is None else min(max_frames, len(ds))
+    run_estimator(estimator, ds, opts, progress=False, max_frames=n, before_frame=before, on_frame=after)
+    return {"rows": rows, "T_w_c": T_w_c[:n], "est_end": current["T_prev"]}
 
 
 def report(out: dict) -> None:

@@ -29,9 +29,7 @@ their reading: docs/estimators.md, "Cause of klt-pnp's remaining urban drift".
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import yaml
@@ -44,9 +42,6 @@ from vo.estimators.pnp import KltPnpEstimator
 from vo.frontend.klt import stereo_klt
 from vo.frontend.stereo import triangulate
 from vo.vins.oracle import FeatureLabels
-
-sys.path.insert(0, str(Path(__file__).parent))
-from urban_dynamic_vo import _capture_pnp  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -73,15 +68,21 @@ ABLATIONS = (
 
 
 class _Instrumented(KltPnpEstimator):
-    """klt-pnp with the ablation's inputs replaced by the truth (frame index set in ``self.k``)."""
+    """klt-pnp with the ablation's inputs replaced by the truth (the current frame's index in ``self.k``);
+    with ``labels`` (:class:`FeatureLabels`) its PnP sees only the truly static features (``pnp_select``)."""
 
-    def __init__(self, ds, abl: Ablation, noise: dict, seed: int, **options):
-        super().__init__(ds.rig, **options)
+    def __init__(self, ds, abl: Ablation, noise: dict, seed: int, labels=None, **options):
+        select = (lambda px: ~labels.dynamic(self.k, px)) if labels is not None else None
+        super().__init__(ds.rig, pnp_select=select, **options)
         self.ds, self.abl, self.noise, self.k = ds, abl, noise, 0
         self.rng = np.random.default_rng(seed)
         self.T_w_c = ds.groundtruth_cam0().T
         self.X_w: dict = {}        # track id -> true surface point (world)
         self.stats = {"disp": [], "track": []}
+
+    def process(self, frame):
+        self.k = frame.index
+        return super().process(frame)
 
     def _depth(self, p_l):
         """-> (true p_c0, exact depth valid, which landmarks the ablation keeps)."""
@@ -168,13 +169,11 @@ def rotvec_deg(R: np.ndarray) -> np.ndarray:
 
 def run(ds, abl: Ablation, max_frames: int, noise: dict, options: dict, seed: int = 0) -> dict:
     labels = FeatureLabels.of(ds)
-    est = _Instrumented(ds, abl, noise, seed, **options)
-    _capture_pnp(est, {}, lambda px: labels.dynamic(est.k, px))
+    est = _Instrumented(ds, abl, noise, seed, labels=labels, **options)
     T_w_c = est.T_w_c
     n = min(max_frames, len(ds))
     T_est, steps = [], []
     for k, frame in enumerate(ds.frames(stop=n)):
-        est.k = k
         T_est.append(est.process(frame).T_o_c0.copy())
         if k:
             T_true_step = inv_T(T_w_c[k - 1]) @ T_w_c[k]

@@ -53,7 +53,7 @@ from rigs.typed_config import parse_value
 from sim.app.validation.exact_points import backproject, local_depth, project
 from vo.dataset import open_dataset
 from vo.dataset.csvio import read_numeric_csv
-from vo.estimators.registry import make_estimator
+from vo.estimators.runner import run_estimator
 from vo.vins.frontend import KltFrontend
 from vo.vins.imu import GRAVITY
 
@@ -204,13 +204,11 @@ def run(dataset_path: Path, estimator: str, max_frames: int, options: dict, exac
             fe = ExactTracks(fe, ds, exact_px, np.random.default_rng(seed))
         return fe
 
-    est = make_estimator(estimator, ds.rig, frontend=frontend, **options)
-    est.set_imu(ds.imu)
-    est.set_dataset(ds)
     n = min(max_frames, len(ds))
     T_est, ok, rows = np.tile(np.eye(4), (n, 1, 1)), np.zeros(n, bool), []
-    for k, fr in enumerate(ds.frames(0, n)):
-        res = est.process(fr)
+
+    def on_frame(fr, res, est):
+        k = fr.index
         T_est[k], ok[k] = res.T_o_c0, res.status != "init"
         if res.status == "keyframe" and est.window is not None:
             rec = keyframe_record(est, truth)
@@ -218,6 +216,9 @@ def run(dataset_path: Path, estimator: str, max_frames: int, options: dict, exac
             rec["sc10"], rec["along"] = emitted_errors(T_est, ok, T_gt, k)
             rec["sig_along"] = along_sigma(res.cov, T_est, k)
             rows.append(rec)
+
+    est = run_estimator(estimator, ds, {**options, "frontend": frontend}, progress=False, max_frames=n,
+                        with_truth=True, on_frame=on_frame).estimator
     if not rows:
         raise TestbedError(f"{dataset_path}: {estimator} did not initialise in {n} frames")
     out = {key: np.array([r[key] for r in rows]) for key in rows[0]}

@@ -16,7 +16,7 @@ from rigs.errors import TestbedError
 from rigs.typed_config import parse_value
 from vo.dataset import open_dataset
 from vo.errors import EstimatorError
-from vo.estimators.registry import make_estimator
+from vo.estimators.runner import run_estimator
 from vins_start_table import InitRecorder
 
 
@@ -26,16 +26,13 @@ def report(dataset_path, n_frames: int = 300, **options) -> str:
     gt = ds.groundtruth_cam0()
     k_of = {int(t): k for k, t in enumerate(gt.t_ns)}
     rec = InitRecorder(gt)
-    est = make_estimator("vins", ds.rig, initializer=rec, **options)
-    est.set_imu(ds.imu)
-    est.set_dataset(ds)
-    for k, fr in enumerate(ds.frames(0, min(n_frames, len(ds)))):
-        if est.process(fr).status != "init":
-            break
-    else:
+    run = run_estimator("vins", ds, {**options, "initializer": rec}, progress=False, max_frames=n_frames,
+                        with_truth=True, on_frame=lambda frame, res, est: res.status != "init")
+    if run.frames[-1].status == "init":
         return f"{dataset_path}: no initialisation in {n_frames} frames"
+    k = len(run.frames) - 1
     seen = rec.starts[0]
-    w = est.window
+    w = run.estimator.window
     T_e = np.array([w.T_w_c(st) for st in w.states])
     T_g = gt.T[[k_of[st.t_ns] for st in w.states]]
     d_e, d_g = (np.linalg.norm(T[:, :3, 3] - T[0, :3, 3], axis=1) for T in (T_e, T_g))

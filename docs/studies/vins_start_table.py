@@ -23,7 +23,7 @@ from rigs.errors import TestbedError
 from rigs.typed_config import parse_value
 from vo.dataset import open_dataset
 from vo.errors import EstimatorError
-from vo.estimators.registry import make_estimator
+from vo.estimators.runner import run_estimator
 from vo.eval.rpe import rpe
 from rigs.trajectory import Trajectory
 from vo.vins.imu import GRAVITY
@@ -77,22 +77,24 @@ def run_one(path, n_frames=None, estimator: str = "vins", options=None) -> dict:
     ds = open_dataset(path)
     gt = ds.groundtruth_cam0()
     rec = InitRecorder(gt)
-    est = make_estimator(estimator, ds.rig, initializer=rec, **(options or {}))
-    est.set_imu(ds.imu)
-    est.set_dataset(ds)
     n = len(ds) if n_frames is None else min(int(n_frames), len(ds))
     status, T, events = [], [], []
-    at_first_pose = None
-    t0 = time.perf_counter()
-    for k, fr in enumerate(ds.frames(0, n)):
-        res = est.process(fr)
+    at_pose = {}
+
+    def on_frame(fr, res, est):
+        k = fr.index
         status.append(res.status)
         T.append(res.T_o_c0)
-        if at_first_pose is None and res.status in COVERED:
-            at_first_pose = window_errors(est.window, gt)
+        if "errors" not in at_pose and res.status in COVERED:
+            at_pose["errors"] = window_errors(est.window, gt)
         if res.message == "initialised" or (res.status == "reinit" and (k == 0 or status[-2] != "reinit")):
             events.append((k, res.status, res.message))
+
+    t0 = time.perf_counter()
+    run_estimator(estimator, ds, {**(options or {}), "initializer": rec}, progress=False, max_frames=n,
+                  with_truth=True, on_frame=on_frame)
     wall = time.perf_counter() - t0
+    at_first_pose = at_pose.get("errors")
     t_ns = np.asarray(gt.t_ns[:n], np.int64)
     Tg = gt.T[:n]
     row = {"dataset": str(path), "frames": n, "route_m": float(np.sum(np.linalg.norm(np.diff(Tg[:, :3, 3], axis=0),

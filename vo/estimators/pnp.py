@@ -48,10 +48,16 @@ def _timer(timings: dict, key: str):
 
 class _StereoPnpEstimator(Estimator):
     """Common frame loop: (re)initialisation, coasting on failure, timings. Subclasses implement
-    ``_initialize(left, right, timings) -> (n_landmarks, message)`` and ``_step(left, right, timings)``."""
+    ``_initialize(left, right, timings) -> (n_landmarks, message)`` and ``_step(left, right, timings)``.
 
-    def __init__(self, rig, pnp_config: PnpConfig | None = None, **options):
+    Hooks (constructor, for studies and validations; default none): ``pnp_observer(px (N,2), inliers (N,)
+    bool)`` receives each PnP's raw left pixels and its inlier mask; ``pnp_select(px (N,2)) -> (N,) bool``
+    keeps only the selected correspondences for the PnP (the others count as outliers), e.g. a study's
+    true static/moving segmentation."""
+
+    def __init__(self, rig, pnp_config: PnpConfig | None = None, pnp_observer=None, pnp_select=None, **options):
         super().__init__(rig, **options)
+        self.pnp_observer, self.pnp_select = pnp_observer, pnp_select
         if not rig.is_stereo:
             raise EstimatorError(f"{self.name}: rig {rig.name!r} has one camera; a stereo rig is required")
         self.pnp_config = PnpConfig.from_option(pnp_config, f"{self.name}.pnp_config")
@@ -112,10 +118,21 @@ class _StereoPnpEstimator(Estimator):
         return True
 
     def _pnp(self, p_o, px_raw, timings):
+        px_raw = np.asarray(px_raw)
+        keep = None if self.pnp_select is None else np.asarray(self.pnp_select(px_raw), bool)
         with _timer(timings, "pnp"):
             cam = self.rig.cameras[0]
-            return solve_pnp(p_o, undistort_px(px_raw, cam), cam.K, self.pnp_config,
-                             T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr)
+            if keep is None:
+                T, inl = solve_pnp(p_o, undistort_px(px_raw, cam), cam.K, self.pnp_config,
+                                   T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr)
+            else:
+                T, inl_kept = solve_pnp(np.asarray(p_o)[keep], undistort_px(px_raw[keep], cam), cam.K,
+                                        self.pnp_config, T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr)
+                inl = np.zeros(len(px_raw), bool)
+                inl[keep] = inl_kept
+        if self.pnp_observer is not None:
+            self.pnp_observer(px_raw.copy(), np.asarray(inl, bool).copy())
+        return T, inl
 
     def _triangulate_o(self, p_left, p_right) -> tuple:
         """Raw stereo pixel pairs -> ``(p_o (N,3), ok (N,))`` in the odometry frame at the current pose."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable, Optional
 
 import cv2
 import numpy as np
@@ -37,6 +38,12 @@ class RunResult:
     wall_time_s: float = 0.0
     stderr: str = ""             # what an external program printed on stderr (its tail)
     isolation: str = ""          # an external program's: "namespace" or "view only"
+    estimator: object = None     # the in-process estimator after its last frame (None for external programs)
+
+    @property
+    def diagnostics(self) -> list:
+        """The estimator's per-frame ``diagnostics`` list (e.g. ``vins``'s feature counts), [] if it keeps none."""
+        return list(getattr(self.estimator, "diagnostics", None) or [])
 
     def pose_classes(self) -> np.ndarray:
         """(N,) class of each trajectory pose; every pose of an external program (no frame log) is ok."""
@@ -76,9 +83,19 @@ class RunResult:
 
 def run_estimator(spec: str, dataset, options: dict | None = None, progress: bool = True,
                   max_frames: int | None = None, seed: int = 0, timeout_s: float | None = None,
-                  isolation: str = "auto") -> RunResult:
+                  isolation: str = "auto", before_frame: Optional[Callable] = None,
+                  on_frame: Optional[Callable] = None, with_truth: bool = False) -> RunResult:
     """Run ``spec`` (name, ``module:Class`` or ``cmd:...``) on ``dataset`` -> :class:`RunResult`.
     ``timeout_s`` and ``isolation`` apply to external programs (:func:`vo.estimators.external.run_external`).
+
+    The one frame loop of the product, its validations and its studies. ``options`` are the estimator's
+    constructor keywords, collaborators included (e.g. ``tracker=`` for ``rop``, ``pnp_observer=`` for the
+    PnP estimators, ``initializer=`` for ``vins``). Hooks of an in-process run: ``before_frame(frame)`` is
+    called before the estimator sees each frame; ``on_frame(frame, result, estimator)`` after it, with the
+    checked :class:`FrameResult`, and a true return value ends the run after that frame. The estimator gets
+    the whole dataset in ``set_dataset`` when it reads truth (``is_oracle``) or with ``with_truth`` (studies
+    and validations that score against truth, e.g. ``vins``'s labelled diagnostics); a sensor-only view
+    otherwise. Every frame's result passes the guard (finite 4x4 pose, known status and class).
 
     OpenCV's global RNG is seeded with ``seed`` before the estimator is made, so a run does not depend on
     what ran before it in the process. Progress: a bar on a terminal, a line per 10 % otherwise."""
@@ -92,20 +109,24 @@ def run_estimator(spec: str, dataset, options: dict | None = None, progress: boo
     cv2.setRNGSeed(int(seed))
     est = make_estimator(spec, dataset.rig, **(options or {}))
     est.set_imu(getattr(dataset, "imu", None))
-    est.set_dataset(dataset if est.is_oracle(est.options) else SensorDataset(dataset))   # truth for oracles only
+    est.set_dataset(dataset if with_truth or est.is_oracle(est.options) else SensorDataset(dataset))
     n = len(dataset) if max_frames is None else min(len(dataset), max_frames)
     frames = []
     for frame in progress_iter(dataset.frames(), n, progress, est.name or spec):
         if len(frames) >= n:
             break
+        if before_frame is not None:
+            before_frame(frame)
         frames.append(_checked(est, frame, frames[-1] if frames else None))
+        if on_frame is not None and on_frame(frame, frames[-1], est):
+            break
     if not frames:
         raise EstimatorError(f"{spec}: dataset has no frames")
     traj = Trajectory(np.array([f.t_ns for f in frames], np.int64), np.array([f.T_o_c0 for f in frames]), "o", "c0")
     stages = sorted({k for f in frames for k in f.timings_ms})
     timings = {k: float(np.mean([f.timings_ms.get(k, 0.0) for f in frames])) for k in stages}
     n_lost = sum(f.status in LOST_STATUSES for f in frames)
-    return RunResult(est.name or spec, traj, frames, timings, n_lost, time.perf_counter() - t0)
+    return RunResult(est.name or spec, traj, frames, timings, n_lost, time.perf_counter() - t0, estimator=est)
 
 
 def _checked(est, frame, last: FrameResult | None) -> FrameResult:

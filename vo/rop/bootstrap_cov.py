@@ -84,7 +84,7 @@ def bootstrap_step_cov(ropset: RopSet, tracks: dict, ok4, T_c1_c3: np.ndarray, c
     ``tracks``: pair -> ``(x_i, x_j)`` normalized matches as the estimator used them
     (:meth:`vo.rop.tracks.FourView.pair`); ``ok4`` see :func:`_draw_rows`; ``threshold`` the inlier
     gate in normalized units; ``ransac`` keyword arguments of
-    :func:`vo.rop.relative.estimate_rop_normalized` (``max_iters``, ``prob``, ``method``; None: its
+    :func:`vo.rop.relative.estimate_rop_normalized` (``max_iters``, ``prob``, ``loss``; None: its
     defaults), its RANSAC repeated per replicate with a seed drawn from ``rng``. None when fewer than
     :data:`MIN_REPLICATES` of ``n_boot`` replicates give >= 3 ROPs and a non-degenerate adjustment."""
     reps = bootstrap_step_replicates(ropset, tracks, ok4, None, config, rng, n_boot, threshold, min_inliers, ransac)

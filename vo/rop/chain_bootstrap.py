@@ -153,7 +153,7 @@ class ChainBootstrap:
         c = self.config
         return dict(config=self.adjustment_config, rng=np.random.default_rng([int(c.seed), int(step.t_ns)]),
                     threshold=c.ransac_threshold_px / self.focal, min_inliers=c.min_rop_inliers,
-                    ransac=dict(max_iters=c.ransac_max_iters, prob=c.ransac_prob, method=c.ransac_method,
+                    ransac=dict(max_iters=c.ransac_max_iters, prob=c.ransac_prob,
                                 loss=c.rop_loss))
 
     def _startup_due(self, T_kf_c: np.ndarray) -> bool:

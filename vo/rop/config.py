@@ -13,16 +13,20 @@ from typing import Literal
 
 from rigs.typed_config import check_fields, from_mapping, knob
 from vo.errors import EstimatorError, VoError
+from vo.estimators.experimental import resolve_experimental
 from vo.frontend.klt import KltConfig
 from vo.rop.bootstrap_cov import MIN_REPLICATES
 from vo.rop.matching import KINDS as FRONTENDS
-from vo.rop.relative import LOSSES, METHODS
+from vo.rop.relative import LOSSES
 from vo.rop.ropset import WEIGHTINGS
 from vo.rop.tracks import KltFourView
 
 COVS = ("propagated", "chain_bootstrap")      # vo.rop.cov_models.make_uncertainty
 MOVING = ("prior", "none")                    # vo.rop.moving
 MOVING_PRIORS = ("pnp", "velocity")           # vo.rop.estimator: prediction that selects the motion
+# measured, non-default alternatives, given as ``experimental.<field>`` (vo.estimators.experimental); the
+# decision and the study behind each: docs/estimators.md, "Experimental options"
+EXPERIMENTAL = frozenset({"weights", "klt_refine", "rop_loss", "moving_prior"})
 
 
 def _klt_config(value) -> KltConfig:
@@ -38,13 +42,13 @@ class RopConfig:
     """Options of :class:`vo.rop.estimator.RopEstimator` (defaults: the benchmarked configuration).
 
     ``frontend`` four-view KLT tracks (seed 003's, default) or descriptor matches of the four pairs;
-    RANSAC of each essential matrix: ``ransac_threshold_px`` (Sampson gate, px), ``ransac_method``,
+    RANSAC of each essential matrix (OpenCV's RANSAC): ``ransac_threshold_px`` (Sampson gate, px),
     ``ransac_max_iters``, ``ransac_prob``, ``seed``; ``min_matches`` four-view tracks (or pair matches)
     needed; a ROP needs ``max(min_rop_inliers, min_inlier_ratio * matches)`` inliers and must agree
     within ``max_rop_rotation_deg`` with the consensus; ``weights`` "inliers" (seed 000) | "sampson";
     ``min_parallax_px`` below it the epoch is rotation-only; a keyframe when the step reaches
     ``keyframe_baseline_ratio`` x the baseline or the tracks fall below ``keyframe_min_track_ratio`` of
-    the keyframe's; ``constant_velocity`` coasting on failure (else the pose is held);
+    the keyframe's;
     ``klt_config`` (:class:`KltConfig` or a mapping of its fields), ``klt_refine`` "translation" |
     "affine"; ``rop_loss`` final ROP fit: "gate" (inliers at the RANSAC gate, least squares) |
     "tukey" | "cauchy" (robust, no step); ``cov`` "propagated" (first order) | "chain_bootstrap"
@@ -56,11 +60,11 @@ class RopConfig:
     PnP poses) | "velocity" (constant velocity of the estimator's poses); ``moving_step_gate_m`` a ROP
     step farther than this (m) from the track filter's PnP pose fails the frame, which then takes the PnP
     pose; ``moving_prior_gate_m`` that PnP pose stands for a failed frame only within this distance (m)
-    of the prediction (:mod:`vo.rop.estimator`)."""
+    of the prediction (:mod:`vo.rop.estimator`). Experimental (:data:`EXPERIMENTAL`, given as
+    ``experimental.<field>``): ``weights``, ``klt_refine``, ``rop_loss``, ``moving_prior``."""
 
     frontend: Literal[FRONTENDS] = "klt"
     ransac_threshold_px: float = knob(1.0, gt=0)
-    ransac_method: Literal[tuple(METHODS)] = "ransac"
     ransac_max_iters: int = knob(200, ge=1)
     ransac_prob: float = knob(0.999, gt=0, lt=1)
     seed: int = knob(0, ge=0)
@@ -72,7 +76,6 @@ class RopConfig:
     min_parallax_px: float = knob(0.75, ge=0)
     keyframe_baseline_ratio: float = knob(2.0, gt=0)
     keyframe_min_track_ratio: float = knob(0.5, ge=0, le=1)
-    constant_velocity: bool = True
     klt_config: KltConfig = knob(default_factory=KltConfig, parse=_klt_config)
     klt_refine: Literal[KltFourView.REFINES] = "translation"
     rop_loss: Literal[LOSSES] = "gate"
@@ -90,6 +93,7 @@ class RopConfig:
 
     @classmethod
     def from_options(cls, options: dict) -> "RopConfig":
-        """``--opt`` / YAML mapping of field names -> :class:`RopConfig` (unknown keys name the valid ones)."""
-        return from_mapping(cls, options, EstimatorError, "rop")
+        """``--opt`` / YAML mapping of field names -> :class:`RopConfig` (unknown keys name the valid ones); the
+        fields in :data:`EXPERIMENTAL` are given as ``experimental.<field>``."""
+        return from_mapping(cls, resolve_experimental(options, EXPERIMENTAL, "rop"), EstimatorError, "rop")
 

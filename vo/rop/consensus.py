@@ -45,7 +45,7 @@ def solve_rops(pairs: dict, priors: dict, focal: float, T_c1_c2: np.ndarray, con
         if len(x_i) < c.min_matches:
             continue
         m = estimate_rop_normalized(x_i, x_j, focal, c.seed, c.ransac_threshold_px, c.ransac_prob,
-                                    max_iters=c.ransac_max_iters, method=c.ransac_method, prior=priors[p],
+                                    max_iters=c.ransac_max_iters, prior=priors[p],
                                     loss=c.rop_loss)
         need = max(c.min_rop_inliers, c.min_inlier_ratio * len(x_i))
         if m.ok and m.n_inliers < need:

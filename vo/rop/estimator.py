@@ -67,13 +67,18 @@ STAGES = ("detect", "track", "stereo", "essential", "initial", "adjust")
 
 
 class RopEstimator(Estimator):
-    """``RopEstimator(rig, config=None, uncertainty=None, **options)``: ``config`` a
+    """``RopEstimator(rig, config=None, uncertainty=None, tracker=None, **options)``: ``config`` a
     :class:`~vo.rop.config.RopConfig`, or its fields as keyword options (``--opt``); ``uncertainty``
-    an :class:`~vo.rop.uncertainty.UncertaintyModel` instead of the one ``config.cov`` names."""
+    an :class:`~vo.rop.uncertainty.UncertaintyModel` instead of the one ``config.cov`` names; ``tracker``
+    the four-view tracker of the KLT front-end (``keyframe`` / ``track`` / ``normalize`` / ``view`` of
+    :class:`~vo.rop.tracks.KltFourView`, the default built from ``klt_config`` and ``klt_refine``), e.g. a
+    validation's exact tracks; ``step_observer(pairs, R_1_3, priors)`` is called with the inputs of each
+    frame's ROP solve (studies: what a step was solved from)."""
 
     name = "rop"
 
-    def __init__(self, rig, config: RopConfig | None = None, uncertainty: UncertaintyModel | None = None, **options):
+    def __init__(self, rig, config: RopConfig | None = None, uncertainty: UncertaintyModel | None = None,
+                 tracker=None, step_observer=None, **options):
         super().__init__(rig, **options)
         if config is not None and options:
             raise EstimatorError(f"rop: give either config or options, not both (options {sorted(options)})")
@@ -87,8 +92,12 @@ class RopEstimator(Estimator):
         self.adjustment_config = AdjustmentConfig()
         self.uncertainty = uncertainty if uncertainty is not None else make_uncertainty(c, self.adjustment_config,
                                                                                         self.focal)
-        self.klt = KltFourView(rig, c.klt_config, c.klt_refine) if c.frontend == "klt" else None
-        self._moving_pnp = PnpConfig(ransac_reproj_px=c.moving_reproj_px, min_model_fraction=c.moving_min_fraction)
+        if tracker is not None and c.frontend != "klt":
+            raise EstimatorError(f"rop: a tracker is the KLT front-end's; frontend is {c.frontend!r}")
+        self.klt = (tracker if tracker is not None else KltFourView(rig, c.klt_config, c.klt_refine)
+                    ) if c.frontend == "klt" else None
+        self.step_observer = step_observer
+        self.track_filter_config = PnpConfig(ransac_reproj_px=c.moving_reproj_px, min_model_fraction=c.moving_min_fraction)
         self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
         self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
         self._kf_imgs = None          # (left, right) of the keyframe; None before the first frame
@@ -134,7 +143,7 @@ class RopEstimator(Estimator):
         if self.config.moving_objects == "none" or len(v) == 0:
             return v
         t0 = time.perf_counter()
-        self._filter = f = filter_tracks(v, self.rig, self._prior(), self._moving_pnp)
+        self._filter = f = filter_tracks(v, self.rig, self._prior(), self.track_filter_config)
         if f.keep is not None:          # fewer than min_matches left: a failed frame (coasts), not the car's motion
             v = self.klt.view = v.subset(f.keep)
         timings["track"] += (time.perf_counter() - t0) * 1e3
@@ -145,11 +154,8 @@ class RopEstimator(Estimator):
         :data:`MIN_COAST_PNP_INLIERS` inliers and within ``moving_prior_gate_m`` of the prediction (unless
         that rests on no solved frame or on a held pose: the first frame, or after the coasting limit) - a
         car's motion as the only candidate (crossing traffic) is far from it. Else None."""
-        f = self._filter
-        if f.T_kf_c is None or f.n_inliers < MIN_COAST_PNP_INLIERS:
-            return None
         trusted = self._n_solved > 0 and self._n_coast < MAX_COAST_FRAMES
-        return None if trusted and f.prior_offset_m > self.config.moving_prior_gate_m else f.T_kf_c
+        return self._filter.frame_pose(trusted, self.config.moving_prior_gate_m, MIN_COAST_PNP_INLIERS)
 
     def _step_miss(self, T_kf_c: np.ndarray) -> str:
         """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): the track filter saw competing rigid
@@ -159,11 +165,9 @@ class RopEstimator(Estimator):
         stereo depth and the four-view geometry disagree in scale (a calibration error: on the real KITTI
         turn the PnP steps ran 8-16 % long against ROP steps within 3 % of the truth), and the ROP step
         stands (docs/estimators.md, "Real recordings")."""
-        T_pnp, gate = self._pnp_pose(), self.config.moving_step_gate_m
-        if T_pnp is None or self.config.moving_objects == "none" or self._filter.keep is None:
+        if self.config.moving_objects == "none":
             return ""
-        d = float(np.linalg.norm(T_kf_c[:3, 3] - T_pnp[:3, 3]))
-        return f"ROP step {d:.2f} m > {gate} m from the track filter's PnP pose" if d > gate else ""
+        return self._filter.step_miss(T_kf_c, self._pnp_pose(), self.config.moving_step_gate_m)
 
     def _advance_prior(self, T_kf_c: np.ndarray) -> None:
         """Extend the PnP chain of the prediction by this frame (its PnP pose, else the frame's own)."""
@@ -179,6 +183,17 @@ class RopEstimator(Estimator):
         cov[:3, :3], cov[3:, 3:] = s_rot ** 2 * np.eye(3), s_pos ** 2 * np.eye(3)
         T = make_T(R_1_3, np.zeros(3))
         return T, cov, ("rotation_only", T, T, None, None)
+
+    def rop_set(self, pairs, R_1_3, priors):
+        """The four ROPs of one step from its pairs (``{pair: (x_i, x_j)}``), the rotation-only ``R_1_3`` and
+        the predicted ROPs ``priors``, after the rotation consensus (:mod:`vo.rop.consensus`)."""
+        return rotation_consensus(solve_rops(pairs, priors, self.focal, self.T_c1_c2, self.config), R_1_3,
+                                  self.config.max_rop_rotation_deg)
+
+    def solve_step(self, pairs, R_1_3, priors):
+        """``T_kf_c`` (4,4) of one step solved from the inputs a ``step_observer`` receives (ROPs, consensus,
+        adjustment), None when the adjustment fails; the estimator's state is not touched."""
+        return self._adjust(self.rop_set(pairs, R_1_3, priors), dict(essential=0.0, initial=0.0, adjust=0.0))[0]
 
     def _adjust(self, ropset, timings) -> tuple:
         """-> (T_kf_c, cov_step, epoch, message); T None on failure."""
@@ -210,8 +225,9 @@ class RopEstimator(Estimator):
             return (*self._rotation_only_step(R_1_3, parallax, len(x1), disparity),
                     f"parallax {parallax:.2f} px < {min_par} px: no translation (rotation only)", R_rot)
         priors = predicted_rops(R_1_3, (self._T_kf_cur @ self._last_motion)[:3, 3], self.T_c1_c2)
-        ropset = rotation_consensus(solve_rops(pairs, priors, self.focal, self.T_c1_c2, self.config), R_1_3,
-                                    self.config.max_rop_rotation_deg)
+        if self.step_observer is not None:
+            self.step_observer(pairs, R_1_3, priors)
+        ropset = self.rop_set(pairs, R_1_3, priors)
         timings["essential"] += (time.perf_counter() - t0) * 1e3
         T, cov, epoch, msg = self._adjust(ropset, timings)
         if T is None and parallax < 2.0 * min_par:
@@ -241,10 +257,10 @@ class RopEstimator(Estimator):
               keep_tracks=False) -> FrameResult:
         """The track filter's PnP pose when it may stand for the frame's (:meth:`_pnp_pose`); else coast: the
         rotation-only fit's rotation when there was one (tracks survive a failed ROP solve), the translation
-        held or, with ``constant_velocity``, extrapolated; then a fresh keyframe. The pose's class
+        extrapolated at constant velocity (held after :data:`MAX_COAST_FRAMES`); then a fresh keyframe. The pose's class
         (:data:`~vo.estimators.base.FRAME_CLASSES`): ok from PnP, coasting when extrapolated, lost when held."""
         T_prev = self.T_o_c0
-        coast = self.config.constant_velocity and self._n_coast < MAX_COAST_FRAMES
+        coast = self._n_coast < MAX_COAST_FRAMES
         T_step = self._T_kf_cur @ self._last_motion if coast else self._T_kf_cur.copy()
         T_pnp = self._pnp_pose()
         if T_pnp is not None:

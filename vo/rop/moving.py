@@ -38,6 +38,22 @@ class TrackFilter:
     n_inliers: int = 0
     prior_offset_m: float = float("inf")
 
+    def frame_pose(self, trusted_prior: bool, prior_gate_m: float, min_inliers: int) -> np.ndarray | None:
+        """The PnP pose ``T_kf_c`` (4,4) when it may stand for the frame's: >= ``min_inliers`` inliers and, when
+        the prior rests on a solved, not held pose (``trusted_prior``), within ``prior_gate_m`` of it (a car's
+        motion as the only candidate, crossing traffic, is far from it). Else None."""
+        if self.T_kf_c is None or self.n_inliers < min_inliers:
+            return None
+        return None if trusted_prior and self.prior_offset_m > prior_gate_m else self.T_kf_c
+
+    def step_miss(self, T_kf_c: np.ndarray, T_pnp: np.ndarray | None, step_gate_m: float) -> str:
+        """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): competing rigid motions were seen
+        (``keep`` set) and the step lies farther than ``step_gate_m`` from ``T_pnp`` (:meth:`frame_pose`)."""
+        if T_pnp is None or self.keep is None:
+            return ""
+        d = float(np.linalg.norm(np.asarray(T_kf_c)[:3, 3] - T_pnp[:3, 3]))
+        return f"ROP step {d:.2f} m > {step_gate_m} m from the track filter's PnP pose" if d > step_gate_m else ""
+
 
 def filter_tracks(view, rig, T_kf_c_prior: np.ndarray, config: PnpConfig) -> TrackFilter:
     """:class:`TrackFilter` of the tracks of ``view`` (:class:`~vo.rop.tracks.FourView`): every track

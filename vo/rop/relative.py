@@ -24,7 +24,6 @@ from rigs.geometry import skew
 from rigs.geometry.pinhole import undistort_points
 
 MIN_INLIERS = 8
-METHODS = {"ransac": cv2.RANSAC, "magsac": cv2.USAC_MAGSAC}
 LOSSES = ("gate", "cauchy", "tukey")   # final fit: hard inlier gate + least squares, or a robust loss (estimate_rop_normalized)
 ROBUST_SCALE = {"cauchy": 1.0, "tukey": 2.0}   # loss scale in units of the inlier threshold
 
@@ -284,10 +283,10 @@ def _fail_reason(n: int, n_good: int, spread_px: float, min_inliers: int, R, t) 
 def estimate_rop_normalized(x_i: np.ndarray, x_j: np.ndarray, focal: float, seed: int = 0,
                             ransac_threshold_px: float = 1.0, prob: float = 0.999,
                             min_inliers: int = MIN_INLIERS, max_iters: int = 1000,
-                            method: str = "ransac", prior=None, loss: str = "gate") -> RopMeasurement:
+                            prior=None, loss: str = "gate") -> RopMeasurement:
     """ROP of image j in image i from undistorted normalized matches ``x_i``, ``x_j`` (N,2).
 
-    RANSAC essential matrix (threshold ``ransac_threshold_px / focal``, ``max_iters`` upper bound
+    RANSAC essential matrix (OpenCV's RANSAC, threshold ``ransac_threshold_px / focal``, ``max_iters`` upper bound
     on the adaptive iteration count, ``cv2.setRNGSeed(seed)`` first), the decomposition with most
     RANSAC inliers in front of both cameras (:func:`decompose`; like ``recoverPose`` but without its
     50 |t| distance cap, which rejects most points of a short forward step), Sampson LM on those
@@ -305,7 +304,7 @@ def estimate_rop_normalized(x_i: np.ndarray, x_j: np.ndarray, focal: float, seed
     thr = ransac_threshold_px / focal
     cv2.setRNGSeed(int(seed))
     try:
-        E, mask = cv2.findEssentialMat(x_i, x_j, np.eye(3), METHODS[method], prob, thr, int(max_iters))
+        E, mask = cv2.findEssentialMat(x_i, x_j, np.eye(3), cv2.RANSAC, prob, thr, int(max_iters))
     except cv2.error as exc:
         return failed_rop(n, f"findEssentialMat failed: {str(exc).splitlines()[0]}")
     if E is None or mask is None or E.shape != (3, 3):

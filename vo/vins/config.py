@@ -13,6 +13,7 @@ from typing import Literal
 
 from rigs.typed_config import check_fields, from_mapping, knob
 from vo.errors import EstimatorError
+from vo.estimators.experimental import resolve_experimental
 
 ROBUST = ("none", "cauchy", "huber", "adaptive-huber")
 IMU_NOISE = ("rig", "table1")
@@ -35,6 +36,10 @@ PRESETS = {
     "oracle": dict(use_gf=False, use_track_count=False, robust="cauchy", remove_dynamic=True),
 }
 
+# measured, non-default alternatives, given as ``experimental.<field>`` (vo.estimators.experimental); the
+# decision and the study behind each: docs/estimators.md, "Experimental options"
+EXPERIMENTAL = frozenset({"n_count", "weight_min", "weight_max", "landmark", "shift_depth", "hold_gauge",
+                          "klt_refine", "init_min_excitation", "init_provisional_scale_std", "init_confirm_s"})
 
 
 def _positive_or_inf(value):
@@ -91,6 +96,9 @@ class VinsConfig:
     states of a simulated dataset: :mod:`vo.vins.truth_init`, for comparing back-ends where "vi" cannot start).
     Output: ``covariance`` "frame" (gtsam marginal of the newest state every frame, ``FrameResult.cov``) or "off".
     ``remove_dynamic`` (preset ``oracle``): the front-end keeps no features on moving objects (true segmentation).
+    Experimental (:data:`EXPERIMENTAL`, given as ``experimental.<field>``): ``n_count``, ``weight_min``,
+    ``weight_max``, ``landmark``, ``shift_depth``, ``hold_gauge``, ``klt_refine``, ``init_min_excitation``,
+    ``init_provisional_scale_std``, ``init_confirm_s``.
     """
 
     use_gf: bool = False
@@ -156,7 +164,9 @@ class VinsConfig:
 
     @classmethod
     def from_options(cls, preset: str, options: dict) -> "VinsConfig":
-        """``PRESETS[preset]`` updated by ``options``; unknown keys -> EstimatorError naming the valid ones."""
+        """``PRESETS[preset]`` updated by ``options``; unknown keys -> EstimatorError naming the valid ones. The
+        fields in :data:`EXPERIMENTAL` are given as ``experimental.<field>``."""
         if preset not in PRESETS:
             raise EstimatorError(f"vins.preset: unknown {preset!r}; valid: {', '.join(PRESETS)}")
+        options = resolve_experimental(options, EXPERIMENTAL, "vins")
         return from_mapping(cls, {**PRESETS[preset], **options}, EstimatorError, "vins")

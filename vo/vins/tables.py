@@ -13,12 +13,11 @@ across), with the rows the paper cannot give (true dynamic share, the N < 10 rul
 """
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 
 import numpy as np
 
-from vo.estimators.registry import make_estimator
+from vo.estimators.runner import run_estimator
 from vo.eval.rpe import rpe
 from rigs.trajectory import Trajectory
 
@@ -96,27 +95,19 @@ class ConfigRun:
 
 
 def run_config(ds, name: str, n_frames: int, options: dict, progress: bool = False) -> ConfigRun:
-    """Run ``name`` on the first ``n_frames`` frames of the opened dataset ``ds`` and compute its row."""
+    """Run ``name`` on the first ``n_frames`` frames of the opened dataset ``ds`` (the product runner,
+    :func:`vo.estimators.runner.run_estimator`, with the whole dataset for the labelled diagnostics) and
+    compute its row."""
     gt = ds.groundtruth_cam0()
     gt_T = np.linalg.inv(gt.T[0]) @ gt.T
-    est = make_estimator(name, ds.rig, **options)
-    est.set_imu(ds.imu)
-    est.set_dataset(ds)
-    n = min(n_frames, len(ds))
-    frames = [est.process(f) for f in _progress(ds.frames(0, n), n, progress, name)]
+    run = run_estimator(name, ds, options, progress=progress, max_frames=n_frames, with_truth=True)
+    frames, diagnostics = run.frames, run.diagnostics
     row = {"name": name, "n": len(frames), **after_init(frames, gt_T, np.asarray(gt.t_ns))}
-    row.update(feature_stats(est.diagnostics))
+    row.update(feature_stats(diagnostics))
     post = frames[row["init_frame"]:]          # mean stage timings after initialisation (none: empty)
     row["timings_ms"] = {k: float(np.mean([f.timings_ms.get(k, 0.0) for f in post])) for k in
                          (post[-1].timings_ms if post else ())}
-    return ConfigRun(name, row, frames, est.diagnostics)
-
-
-def _progress(it, total: int, enabled: bool, desc: str):
-    if not enabled or not sys.stderr.isatty():
-        return it
-    from tqdm import tqdm
-    return tqdm(it, total=total, desc=desc, unit="frame")
+    return ConfigRun(name, row, frames, diagnostics)
 
 
 def _rpe(i: int):

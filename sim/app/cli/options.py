@@ -33,11 +33,12 @@ def _default(o):
 
 
 opt_option = click.option("--opt", "estimator_opts", multiple=True, metavar="KEY=VALUE",
-                          help="Estimator option, e.g. --opt weights=sampson --opt cov=chain_bootstrap (values parsed as YAML).")
+                          help="Estimator option, e.g. --opt min_matches=40 --opt cov=chain_bootstrap (values parsed "
+                               "as YAML); an experimental one as --opt experimental.KEY=VALUE.")
 
 
 def parse_opts(items, frontend=None) -> dict:
-    """``("weights=sampson", "min_matches=40")`` -> ``{"weights": "sampson", "min_matches": 40}``."""
+    """``("cov=chain_bootstrap", "min_matches=40")`` -> ``{"cov": "chain_bootstrap", "min_matches": 40}``."""
     from rigs.typed_config import parse_value
     out = {} if frontend is None else {"frontend": frontend}
     for item in items:

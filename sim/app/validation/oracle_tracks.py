@@ -19,7 +19,9 @@ import numpy as np
 from sim.errors import SimError
 from sim.app.validation.exact_points import backproject, local_depth, project
 from rigs.geometry import inv_T
+from vo.estimators.runner import run_estimator
 from vo.frontend.klt import KltConfig
+from vo.rop.config import RopConfig
 from vo.rop.tracks import FourView, KltFourView
 
 VIEWS = ("p2", "p3", "p4")          # positions an oracle can replace (p1 is the detection itself)
@@ -91,18 +93,15 @@ def run_oracle(dataset, options: dict | None = None, noise_px: float = 0.0, seed
 
     ``images`` (default ``dataset``) is where the frames come from: pass a noisy view of the same
     dataset to keep KLT's positions for the views not in ``exact``."""
-    from vo.estimators.registry import make_estimator
     options = dict(options or {})
-    if options.get("frontend", "klt") != "klt":
-        raise SimError(f"oracle tracks: rop.frontend must be 'klt', got {options['frontend']!r}")
-    est = make_estimator("rop", dataset.rig, **options)
+    cfg = RopConfig.from_options(options)
+    if cfg.frontend != "klt":
+        raise SimError(f"oracle tracks: rop.frontend must be 'klt', got {cfg.frontend!r}")
     oracle = OracleFourView(dataset.rig, dataset, noise_px, np.random.default_rng([int(seed), 0x0AC1E]), exact,
-                            record, config=options.get("klt_config"), refine=options.get("klt_refine", "translation"))
-    est.klt = oracle
-    est.set_imu(None)
-    n = len(dataset) if max_frames is None else min(len(dataset), int(max_frames))
-    out = []
-    for frame in (images or dataset).frames(0, n):
+                            record, config=cfg.klt_config, refine=cfg.klt_refine)
+
+    def at_frame(frame):
         oracle.k = frame.index
-        out.append(est.process(frame))
-    return out
+
+    return run_estimator("rop", images or dataset, {**options, "tracker": oracle}, progress=False,
+                         max_frames=max_frames, seed=seed, before_frame=at_frame).frames
