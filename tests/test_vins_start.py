@@ -18,12 +18,11 @@ InitRecorder = load_study("vins_start_table").InitRecorder
 
 
 def _urban(tmp_path_factory, name, duration_s, **motion):
-    """The urban-static scenario's first ``duration_s`` (seed 0) with the ADIS16448 IMU: the scale of an 8-s
-    start from rest is observable to about 2 % with it (Table 1's IMU gives 9-10 % even from the true
-    poses, docs/vins.md). About 30 s to render 14 s."""
+    """The urban-static scenario's first ``duration_s`` (seed 0) as named: its own IMU, the paper's Xsens MTi 10
+    from the datasheet (``xsens-mti10``). About 30 s to render 14 s."""
     from sim.generate import generate
     from sim.scenarios import SCENARIOS
-    sets = ["imu=euroc-adis16448", f"duration_s={duration_s}"] + [f"motion.{k}={v}" for k, v in motion.items()]
+    sets = [f"duration_s={duration_s}"] + [f"motion.{k}={v}" for k, v in motion.items()]
     cfg = SCENARIOS["urban-static"].with_overrides(sets)
     out = tmp_path_factory.mktemp(name)
     generate(cfg, out, progress=False)
