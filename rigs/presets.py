@@ -124,14 +124,15 @@ def build_paper002() -> Rig:
 
     The paper gives the camera model (BFLY-U3-23S6C-C, 1920x1200) but no lens: the images are
     binned by 3 to 640x400 with f = 460 px (the virtual focal length of eq. 27), 69.6 deg x 47.0 deg
-    field of view, principal point at the image centre, no distortion. IMU: ``paper002`` (Table 1),
-    200 Hz. Mount point 1.65 m above ground, 0.8 m forward of the car's centre.
+    field of view, principal point at the image centre, no distortion. IMU: ``xsens-mti10``, the paper's
+    Xsens MTi 10 from its datasheet, 200 Hz (Table 1's IMU values are the estimator's configuration, not the
+    sensor's noise: :mod:`rigs.imu_models`). Mount point 1.65 m above ground, 0.8 m forward of the car's centre.
     """
     w, h = PAPER002_SIZE
     intr = dict(fx=PAPER002_F, fy=PAPER002_F, cx=(w - 1) / 2, cy=(h - 1) / 2, dist=(0.0,) * 5)
     T_c0_c1 = make_T(np.eye(3), (PAPER002_BASELINE_M, 0.0, 0.0))
     return _stereo_rig("paper002", intr, intr, PAPER002_SIZE, T_c0_c1, R_B_C_FORWARD,
-                       MAST_XYZ_CAR, 10.0, "paper002", "car roof")
+                       MAST_XYZ_CAR, 10.0, "xsens-mti10", "car roof")
 
 
 def build_kitti_like() -> Rig:
@@ -170,8 +171,8 @@ _HEADERS = {
     "stereo27": "Ideal parallel 0.27 m stereo pair, 752x480, f = 458 px. Written by rigs.presets; do not edit.",
     "yutu-navcam": "Seed 001 Yutu Navcam, f = 1189 px, 1024x1024, B = 0.27 m, mast 1.5 m tilted down 20 deg.\n"
                    "Written by rigs.presets; do not edit.",
-    "paper002": "Seed 002 monocular 10 Hz camera (640x400, f = 460 px) as cam0 of a parallel 0.5 m pair, IMU of\n"
-                "Table 1 at 200 Hz, car roof 1.65 m. Written by rigs.presets; do not edit.",
+    "paper002": "Seed 002 monocular 10 Hz camera (640x400, f = 460 px) as cam0 of a parallel 0.5 m pair, Xsens MTi 10\n"
+                "IMU (datasheet densities) at 200 Hz, car roof 1.65 m. Written by rigs.presets; do not edit.",
     "fisheye150": "Two parallel equidistant (Kannala-Brandt) fisheye cameras, 640x480, f = 315 px, 150 deg diagonal\n"
                   "field of view, baseline 0.12 m, 20 Hz. Written by rigs.presets; do not edit.",
     "kitti-like": "KITTI odometry geometry: 1241x376, f = 718.856 px, baseline 0.537 m, 10 Hz, car roof 1.65 m.\n"

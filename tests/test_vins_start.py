@@ -18,12 +18,11 @@ InitRecorder = load_study("vins_start_table").InitRecorder
 
 
 def _urban(tmp_path_factory, name, duration_s, **motion):
-    """The urban-static scenario's first ``duration_s`` (seed 0) with the ADIS16448 IMU: the scale of an 8-s
-    start from rest is observable to about 2 % with it (Table 1's IMU gives 9-10 % even from the true
-    poses, docs/vins.md). About 30 s to render 14 s."""
+    """The urban-static scenario's first ``duration_s`` (seed 0) as named: its own IMU, the paper's Xsens MTi 10
+    from the datasheet (``xsens-mti10``). About 30 s to render 14 s."""
     from sim.generate import generate
     from sim.scenarios import SCENARIOS
-    sets = ["imu=euroc-adis16448", f"duration_s={duration_s}"] + [f"motion.{k}={v}" for k, v in motion.items()]
+    sets = [f"duration_s={duration_s}"] + [f"motion.{k}={v}" for k, v in motion.items()]
     cfg = SCENARIOS["urban-static"].with_overrides(sets)
     out = tmp_path_factory.mktemp(name)
     generate(cfg, out, progress=False)
@@ -91,19 +90,48 @@ def test_constant_speed_start_stays_in_init_and_emits_no_pose(urban_cruise):
 
 @pytest.mark.long
 def test_forced_divergence_reinitialises(urban_from_rest):
-    """A divergence injected at the first window optimisation after the start: that frame and every frame until
-    the start succeeds again are `reinit` (not `init`: a pose was produced before) with the last pose held;
-    then the estimator initialises again from the new keyframes and produces poses."""
-    est, rec, res = _run(urban_from_rest, divergence=DivergeOnce(1))
+    """A divergence injected at the first window optimisation after the start: the window is dropped and the
+    start begins again from fresh keyframes (the initializer is called again on them); that frame and every
+    frame until a new start succeeds are `reinit` (not `init`: a pose was produced before) with the last pose
+    held and the frame class `lost` (not covered by the evaluation). On this route the divergence comes at
+    about 7 s, when the car is at speed: the windows after it span about 2 s of nearly constant acceleration
+    and are refused for observability within the 14 s (docs/vins.md), so a second start is checked only if it
+    happens: then it is announced as `initialised` and covers every frame after it."""
+    ds = open_dataset(urban_from_rest)
+    rec = CountingRecorder(ds.groundtruth_cam0())
+    est = VinsEstimator(ds.rig, initializer=rec, divergence=DivergeOnce(1))
+    est.set_imu(ds.imu)
+    est.set_dataset(ds)
+    res = []
+    for k in range(len(ds)):
+        res.append(est.process(ds.frame(k)))
+        if len(res) >= 2 and res[-2].status != "init" and res[-1].status == "reinit" and rec.calls_at_reinit is None:
+            rec.calls_at_reinit = rec.calls
     first = next(k for k, r in enumerate(res) if r.status != "init")
     assert res[first + 1].status == "reinit" and res[first + 1].message == "diverged: forced by the test"
-    again = next((k for k in range(first + 2, len(res)) if res[k].message == "initialised"), None)
-    assert again is not None, "no re-initialisation"
+    again = next((k for k in range(first + 2, len(res)) if res[k].message == "initialised"), len(res))
+    assert again > first + 2
     assert all(r.status == "reinit" for r in res[first + 1:again])
     assert all(frame_class(r) == "lost" for r in res[first + 1:again])         # not covered by the evaluation
     assert all(np.array_equal(r.T_o_c0, res[first].T_o_c0) for r in res[first + 1:again])
-    assert all(r.status in COVERED for r in res[again:])
-    assert len(rec.starts) == 2
+    msgs = [r.message for r in res[first + 2:again]]
+    assert "collecting keyframes 1/11" in msgs, msgs[:5]                       # fresh keyframes
+    assert rec.calls > rec.calls_at_reinit                                     # the start is tried again
+    assert any("not observable" in m or "SfM failed" in m for m in msgs), set(msgs)
+    if again < len(res):
+        assert all(r.status in COVERED for r in res[again:]) and len(rec.starts) == 2
+
+
+class CountingRecorder(InitRecorder):
+    """:class:`InitRecorder` that also counts the start attempts (``calls``)."""
+
+    def __init__(self, gt):
+        super().__init__(gt)
+        self.calls, self.calls_at_reinit = 0, None
+
+    def __call__(self, *args):
+        self.calls += 1
+        return super().__call__(*args)
 
 
 def _snap(p, v=(10.0, 0, 0), ba=(0, 0, 0), bg=(0, 0, 0)):

@@ -1,6 +1,6 @@
 """``vo-testbed demo --scenario urban-dynamic|urban-static``: seed 002's Table 2/3 layout and Figs. 12-15 on one seed.
 
-Generates the scenario into the cache with the documented table protocol (docs/vins.md, "Seed 002 Tables 2/3 on
+Generates the scenario into the cache with the documented table protocol (docs/studies/vins_tables.md, "Seed 002 Tables 2/3 on
 the urban scene": 25 s, the ADIS16448 IMU, segmentation for the labels and the oracle), runs the four
 configurations of the paper and ``vins-oracle`` (:mod:`vo.vins.tables`) from the monocular visual-inertial start
 (estimator options, e.g. ``init=truth``, override :data:`START_OPTIONS`), prints the table and writes the

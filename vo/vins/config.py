@@ -73,7 +73,8 @@ class VinsConfig:
     ``min_tracked`` (fewer tracked features than this -> keyframe), ``klt_refine`` "none" (VINS-Mono's KLT) or
     "affine" (each track refined against its first image, :mod:`vo.vins.frontend`). IMU: ``imu_noise`` "rig" (the rig's
     calibrated Kalibr densities, as a VINS-Mono user configures the IMU; Table 1's when the rig has none) or
-    "table1" (seed 002's Xsens values ``acc_n``, ``gyr_n``, ``acc_w``, ``gyr_w``).
+    "table1" (seed 002 Table 1's estimator configuration ``acc_n``, ``gyr_n``, ``acc_w``, ``gyr_w``, not the
+    sensor's noise: :mod:`rigs.imu_models`).
     Start-up: SfM + alignment is tried at every new keyframe once there are ``init_min_keyframes``, on at most
     ``init_keyframes`` (after a failure the oldest is dropped if the SfM failed, else the inner keyframe of
     the shortest merged interval; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,

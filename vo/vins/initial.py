@@ -354,7 +354,9 @@ def initialize(stream, params, frames, T_i_c, config):
     ``LinearAlignment`` test). Accepted when the scale's relative standard deviation (noise model of
     :func:`align`) is below ``init_max_scale_std`` and the forward and reverse regressions agree within it;
     accepted as ``provisional`` (the estimator then emits no pose until its window confirms the scale) when
-    the standard deviation is below ``init_provisional_scale_std``."""
+    the standard deviation is below ``init_provisional_scale_std`` and that option is on (above
+    ``init_max_scale_std``; equal to it, the default, is off: a window whose forward and reverse regressions
+    disagree is then refused, not started provisionally)."""
     exc = imu_excitation(stream, params, frames)
     if config.init_min_excitation > 0 and exc < config.init_min_excitation:
         return None, (f"IMU excitation not enough ({exc:.3f} < {config.init_min_excitation} m/s^2 above the "
@@ -373,7 +375,8 @@ def initialize(stream, params, frames, T_i_c, config):
     agree = abs(s / s_reverse - 1.0) <= config.init_max_scale_std
     if rel_std <= config.init_max_scale_std and agree:
         return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v, rel_std), "ok"
-    if rel_std <= config.init_provisional_scale_std:
+    provisional_on = config.init_provisional_scale_std > config.init_max_scale_std
+    if provisional_on and rel_std <= config.init_provisional_scale_std:
         return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v, rel_std, True), "provisional"
     if rel_std > config.init_max_scale_std:
         return None, (f"scale not observable yet (relative std {rel_std:.3f} > {config.init_provisional_scale_std}, "
