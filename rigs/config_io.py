@@ -7,7 +7,7 @@
   values as builtins.
 
 Checking the values read is the typed configuration's job (:mod:`rigs.typed_config`: our files are read as
-frozen dataclasses; the foreign calibration formats use its ``check_keys`` and ``field_*`` helpers).
+frozen dataclasses; the foreign calibration formats through :mod:`rigs.calib_fields`).
 
 Every error is ``error`` (default :class:`rigs.errors.RigError`), so each package raises its own
 subclass of :class:`rigs.errors.TestbedError`.

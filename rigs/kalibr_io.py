@@ -16,7 +16,7 @@ from rigs.errors import RigError
 from rigs.geometry import inv_T
 from rigs.imu_models import get_imu_model
 from rigs.model import Camera, Imu, Rig
-from rigs.typed_config import check_keys, field_error, field_floats, field_number
+from rigs.calib_fields import check_keys, field_error, field_floats, field_number
 
 KALIBR_CAMCHAIN = "camchain-imucam.yaml"
 KALIBR_IMU = "imu.yaml"

@@ -32,7 +32,7 @@ from dataclasses import MISSING, dataclass
 import numpy as np
 
 from rigs.config_io import parse_yaml_text, read_yaml_file
-from rigs.errors import RigError, TestbedError
+from rigs.errors import TestbedError
 
 
 @dataclass(frozen=True)
@@ -187,7 +187,7 @@ def check_value(value, tp, spec: Spec, path: str, error):
     """``value`` of a field annotated ``tp`` with :class:`Spec` ``spec``: parsed (``spec.parse``), coerced by
     the annotation and range-checked; every problem one ``error`` line ``<path>: <problem>``. The one
     validator of configuration values: fields (:func:`check_fields`), mappings (:func:`from_mapping`),
-    ``--set`` items (:func:`replace_path`) and the hand-parsed calibration formats (:func:`field_number`)."""
+    ``--set`` items (:func:`replace_path`) and the hand-read calibration formats (:mod:`rigs.calib_fields`)."""
     if spec.parse is not None and not _is_instance(value, tp):
         value = spec.parse(value)
     value = coerce(value, tp, path, error)
@@ -360,51 +360,3 @@ def apply_items(obj, items, error, source: str = "--set", prefix: str = "", sett
         except TestbedError as exc:
             raise type(exc)(f"{source} {item!r}: {exc}") from None
     return obj
-
-
-# ----------------------------------------------------------------------------- hand-read foreign formats
-def field_error(source: str, path: str, problem: str, error=RigError):
-    return error(f"{source}: {path}: {problem}")
-
-
-def check_keys(d, required, optional, source: str, path: str, error=RigError) -> dict:
-    """A mapping of a foreign calibration format (EuRoC, Kalibr; our own files are read by
-    :func:`from_mapping`): every ``required`` key and nothing outside required+optional, with
-    :func:`from_mapping`'s messages, prefixed by ``source``."""
-    valid = list(required) + list(optional)
-    if not isinstance(d, Mapping):
-        raise field_error(source, path or "<top>", f"expected a mapping with keys {', '.join(valid)}, "
-                                                   f"got {type(d).__name__}", error)
-    prefix = f"{path}." if path else ""
-    for k in d:
-        if k not in valid:
-            raise field_error(source, f"{prefix}{k}", f"unknown key; valid keys: {', '.join(valid)}", error)
-    for k in required:
-        if k not in d:
-            raise field_error(source, f"{prefix}{k}", "missing field", error)
-    return d
-
-
-def field_number(value, source, path, positive=False, nonneg=False, error=RigError) -> float:
-    """A finite real number (not bool, not a string); optionally > 0 or >= 0 (:func:`check_value`)."""
-    spec = Spec(gt=0.0) if positive else Spec(ge=0.0) if nonneg else Spec()
-    return check_value(value, float, spec, f"{source}: {path}", error)
-
-
-def field_int(value, source, path, error=RigError) -> int:
-    """A positive integer (an integral float such as 752.0 is accepted; :func:`check_value`)."""
-    return check_value(value, int, Spec(ge=1), f"{source}: {path}", error)
-
-
-def field_str(value, source, path, error=RigError) -> str:
-    return check_value(value, str, Spec(), f"{source}: {path}", error)
-
-
-def field_floats(value, source, path, lengths, error=RigError) -> tuple:
-    """A list of finite numbers whose length is one of ``lengths``."""
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if not isinstance(value, (list, tuple)) or len(value) not in lengths:
-        raise field_error(source, path, f"expected a list of {' or '.join(map(str, lengths))} numbers, "
-                                        f"got {value!r}", error)
-    return check_value(value, tuple[float, ...], Spec(), f"{source}: {path}", error)
