@@ -1,9 +1,9 @@
-"""Generate a stop-and-go traverse dataset (seed 001): plan, simulate, render; :mod:`sim.dataset.traverse_writer` writes.
+"""Generate a stop-and-go traverse dataset (seed 001): plan, simulate, render; the writer only writes.
 
-``generate_traverse(config, tcfg, out_dir)`` is what ``vo-testbed generate --scenario yutu-traverse`` calls.
-It follows :func:`sim.generate.generate`'s stages: the output folder is claimed and locked
-(:func:`sim.dataset.common.claim_folder`); the IMU is measured and made noisy as there
-(:func:`sim.generate.measured_imu`); the panorama pairs go through the same frame loop
+``generate_traverse(config, tcfg, out_dir)`` is what ``vo-testbed generate --scenario yutu-traverse`` calls;
+the files are written by :mod:`sim.dataset.traverse_writer`. It follows :func:`sim.generate.generate`'s stages:
+the output folder is claimed and locked (:func:`sim.dataset.common.claim_folder`); the IMU is measured and
+made noisy as there (:func:`sim.generate.measured_imu`); the panorama pairs go through the same frame loop
 (:class:`sim.frame_pipeline.FrameLoop`: rendering on this thread, grey conversion, image noise, PNG encoding and
 writing on workers, a site's ``site.yaml`` committed in order once its pairs exist); ``metadata.yaml`` is
 written last, atomically, so a folder without it is incomplete and a rerun writes it again. On top of

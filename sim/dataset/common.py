@@ -111,9 +111,10 @@ def config_hash(metadata: dict) -> str:
 
 
 def write_marker(out_dir: Path, cfg_hash: str, progress: str) -> None:
-    """(Re)write the one-line ``INCOMPLETE`` marker: config hash and progress."""
-    (out_dir / MARKER).write_text(
-        f"config={cfg_hash} {progress}; resume by rerunning the same command, or regenerate with overwrite\n")
+    """(Re)write the one-line ``INCOMPLETE`` marker: config hash and progress; atomically, so an interrupt
+    (Ctrl-C lands between frames' commits) never leaves a truncated marker that a resume would not recognise."""
+    atomic_write_text(out_dir / MARKER, f"config={cfg_hash} {progress}; resume by rerunning the same command, "
+                                        f"or regenerate with overwrite\n")
 
 
 def marker_hash(out_dir: Path) -> str | None:
