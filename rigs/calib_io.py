@@ -31,11 +31,11 @@ import cv2
 import numpy as np
 
 from rigs.atomic_io import atomic_write_text
-from rigs.config_io import (check_keys, dump_yaml, field_error, field_floats, field_int, field_number,
-                            read_yaml_file)
+from rigs.config_io import dump_yaml, read_yaml_file
 from rigs.errors import RigError
 from rigs.imu_models import get_imu_model
 from rigs.model import Camera, Imu, Rig, as_matrix4
+from rigs.calib_fields import check_keys, field_error, field_floats, field_int, field_number
 
 ORTHO_TOL = 1e-4   # calibration files print ~9-12 digits; re-orthonormalise rotations within this
 

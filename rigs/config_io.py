@@ -5,15 +5,15 @@
   the source.
 * :func:`dump_yaml`: block mappings, flow lists of scalars, floats at ``repr`` precision, numpy
   values as builtins.
-* ``check_keys`` and ``field_*``: strict checks of hand-parsed mappings (rig and calibration files);
-  each failure is one line ``<source>: <field path>: <problem>``.
+
+Checking the values read is the typed configuration's job (:mod:`rigs.typed_config`: our files are read as
+frozen dataclasses; the foreign calibration formats through :mod:`rigs.calib_fields`).
 
 Every error is ``error`` (default :class:`rigs.errors.RigError`), so each package raises its own
 subclass of :class:`rigs.errors.TestbedError`.
 """
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 
@@ -91,59 +91,3 @@ def dump_yaml(obj, header: str | None = None) -> str:
         return body
     lines = "".join(f"# {ln}".rstrip() + "\n" for ln in header.splitlines())
     return lines + body
-
-
-# ----------------------------------------------------------------------------- field checks
-def field_error(source: str, path: str, problem: str, error=RigError):
-    return error(f"{source}: {path}: {problem}")
-
-
-def check_keys(d, required, optional, source: str, path: str) -> dict:
-    """``d`` must be a mapping with every ``required`` key and nothing outside required+optional."""
-    valid = list(required) + list(optional)
-    if not isinstance(d, dict):
-        raise field_error(source, path or "<top>", f"expected a mapping with keys {', '.join(valid)}, "
-                                                   f"got {type(d).__name__}")
-    prefix = f"{path}." if path else ""
-    for k in d:
-        if k not in valid:
-            raise field_error(source, f"{prefix}{k}", f"unknown key; valid keys: {', '.join(valid)}")
-    for k in required:
-        if k not in d:
-            raise field_error(source, f"{prefix}{k}", "missing field")
-    return d
-
-
-def field_number(value, source, path, positive=False, nonneg=False) -> float:
-    """A finite real number (not bool, not a string); optionally > 0 or >= 0."""
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if positive and not (ok and value > 0):
-        raise field_error(source, path, f"must be a positive finite number, got {value!r}")
-    if nonneg and not (ok and value >= 0):
-        raise field_error(source, path, f"must be a non-negative finite number, got {value!r}")
-    if not ok:
-        raise field_error(source, path, f"must be a finite number, got {value!r}")
-    return float(value)
-
-
-def field_int(value, source, path) -> int:
-    """A positive integer (a float with an integral value such as 752.0 is accepted)."""
-    if isinstance(value, float) and value.is_integer():
-        value = int(value)
-    if not isinstance(value, int) or isinstance(value, bool) or value <= 0:
-        raise field_error(source, path, f"must be a positive integer, got {value!r}")
-    return value
-
-
-def field_str(value, source, path) -> str:
-    if not isinstance(value, str) or not value:
-        raise field_error(source, path, f"must be a non-empty string, got {value!r}")
-    return value
-
-
-def field_floats(value, source, path, lengths) -> tuple:
-    """A list of finite numbers whose length is one of ``lengths``."""
-    if not isinstance(value, (list, tuple)) or len(value) not in lengths:
-        raise field_error(source, path, f"expected a list of {' or '.join(map(str, lengths))} numbers, "
-                                        f"got {value!r}")
-    return tuple(field_number(v, source, f"{path}[{i}]") for i, v in enumerate(value))

@@ -11,11 +11,12 @@ import numpy as np
 from rigs.atomic_io import atomic_write_text
 from rigs.calib_io import (_matrix_field, _opencv_dist, _radtan_k3, _resolution, _rigid, _rows, dropped_k3_note,
                            int_if_integral)
-from rigs.config_io import check_keys, dump_yaml, field_error, field_floats, field_number, read_yaml_file
+from rigs.config_io import dump_yaml, read_yaml_file
 from rigs.errors import RigError
 from rigs.geometry import inv_T
 from rigs.imu_models import get_imu_model
 from rigs.model import Camera, Imu, Rig
+from rigs.calib_fields import check_keys, field_error, field_floats, field_number
 
 KALIBR_CAMCHAIN = "camchain-imucam.yaml"
 KALIBR_IMU = "imu.yaml"

@@ -1,5 +1,10 @@
 """Rig definition: cameras, IMU, optional wheel encoders. Frozen, validated on construction.
 
+The classes are typed configurations (:mod:`rigs.typed_config`): each field's type and range is its
+annotation and :func:`~rigs.typed_config.knob`, checked by :func:`~rigs.typed_config.check_fields`, so a rig
+file (:mod:`rigs.rig_yaml`), a ``--set`` key (:mod:`rigs.overrides`) and code get one set of checks; the
+checks that tie fields together (lens model and coefficients, principal point, rigid extrinsics) follow.
+
 Frames: ``b`` vehicle body, ``c0``/``c1`` cameras (OpenCV: x right, y down, z forward),
 ``i`` IMU. Extrinsics are ``T_b_c`` / ``T_b_i`` (4x4, nested tuples so the dataclass is
 hashable and frozen). Noise densities are continuous-time, Kalibr units.
@@ -7,17 +12,33 @@ hashable and frozen). Noise densities are continuous-time, Kalibr units.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Optional
+from dataclasses import dataclass
+from typing import Literal, Optional
 
 import cv2
 import numpy as np
 
 from rigs.errors import RigError
+from rigs.typed_config import check_fields, knob
 
-DIST_MODELS = ("radtan", "equidistant")
+DIST_MODELS = ("radtan", "equidistant")        # Camera.dist_model
 
-Matrix4 = tuple  # tuple of 4 tuples of 4 floats
+Row4 = tuple[float, float, float, float]
+Matrix4 = tuple[Row4, Row4, Row4, Row4]     # 4 rows of 4 floats: hashable, frozen
+
+
+def _eye4() -> tuple:
+    return tuple(tuple(r) for r in np.eye(4).tolist())
+
+
+def rigid_problem(T) -> str | None:
+    """Why the 4x4 ``T`` is not a rigid transform, or None."""
+    T = np.asarray(T, dtype=float)
+    R = T[:3, :3]
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0.999 \
+            or not np.allclose(T[3], [0, 0, 0, 1]):
+        return "not a rigid transform (rotation not orthonormal or last row not 0 0 0 1)"
+    return None
 
 
 def as_matrix4(value, where: str) -> Matrix4:
@@ -28,31 +49,10 @@ def as_matrix4(value, where: str) -> Matrix4:
         raise RigError(f"{where}: expected a 4x4 matrix of numbers, got {value!r}") from None
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         raise RigError(f"{where}: expected a finite 4x4 matrix, got shape {T.shape}")
-    R = T[:3, :3]
-    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0.999 \
-            or not np.allclose(T[3], [0, 0, 0, 1]):
-        raise RigError(f"{where}: not a rigid transform (rotation not orthonormal or last row not 0 0 0 1)")
+    problem = rigid_problem(T)
+    if problem:
+        raise RigError(f"{where}: {problem}")
     return tuple(tuple(float(x) for x in row) for row in T)
-
-
-def _positive(value, where: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise RigError(f"{where}: expected a number, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise RigError(f"{where}: must be a positive finite number, got {value!r}")
-    return v
-
-
-def _nonneg(value, where: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise RigError(f"{where}: expected a number, got {value!r}") from None
-    if not math.isfinite(v) or v < 0:
-        raise RigError(f"{where}: must be a non-negative finite number, got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)
@@ -71,53 +71,33 @@ class Camera:
     """
 
     name: str
-    width: int
-    height: int
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    dist: tuple = (0.0, 0.0, 0.0, 0.0, 0.0)
-    T_b_c: Matrix4 = field(default_factory=lambda: tuple(tuple(r) for r in np.eye(4).tolist()))
-    dist_model: str = "radtan"
+    width: int = knob(ge=1)
+    height: int = knob(ge=1)
+    fx: float = knob(gt=0.0)
+    fy: float = knob(gt=0.0)
+    cx: float = knob()
+    cy: float = knob()
+    dist: tuple[float, ...] = knob((0.0, 0.0, 0.0, 0.0, 0.0), required=True)
+    T_b_c: Matrix4 = knob(default_factory=_eye4, required=True, check=rigid_problem)
+    dist_model: Literal["radtan", "equidistant"] = "radtan"
 
     def __post_init__(self):
         w = f"camera {self.name!r}"
-        if self.dist_model not in DIST_MODELS:
-            raise RigError(f"{w}.dist_model: expected one of {', '.join(DIST_MODELS)}, got {self.dist_model!r}")
-        for f in ("width", "height"):
-            v = getattr(self, f)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v <= 0:
-                raise RigError(f"{w}.{f}: must be a positive integer, got {v!r}")
-            object.__setattr__(self, f, int(v))
-        for f in ("fx", "fy"):
-            object.__setattr__(self, f, _positive(getattr(self, f), f"{w}.{f}"))
+        check_fields(self, RigError, f"{w}.")
         for f in ("cx", "cy"):
-            v = getattr(self, f)
-            try:
-                v = float(v)
-            except (TypeError, ValueError):
-                raise RigError(f"{w}.{f}: expected a number, got {v!r}") from None
-            if not math.isfinite(v):
-                raise RigError(f"{w}.{f}: must be finite, got {v!r}")
-            size = self.width if f == "cx" else self.height
+            v, size = getattr(self, f), self.width if f == "cx" else self.height
             if not 0.0 <= v <= size:
                 raise RigError(f"{w}.{f}: principal point {v:g} px is outside the image (0 to {size} px, "
                                f"the camera's {'width' if f == 'cx' else 'height'})")
-            object.__setattr__(self, f, v)
-        d = tuple(float(x) for x in self.dist) if self.dist is not None else ()
+        d = self.dist
         if self.dist_model == "equidistant":
-            if len(d) != 4 or not all(math.isfinite(x) for x in d):
-                raise RigError(f"{w}.dist: expected 4 finite equidistant coefficients (k1 k2 k3 k4), got {self.dist!r}")
-            object.__setattr__(self, "dist", d)
-            object.__setattr__(self, "T_b_c", as_matrix4(self.T_b_c, f"{w}.T_b_c"))
-            return
-        if len(d) == 4:
-            d = d + (0.0,)
-        if len(d) != 5 or not all(math.isfinite(x) for x in d):
-            raise RigError(f"{w}.dist: expected 4 or 5 finite OpenCV coefficients (k1 k2 p1 p2 [k3]), got {self.dist!r}")
+            if len(d) != 4:
+                raise RigError(f"{w}.dist: expected 4 finite equidistant coefficients (k1 k2 k3 k4), got {d!r}")
+        else:
+            d = d + (0.0,) if len(d) == 4 else d
+            if len(d) != 5:
+                raise RigError(f"{w}.dist: expected 4 or 5 finite OpenCV coefficients (k1 k2 p1 p2 [k3]), got {d!r}")
         object.__setattr__(self, "dist", d)
-        object.__setattr__(self, "T_b_c", as_matrix4(self.T_b_c, f"{w}.T_b_c"))
 
     @property
     def K(self) -> np.ndarray:
@@ -178,20 +158,16 @@ class Camera:
 class Imu:
     """IMU model: rate and the four Kalibr noise densities; extrinsic ``T_b_i``."""
 
-    name: str = "ideal"
-    rate_hz: float = 200.0
-    accel_noise_density: float = 0.0     # m/s^2/sqrt(Hz)
-    gyro_noise_density: float = 0.0      # rad/s/sqrt(Hz)
-    accel_random_walk: float = 0.0       # m/s^3/sqrt(Hz)
-    gyro_random_walk: float = 0.0        # rad/s^2/sqrt(Hz)
-    T_b_i: Matrix4 = field(default_factory=lambda: tuple(tuple(r) for r in np.eye(4).tolist()))
+    name: str = knob("ideal", required=True)
+    rate_hz: float = knob(200.0, gt=0.0, required=True)
+    accel_noise_density: float = knob(0.0, ge=0.0, required=True, doc="m/s^2/sqrt(Hz)")
+    gyro_noise_density: float = knob(0.0, ge=0.0, required=True, doc="rad/s/sqrt(Hz)")
+    accel_random_walk: float = knob(0.0, ge=0.0, required=True, doc="m/s^3/sqrt(Hz)")
+    gyro_random_walk: float = knob(0.0, ge=0.0, required=True, doc="rad/s^2/sqrt(Hz)")
+    T_b_i: Matrix4 = knob(default_factory=_eye4, required=True, check=rigid_problem)
 
     def __post_init__(self):
-        w = f"imu {self.name!r}"
-        object.__setattr__(self, "rate_hz", _positive(self.rate_hz, f"{w}.rate_hz"))
-        for f in ("accel_noise_density", "gyro_noise_density", "accel_random_walk", "gyro_random_walk"):
-            object.__setattr__(self, f, _nonneg(getattr(self, f), f"{w}.{f}"))
-        object.__setattr__(self, "T_b_i", as_matrix4(self.T_b_i, f"{w}.T_b_i"))
+        check_fields(self, RigError, f"imu {self.name!r}.")
 
     @property
     def T_b_i_array(self) -> np.ndarray:
@@ -202,18 +178,14 @@ class Imu:
 class Wheels:
     """Wheel encoders on a differential-drive vehicle."""
 
-    rate_hz: float = 50.0
-    wheel_radius: float = 0.1          # m
-    track_width: float = 0.5           # m, distance between left and right wheels
-    ticks_per_rev: int = 1024
-    slip_std: float = 0.0              # relative speed error (1 sigma)
+    rate_hz: float = knob(50.0, gt=0.0, required=True)
+    wheel_radius: float = knob(0.1, gt=0.0, required=True, doc="m")
+    track_width: float = knob(0.5, gt=0.0, required=True, doc="m, distance between left and right wheels")
+    ticks_per_rev: int = knob(1024, ge=1, required=True)
+    slip_std: float = knob(0.0, ge=0.0, required=True, doc="relative speed error (1 sigma)")
 
     def __post_init__(self):
-        for f in ("rate_hz", "wheel_radius", "track_width"):
-            object.__setattr__(self, f, _positive(getattr(self, f), f"wheels.{f}"))
-        object.__setattr__(self, "slip_std", _nonneg(self.slip_std, "wheels.slip_std"))
-        if int(self.ticks_per_rev) <= 0:
-            raise RigError(f"wheels.ticks_per_rev: must be a positive integer, got {self.ticks_per_rev!r}")
+        check_fields(self, RigError, "wheels.")
 
 
 MIN_BASELINE_M = 1e-6      # two cameras closer than this share one position: no stereo geometry
@@ -224,23 +196,20 @@ class Rig:
     """A stereo (or multi-camera) rig with an IMU. ``cameras[0]`` is the reference (left) camera."""
 
     name: str
-    cameras: tuple
-    imu: Imu = field(default_factory=Imu)
-    camera_rate_hz: float = 20.0
-    wheels: Optional[Wheels] = None
-    mount: str = "mast"                # free-text: where the rig sits on the vehicle
+    cameras: tuple[Camera, ...]
+    imu: Imu = knob(default_factory=Imu, required=True)
+    camera_rate_hz: float = knob(20.0, gt=0.0, required=True)
+    wheels: Optional[Wheels] = knob(None, required=True)
+    mount: str = knob("mast", required=True, doc="free-text: where the rig sits on the vehicle")
 
     def __post_init__(self):
-        cams = tuple(self.cameras)
-        if len(cams) < 1 or not all(isinstance(c, Camera) for c in cams):
-            raise RigError(f"rig {self.name!r}.cameras: expected at least one camera")
-        names = [c.name for c in cams]
+        w = f"rig {self.name!r}"
+        check_fields(self, RigError, f"{w}.")
+        if not self.cameras:
+            raise RigError(f"{w}.cameras: expected at least one camera")
+        names = [c.name for c in self.cameras]
         if len(set(names)) != len(names):
-            raise RigError(f"rig {self.name!r}.cameras: duplicate camera names {names}")
-        object.__setattr__(self, "cameras", cams)
-        object.__setattr__(self, "camera_rate_hz", _positive(self.camera_rate_hz, f"rig {self.name!r}.camera_rate_hz"))
-        if not isinstance(self.imu, Imu):
-            raise RigError(f"rig {self.name!r}.imu: expected an Imu")
+            raise RigError(f"{w}.cameras: duplicate camera names {names}")
 
     @property
     def is_stereo(self) -> bool:

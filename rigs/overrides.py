@@ -12,7 +12,9 @@ Keys are the field names of the rig dataclasses (:mod:`rigs.model`), resolved th
   ``|t_c0_c1| = B``, c0 fixed), ``imu=NAME`` (a named model of :mod:`rigs.imu_models`, keeping the
   mounting ``T_b_i``), ``wheels=none`` / ``wheels=default``.
 
-Errors are one line: ``override 'baseline=-1': baseline: must be a positive finite number, got -1``.
+Values are checked by the rig classes themselves (typed configurations, :mod:`rigs.typed_config`: a field is
+set with :func:`~rigs.typed_config.replace_path`), so a key and a rig file get the same checks. Errors are
+one line: ``override 'baseline=-1': baseline: must be a positive finite number, got -1``.
 These keys are the rig's grammar everywhere: a typed config with a rig field declares :data:`RIG_KEYS`
 (``knob(..., keys=RIG_KEYS)``), so :func:`rigs.typed_config.replace_path` resolves ``rig.<key>`` here.
 """
@@ -26,7 +28,7 @@ import numpy as np
 from rigs.errors import RigError
 from rigs.imu_models import get_imu_model
 from rigs.model import Camera, Imu, Rig, Wheels
-from rigs.typed_config import KeyGrammar, coerce, field_types, init_fields, split_item
+from rigs.typed_config import KeyGrammar, apply_items, coerce, field_types, has_path, init_fields, replace_path
 
 DIST_INDEX = {"k1": 0, "k2": 1, "p1": 2, "p2": 3, "k3": 4}     # OpenCV order of Camera.dist
 EQUI_INDEX = {"k1": 0, "k2": 1, "k3": 2, "k4": 3}               # cv2.fisheye order (dist_model equidistant)
@@ -61,10 +63,8 @@ def is_key(rig: Rig, key: str) -> bool:
     group, dot, name = key.partition(".")
     if not dot:
         return key in SHORTHANDS + plain_rig_fields()
-    if group == "imu":
-        return name in _names(Imu)
-    if group == "wheels":
-        return name in _names(Wheels)
+    if group in ("imu", "wheels"):
+        return "." not in name and has_path(Imu if group == "imu" else Wheels, name)
     return name in camera_keys() and _camera_indices(rig, group) is not None
 
 
@@ -85,11 +85,6 @@ def with_baseline(rig: Rig, B: float) -> Rig:
     return dataclasses.replace(rig, cameras=tuple(cams))
 
 
-def _replace_typed(obj, name: str, value, key: str):
-    """``obj`` with field ``name`` set to ``value`` coerced by its annotation (the model checks ranges)."""
-    return dataclasses.replace(obj, **{name: coerce(value, field_types(type(obj))[name], key, RigError)})
-
-
 def _set_camera(rig, indices, name, value, key):
     cams = list(rig.cameras)
     for k in indices:
@@ -101,10 +96,8 @@ def _set_camera(rig, indices, name, value, key):
             dist = list(cams[k].dist)
             dist[index[name]] = coerce(value, float, key, RigError)
             cams[k] = dataclasses.replace(cams[k], dist=tuple(dist))
-        elif name == "dist":                  # annotated a bare tuple in the model: numbers here
-            cams[k] = dataclasses.replace(cams[k], dist=coerce(value, tuple[float, ...], key, RigError))
         else:
-            cams[k] = _replace_typed(cams[k], name, value, key)
+            cams[k] = replace_path(cams[k], name, value, RigError, f"{key.partition('.')[0]}.")
     return dataclasses.replace(rig, cameras=tuple(cams))
 
 
@@ -132,33 +125,18 @@ def set_key(rig: Rig, key: str, value) -> Rig:
         raise RigError(f"{key}: unknown key; valid keys: {', '.join(valid_keys(rig))}")
     group, dot, name = key.partition(".")
     if not dot:
-        return _set_shorthand(rig, key, value) if key in SHORTHANDS else _replace_typed(rig, key, value, key)
+        return _set_shorthand(rig, key, value) if key in SHORTHANDS else replace_path(rig, key, value, RigError)
     if group == "imu":
-        return dataclasses.replace(rig, imu=_replace_typed(rig.imu, name, value, key))
+        return replace_path(rig, key, value, RigError)
     if group == "wheels":
-        return dataclasses.replace(rig, wheels=_replace_typed(rig.wheels or Wheels(), name, value, key))
+        return dataclasses.replace(rig, wheels=replace_path(rig.wheels or Wheels(), name, value, RigError, "wheels."))
     return _set_camera(rig, _camera_indices(rig, group), name, value, key)
 
 
-def apply_override(rig: Rig, item: str, source: str = "override") -> Rig:
-    """One ``key=value`` string -> new Rig; errors start with ``<source> '<item>': ``."""
-    src = f"{source} {item!r}"
-    if not isinstance(item, str) or "=" not in item:
-        raise RigError(f"{src}: expected key=value; valid keys: {', '.join(valid_keys(rig))}")
-    key, value = split_item(item, source, RigError)
-    try:
-        return set_key(rig, key, value)
-    except RigError as exc:
-        raise RigError(f"{src}: {exc}") from None
-
-
 def apply_overrides(rig: Rig, overrides=(), source: str = "override") -> Rig:
-    """Apply ``key=value`` strings in order; returns a new validated Rig (``rig`` is unchanged)."""
-    if isinstance(overrides, str):
-        overrides = [overrides]
-    for item in overrides:
-        rig = apply_override(rig, item, source)
-    return rig
+    """Apply ``key=value`` strings in order (:func:`rigs.typed_config.apply_items` with :func:`set_key`);
+    returns a new validated Rig (``rig`` is unchanged); errors start with ``<source> '<item>': ``."""
+    return apply_items(rig, overrides, RigError, source, setter=set_key)
 
 
 RIG_KEYS = KeyGrammar(is_key, set_key, valid_keys)    # the rig's --set keys inside a typed config (``rig.<key>``)

@@ -15,35 +15,22 @@ File layout (``rigs/presets/*.yaml``)::
 
 Every malformed input raises :class:`rigs.errors.RigError` with one line
 ``<file>: <field path>: <problem>``, e.g. ``rigs/x.yaml: cameras[1].fx: must be a positive
-finite number, got -3``. The generic YAML reader/writer and field checks it uses live in
-:mod:`rigs.config_io`.
+number, got -3.0``. The file is read as the typed configuration it is (:func:`rigs.typed_config.from_mapping`
+on :class:`rigs.model.Rig`): the keys are the field names, checked by the fields' annotations and ranges;
+every field is required but ``dist_model`` (radtan when absent).
 """
 from __future__ import annotations
 
 import dataclasses
 
 from rigs.atomic_io import atomic_write_text
-from rigs.config_io import (check_keys, dump_yaml, field_error, field_floats, field_int, field_number, field_str,
-                            read_yaml_file)
+from rigs.config_io import dump_yaml, read_yaml_file
 from rigs.errors import RigError
-from rigs.model import DIST_MODELS, Camera, Imu, Rig, Wheels, as_matrix4
+from rigs.model import Camera, Imu, Rig, Wheels
+from rigs.typed_config import from_mapping
 
-CAMERA_KEYS = tuple(f.name for f in dataclasses.fields(Camera))
 IMU_KEYS = tuple(f.name for f in dataclasses.fields(Imu))
 WHEELS_KEYS = tuple(f.name for f in dataclasses.fields(Wheels))
-RIG_KEYS = tuple(f.name for f in dataclasses.fields(Rig))
-
-
-# ----------------------------------------------------------------------------- rig fields
-def field_matrix4(value, source, path) -> tuple:
-    """A 4x4 rigid transform given as 4 rows of 4 numbers -> nested tuple."""
-    if not isinstance(value, (list, tuple)) or len(value) != 4:
-        raise field_error(source, path, f"expected 4 rows of 4 numbers, got {value!r}")
-    rows = [field_floats(r, source, f"{path}[{i}]", (4,)) for i, r in enumerate(value)]
-    try:
-        return as_matrix4(rows, path)
-    except RigError as exc:
-        raise RigError(f"{source}: {exc}") from None
 
 
 # ----------------------------------------------------------------------------- dict <-> Rig
@@ -74,53 +61,10 @@ def rig_to_dict(rig: Rig) -> dict:
             "wheels": wheels, "mount": rig.mount}
 
 
-def camera_from_dict(d, source: str, path: str) -> Camera:
-    check_keys(d, tuple(k for k in CAMERA_KEYS if k != "dist_model"), ("dist_model",), source, path)
-    model = field_str(d.get("dist_model", "radtan"), source, f"{path}.dist_model")
-    if model not in DIST_MODELS:
-        raise field_error(source, f"{path}.dist_model", f"expected one of {', '.join(DIST_MODELS)}, got {model!r}")
-    n_dist = (4,) if model == "equidistant" else (4, 5)
-    return Camera(dist_model=model, name=field_str(d["name"], source, f"{path}.name"),
-                  width=field_int(d["width"], source, f"{path}.width"),
-                  height=field_int(d["height"], source, f"{path}.height"),
-                  fx=field_number(d["fx"], source, f"{path}.fx", positive=True),
-                  fy=field_number(d["fy"], source, f"{path}.fy", positive=True),
-                  cx=field_number(d["cx"], source, f"{path}.cx"),
-                  cy=field_number(d["cy"], source, f"{path}.cy"),
-                  dist=field_floats(d["dist"], source, f"{path}.dist", n_dist),
-                  T_b_c=field_matrix4(d["T_b_c"], source, f"{path}.T_b_c"))
-
-
-def imu_from_dict(d, source: str, path: str = "imu") -> Imu:
-    check_keys(d, IMU_KEYS, (), source, path)
-    kw = {k: field_number(d[k], source, f"{path}.{k}", nonneg=True)
-          for k in ("accel_noise_density", "gyro_noise_density", "accel_random_walk", "gyro_random_walk")}
-    return Imu(name=field_str(d["name"], source, f"{path}.name"),
-               rate_hz=field_number(d["rate_hz"], source, f"{path}.rate_hz", positive=True),
-               T_b_i=field_matrix4(d["T_b_i"], source, f"{path}.T_b_i"), **kw)
-
-
-def wheels_from_dict(d, source: str, path: str = "wheels") -> Wheels:
-    check_keys(d, WHEELS_KEYS, (), source, path)
-    kw = {k: field_number(d[k], source, f"{path}.{k}", positive=True)
-          for k in ("rate_hz", "wheel_radius", "track_width")}
-    return Wheels(ticks_per_rev=field_int(d["ticks_per_rev"], source, f"{path}.ticks_per_rev"),
-                  slip_std=field_number(d["slip_std"], source, f"{path}.slip_std", nonneg=True), **kw)
-
-
 def rig_from_dict(d, source: str = "<dict>") -> Rig:
-    """Strictly validated dict (as from :func:`rig_to_dict` or YAML) -> Rig."""
-    check_keys(d, RIG_KEYS, (), source, "")
-    cams = d["cameras"]
-    if not isinstance(cams, list) or not cams:
-        raise field_error(source, "cameras", f"expected a non-empty list of cameras, got {cams!r}")
-    wheels = None if d["wheels"] is None else wheels_from_dict(d["wheels"], source)
-    name = field_str(d["name"], source, "name")
+    """Strictly validated dict (as from :func:`rig_to_dict` or YAML) -> Rig; errors ``<source>: <field>: ...``."""
     try:
-        cameras = tuple(camera_from_dict(c, source, f"cameras[{i}]") for i, c in enumerate(cams))
-        return Rig(name=name, cameras=cameras, imu=imu_from_dict(d["imu"], source),
-                   camera_rate_hz=field_number(d["camera_rate_hz"], source, "camera_rate_hz", positive=True),
-                   wheels=wheels, mount=field_str(d["mount"], source, "mount")).check_stereo()
+        return from_mapping(Rig, d, RigError).check_stereo()
     except RigError as exc:
         msg = str(exc)
         raise RigError(msg if msg.startswith(f"{source}: ") else f"{source}: {msg}") from None

@@ -40,7 +40,10 @@ class Spec:
     """Per-field checks beyond the annotated type: bounds, oddness, and a ``parse(value)`` hook that
     turns any value not already of the field's type (a preset name, a mapping) into it. ``keys``: the
     field's own sub-key grammar (:class:`KeyGrammar`) for a value that is not a config dataclass, such as
-    the rig (:data:`rigs.overrides.RIG_KEYS`); :func:`replace_path` hands it the rest of a dotted key."""
+    the rig (:data:`rigs.overrides.RIG_KEYS`); :func:`replace_path` hands it the rest of a dotted key.
+    ``required``: :func:`from_mapping` refuses a mapping without it (a rig file must state every extrinsic).
+    ``check``: a last test of the coerced value that returns the problem (a 4x4 that is not rigid), or None.
+    ``bare``: the ``keys`` of the field may be given without its name (``baseline=0.1`` for ``rig.baseline=0.1``)."""
 
     ge: float | None = None
     gt: float | None = None
@@ -49,6 +52,9 @@ class Spec:
     odd: bool = False
     parse: typing.Callable | None = None
     keys: "KeyGrammar | None" = None
+    required: bool = False          # a mapping (file) must give it, though code may leave it at its default
+    check: typing.Callable | None = None   # check(value) -> why the (coerced) value is wrong, or None
+    bare: bool = False              # its KeyGrammar's keys may leave out the field's name (``baseline=``)
 
     def problem(self, v) -> str | None:
         """Why ``v`` (already of the field's type) is out of range, or None."""
@@ -89,9 +95,9 @@ class KeyGrammar:
 
 
 def knob(default=MISSING, *, default_factory=MISSING, ge=None, gt=None, le=None, lt=None, odd=False, parse=None,
-         keys: KeyGrammar | None = None, doc: str = ""):
+         keys: KeyGrammar | None = None, required: bool = False, check=None, bare: bool = False, doc: str = ""):
     """A dataclass field with a :class:`Spec` (and a one-line ``doc``) in its metadata."""
-    meta = {"spec": Spec(ge, gt, le, lt, odd, parse, keys), "doc": doc}
+    meta = {"spec": Spec(ge, gt, le, lt, odd, parse, keys, required, check, bare), "doc": doc}
     return dataclasses.field(default=default, default_factory=default_factory, metadata=meta)
 
 
@@ -154,6 +160,8 @@ def _as_int(value, path, error) -> int:
 
 
 def _as_tuple(value, args, path, error) -> tuple:
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
     if not isinstance(value, (list, tuple)):
         raise error(f"{path}: expected a list, got {value!r}")
     if not args:
@@ -170,15 +178,23 @@ def check_fields(obj, error, prefix: str = "") -> None:
     :class:`Spec`; call from ``__post_init__``. ``prefix`` (e.g. ``"scene."``) starts each field path."""
     types = field_types(type(obj))
     for f in init_fields(type(obj)):
-        spec = f.metadata.get("spec") or Spec()
-        value, tp, path = getattr(obj, f.name), types[f.name], prefix + f.name
-        if spec.parse is not None and not _is_instance(value, tp):
-            value = spec.parse(value)
-        value = coerce(value, tp, path, error)
-        problem = spec.problem(value)
-        if problem:
-            raise error(f"{path}: {problem}")
+        value = check_value(getattr(obj, f.name), types[f.name], f.metadata.get("spec") or Spec(), prefix + f.name,
+                            error)
         object.__setattr__(obj, f.name, value)
+
+
+def check_value(value, tp, spec: Spec, path: str, error):
+    """``value`` of a field annotated ``tp`` with :class:`Spec` ``spec``: parsed (``spec.parse``), coerced by
+    the annotation and range-checked; every problem one ``error`` line ``<path>: <problem>``. The one
+    validator of configuration values: fields (:func:`check_fields`), mappings (:func:`from_mapping`),
+    ``--set`` items (:func:`replace_path`) and the hand-read calibration formats (:mod:`rigs.calib_fields`)."""
+    if spec.parse is not None and not _is_instance(value, tp):
+        value = spec.parse(value)
+    value = coerce(value, tp, path, error)
+    problem = spec.problem(value) or (spec.check(value) if spec.check is not None else None)
+    if problem:
+        raise error(f"{path}: {problem}")
+    return value
 
 
 def _field_spec(cls, name: str) -> Spec:
@@ -191,20 +207,32 @@ def _is_instance(value, tp) -> bool:
 
 # ----------------------------------------------------------------------------- mappings and files
 def from_mapping(cls, data, error, path: str = ""):
-    """Build ``cls`` from a mapping whose keys are its field names (missing keys take the defaults).
-    Unknown keys and bad values raise ``error`` in one line naming the field path."""
+    """Build ``cls`` from a mapping whose keys are its field names (missing keys take the defaults, but for
+    fields declared ``required``). Unknown keys, missing and bad values raise ``error`` in one line naming the
+    field path (``cameras[1].fx``: nested configs and lists of them included)."""
     data = {} if data is None else data
     if not isinstance(data, Mapping):
         raise error(f"{path or '<top>'}: expected a mapping of field names, got {type(data).__name__}")
-    names = [f.name for f in init_fields(cls)]
+    where = (lambda key: f"{path}.{key}") if path else str
+    fields = init_fields(cls)
+    names = [f.name for f in fields]
     for key in data:
         if key not in names:
-            where = f"{path}.{key}" if path else str(key)
-            raise error(f"{where}: unknown key; valid keys: {', '.join(names)}")
+            raise error(f"{where(key)}: unknown key; valid keys: {', '.join(names)}")
+    types = field_types(cls)
+    values = {}
+    for f in fields:
+        spec = f.metadata.get("spec") or Spec()
+        if f.name in data:
+            values[f.name] = check_value(data[f.name], types[f.name], spec, where(f.name), error)
+        elif spec.required or (f.default is MISSING and f.default_factory is MISSING):
+            raise error(f"{where(f.name)}: missing field")
     try:
-        return cls(**data)
-    except TypeError as exc:          # a required field without a default is missing
-        raise error(f"{path or cls.__name__}: {exc}") from None
+        return cls(**values)
+    except TestbedError as exc:       # a check across fields (__post_init__): say where the mapping sits
+        if not path or str(exc).startswith(f"{path}"):
+            raise
+        raise type(exc)(f"{path}: {exc}") from None
 
 
 def to_mapping(obj):
@@ -271,12 +299,43 @@ def has_path(cls, key: str) -> bool:
     return not rest or (dataclasses.is_dataclass(tp) and isinstance(tp, type) and has_path(tp, rest))
 
 
+def _bare_fields(cls) -> list:
+    return [f for f in init_fields(cls) if (f.metadata.get("spec") or Spec()).bare]
+
+
+def resolve_key(obj, key: str) -> str:
+    """``key`` as a field path of dataclass ``obj``: an alias of the class (its ``KEY_ALIASES`` mapping, e.g.
+    ``image_noise`` -> ``noise.image_sigma``) replaced, and a key of a ``bare`` field's grammar given the
+    field's name (``baseline`` -> ``rig.baseline``). Any other key is returned as it is."""
+    cls = type(obj)
+    key = getattr(cls, "KEY_ALIASES", {}).get(key, key)
+    if key.partition(".")[0] in [f.name for f in init_fields(cls)]:
+        return key
+    for f in _bare_fields(cls):
+        if f.metadata["spec"].keys.is_key(getattr(obj, f.name), key):
+            return f"{f.name}.{key}"
+    return key
+
+
+def settable_keys(obj, prefix: str = "") -> list:
+    """Every key :func:`replace_path` takes on ``obj``: :func:`valid_keys`, then the aliases, then the keys of
+    the ``bare`` fields' grammars (which depend on their values)."""
+    cls = type(obj)
+    bare = [f.name for f in _bare_fields(cls)]
+    own = [k for k in valid_keys(cls, prefix) if k[len(prefix):] not in bare]
+    grammar = [k for f in _bare_fields(cls) for k in [prefix + f.name] + list(
+        f.metadata["spec"].keys.valid_keys(getattr(obj, f.name)))]
+    return own + list(getattr(cls, "KEY_ALIASES", {})) + grammar
+
+
 def replace_path(obj, key: str, value, error, prefix: str = ""):
-    """A copy of dataclass ``obj`` with the field at dotted ``key`` set to ``value``; the changed
-    dataclasses are rebuilt, so their ``__post_init__`` checks run. Unknown keys name the valid ones."""
+    """A copy of dataclass ``obj`` with the field at dotted ``key`` (resolved by :func:`resolve_key`) set to
+    ``value``; the changed dataclasses are rebuilt, so their ``__post_init__`` checks run. Unknown keys name
+    the valid ones (:func:`settable_keys`)."""
+    key = resolve_key(obj, key)
     head, _, rest = key.partition(".")
     if head not in [f.name for f in init_fields(type(obj))]:
-        raise error(f"{prefix}{key}: unknown key; valid keys: {', '.join(valid_keys(type(obj), prefix))}")
+        raise error(f"{prefix}{key}: unknown key; valid keys: {', '.join(settable_keys(obj, prefix))}")
     if rest:
         child = getattr(obj, head)
         grammar = _field_spec(type(obj), head).keys
@@ -285,16 +344,19 @@ def replace_path(obj, key: str, value, error, prefix: str = ""):
         if not dataclasses.is_dataclass(child):
             raise error(f"{prefix}{key}: unknown key; {prefix}{head} has no sub-keys")
         value = replace_path(child, rest, value, error, f"{prefix}{head}.")
+    else:                                           # checked here, so the error names the key as given
+        value = check_value(value, field_types(type(obj))[head], _field_spec(type(obj), head), prefix + key, error)
     return dataclasses.replace(obj, **{head: value})
 
 
-def apply_items(obj, items, error, source: str = "--set", prefix: str = ""):
+def apply_items(obj, items, error, source: str = "--set", prefix: str = "", setter=None):
     """``obj`` with each ``key=value`` string of ``items`` applied in order through :func:`replace_path`
-    (e.g. an estimator config from ``--opt`` items); errors are one line ``<source> '<item>': <field>: ...``."""
+    (e.g. an estimator config from ``--opt`` items), or ``setter(obj, key, value)`` (a :class:`KeyGrammar`'s
+    ``set_key``); errors are one line ``<source> '<item>': <field>: ...``."""
     for item in [items] if isinstance(items, str) else items:
         key, value = split_item(item, source, error)
         try:
-            obj = replace_path(obj, key, value, error, prefix)
+            obj = replace_path(obj, key, value, error, prefix) if setter is None else setter(obj, key, value)
         except TestbedError as exc:
             raise type(exc)(f"{source} {item!r}: {exc}") from None
     return obj

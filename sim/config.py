@@ -24,11 +24,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, Optional, get_args
 
-from rigs.errors import TestbedError
 from rigs.model import Rig
 from rigs.overrides import RIG_KEYS
-from rigs.typed_config import (check_fields, from_mapping, has_path, knob, load_dataclass, replace_path,
-                               split_item, to_mapping, valid_keys)
+from rigs.typed_config import (apply_items, check_fields, from_mapping, knob, load_dataclass, replace_path,
+                               settable_keys, to_mapping)
 from scenes.base import SceneConfig
 from scenes.errors import SceneError
 from sim.distortion import fisheye_needed_theta
@@ -188,8 +187,10 @@ def scene_of(value) -> SceneConfig:
 class GenerateConfig:
     """Everything that determines a generated dataset (together with the package version)."""
 
+    KEY_ALIASES = ALIASES                   # short --set keys (rigs.typed_config.resolve_key); not a field
+
     scene: SceneConfig = knob(default_factory=lambda: SceneConfig(seed=None), parse=scene_of)
-    rig: Rig = knob(default_factory=lambda: rig_of("cart27"), parse=rig_of, keys=RIG_KEYS)
+    rig: Rig = knob(default_factory=lambda: rig_of("cart27"), parse=rig_of, keys=RIG_KEYS, bare=True)
     duration_s: Optional[float] = knob(None, gt=0.0, doc="seconds to simulate; None: the whole route")
     seed: int = knob(0, ge=0)
     format: Format = "euroc"
@@ -234,29 +235,16 @@ class GenerateConfig:
 
     def with_value(self, key: str, value) -> "GenerateConfig":
         """A copy with dotted ``key`` set to the parsed ``value`` (see the module docstring)."""
-        key = ALIASES.get(key, key)
-        if not has_path(GenerateConfig, key.partition(".")[0]):
-            if not RIG_KEYS.is_key(self.rig, key):
-                raise SimError(f"{key}: unknown key; valid keys: {', '.join(self.valid_keys())}")
-            key = f"rig.{key}"                      # a rig key may leave out its "rig." prefix
         return replace_path(self, key, value, SimError)
 
     def with_overrides(self, items, source: str = "override") -> "GenerateConfig":
         """Apply ``key=value`` strings in order (values parsed as YAML); errors are one line
         ``<source> '<item>': <field>: <problem>``."""
-        cfg = self
-        for item in [items] if isinstance(items, str) else items:
-            key, value = split_item(item, source, SimError)
-            try:
-                cfg = cfg.with_value(key, value)
-            except TestbedError as exc:
-                raise type(exc)(f"{source} {item!r}: {exc}") from None
-        return cfg
+        return apply_items(self, items, SimError, source)
 
     def valid_keys(self) -> list:
         """Every ``--set`` key, the rig's override keys included."""
-        own = [k for k in valid_keys(GenerateConfig) if k != "rig"]
-        return own + list(ALIASES) + ["rig"] + RIG_KEYS.valid_keys(self.rig)
+        return settable_keys(self)
 
     def to_dict(self) -> dict:
         """The resolved whole as plain builtins (the rig in full); :func:`load_generate_config` reads it back.

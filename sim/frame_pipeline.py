@@ -14,11 +14,15 @@ finish; their files (written atomically) carry no row, so a resumed run rewrites
 from __future__ import annotations
 
 import os
+import time
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable
 
+from tqdm import tqdm
+
 from sim.errors import SimError
+from sim.stage_timer import NO_TIMER
 
 MAX_THREADS = 16
 
@@ -82,3 +86,36 @@ class FramePipeline:
                 self.drain()
         finally:
             self.close()
+
+
+class FrameLoop:
+    """The frame loop of a generator (:mod:`sim.generate`, :mod:`sim.generate_traverse`): each frame's work in a
+    :class:`FramePipeline` of ``threads`` workers, its ``commit`` on the caller's thread in submission order,
+    followed by one progress tick (``tqdm`` bar ``desc``, ``total`` frames, from ``initial``; off unless
+    ``progress``). Leaving the ``with`` block normally drains the pipeline, records the loop's elapsed and
+    process CPU time on ``timer`` (:class:`sim.stage_timer.StageTimer`) as ``frame loop`` and
+    ``frame loop CPU``, and closes the bar; an exception drops the frames not started (:meth:`FramePipeline.close`)."""
+
+    def __init__(self, total: int, desc: str, threads: int | None = None, progress: bool = True, initial: int = 0,
+                 timer=NO_TIMER, unit: str = "pair"):
+        self.pipeline = FramePipeline(threads)
+        self.timer = timer
+        self.bar = tqdm(total=total, initial=initial, desc=desc, unit=unit, disable=not progress, dynamic_ncols=True)
+        self._t0, self._c0 = time.perf_counter(), time.process_time()
+
+    def submit(self, work: Callable[[], object], commit: Callable[[object], None]) -> None:
+        """Queue ``work`` (a frame's files, on a worker); ``commit(result)`` and the progress tick follow in order."""
+        def done(result):
+            commit(result)
+            self.bar.update(1)
+        self.pipeline.submit(work, done)
+
+    def __enter__(self) -> "FrameLoop":
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.pipeline.__exit__(exc_type, exc, tb)
+        if exc_type is None:
+            self.timer.add("frame loop", time.perf_counter() - self._t0)
+            self.timer.add("frame loop CPU", time.process_time() - self._c0)
+            self.bar.close()

@@ -6,7 +6,6 @@ separate per sensor (``sim.rng``), so turning images off does not change the IMU
 from __future__ import annotations
 
 import dataclasses
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,7 +14,9 @@ import numpy as np
 from sim.config import GenerateConfig
 from sim.dataset.common import PngOptions
 from sim.errors import SimError
+from sim.frame_pipeline import FrameLoop
 from sim.rng import indexed_stream, scene_streams, stream
+from sim.stage_timer import NO_TIMER
 
 CLEARANCE_M = 0.5                  # margin around the vehicle's footprint that no actor may enter
 CLEARANCE_STEP_NS = 50_000_000     # the clearance check's time step (50 ms)
@@ -95,15 +96,19 @@ def check_clearance(scene, trajectory, config: GenerateConfig) -> None:
 
 
 def imu_streams(setup: Setup):
-    """The measured (noisy unless ideal) IMU samples and the true biases: the IMU sensor's clean
-    measurement of the trajectory, then its noise step (streams ``imu_white``, ``imu_bias``)."""
+    """The measured IMU samples of ``setup`` and the true biases (:func:`measured_imu`)."""
+    return measured_imu(setup.trajectory.states(setup.imu_t_ns), setup.rig.imu, setup.config.seed,
+                        setup.config.ideal)
+
+
+def measured_imu(states, imu, seed: int, ideal: bool = False):
+    """The measured (noisy unless ``ideal``) IMU samples at the times of trajectory ``states`` and the true
+    biases: the IMU sensor's clean measurement, then its noise step (streams ``imu_white``, ``imu_bias``)."""
     from sim.sensors.imu import measure
     from sim.sensors.imu_noise import add_imu_noise
 
-    rig, seed = setup.rig, setup.config.seed
-    clean = measure(setup.trajectory.states(setup.imu_t_ns), rig.imu)
-    imu = rig.imu
-    if setup.config.ideal:
+    clean = measure(states, imu)
+    if ideal:
         imu = dataclasses.replace(imu, accel_noise_density=0.0, gyro_noise_density=0.0,
                                   accel_random_walk=0.0, gyro_random_walk=0.0)
     return add_imu_noise(clean, imu, stream(seed, "imu_white"), stream(seed, "imu_bias"))
@@ -199,11 +204,8 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     if workers > 1 or scheduler:
         return _render_frames_in_workers(setup, writers, progress, start, threads, timer, workers, scheduler,
                                          egl_devices)
-    from tqdm import tqdm
-    from sim.frame_pipeline import FramePipeline
     from sim.render_workers import device_label
     from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
-    from sim.stage_timer import NO_TIMER
 
     c = setup.config
     timer = timer or NO_TIMER
@@ -212,75 +214,55 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     gains = [1.0] * len(setup.frame_t_ns)
     pose_at = lambda t_ns: setup.trajectory.states(t_ns).T_w_b  # noqa: E731
     with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
-                      supersample=setup.supersample, rgb=c.rgb, timer=timer) as camera, \
-            FramePipeline(threads) as pipeline:
+                      supersample=setup.supersample, rgb=c.rgb, timer=timer) as camera:
         if c.segmentation:
             writers.add_segmentation_ids(setup.scene.segmentation_rows(camera.geom_names()))
         writers.add_metadata({"rendering": [device_label(camera.gl_renderer)]})
         exposer = FrameExposer(camera, setup.rig, c.camera, 1.0 / setup.rig.camera_rate_hz, c.seed,
                                setup.image_noise, noisy=not c.ideal) if effects else None
-        bar = tqdm(total=len(setup.frame_t_ns), initial=start, desc="render", unit="pair",
-                   disable=not progress, dynamic_ncols=True)
-        t0, c0 = time.perf_counter(), time.process_time()
-        for k in range(first, len(setup.frame_t_ns)):
-            with timer.stage("render"):
-                if exposer is None:
-                    images, depth, seg = camera.measure(T_w_b_frames[k],
-                                                        setup.scene.actor_states(int(setup.frame_t_ns[k])))
-                else:
-                    images, depth, seg, gains[k] = exposer.render(k, int(setup.frame_t_ns[k]), pose_at,
-                                                                  setup.scene.actor_states)
-            if k < start:                   # on disk already (auto exposure replays from frame 0)
-                continue
-            t_ns = int(setup.frame_stamp_ns[k])
-
-            def work(k=k, t_ns=t_ns, images=images, depth=depth, seg=seg):
-                with timer.stage("noise/effects"):
+        with FrameLoop(len(setup.frame_t_ns), "render", threads, progress, start, timer) as loop:
+            for k in range(first, len(setup.frame_t_ns)):
+                with timer.stage("render"):
                     if exposer is None:
-                        out = add_noise(images, setup.image_noise, indexed_stream(c.seed, "image_noise", k))
+                        images, depth, seg = camera.measure(T_w_b_frames[k],
+                                                            setup.scene.actor_states(int(setup.frame_t_ns[k])))
                     else:
-                        out = exposer.finish(k, images, gains[k])
-                writers.write_frame_files(k, t_ns, out, depth=depth, seg=seg, timer=timer)
+                        images, depth, seg, gains[k] = exposer.render(k, int(setup.frame_t_ns[k]), pose_at,
+                                                                      setup.scene.actor_states)
+                if k < start:                   # on disk already (auto exposure replays from frame 0)
+                    continue
+                t_ns = int(setup.frame_stamp_ns[k])
 
-            _submit_in_order(pipeline, writers, bar, t_ns, work)
-        _close_frame_loop(pipeline, timer, bar, t0, c0)
+                def work(k=k, t_ns=t_ns, images=images, depth=depth, seg=seg):
+                    with timer.stage("noise/effects"):
+                        if exposer is None:
+                            out = add_noise(images, setup.image_noise, indexed_stream(c.seed, "image_noise", k))
+                        else:
+                            out = exposer.finish(k, images, gains[k])
+                    writers.write_frame_files(k, t_ns, out, depth=depth, seg=seg, timer=timer)
+
+                loop.submit(work, _row_commit(writers, t_ns))
     return gains if effects else None
 
 
-def _submit_in_order(pipeline, writers, bar, t_ns: int, work) -> None:
-    """Queue ``work`` (a frame's files, on a worker); its CSV rows and progress marker are committed in frame
-    order, after its files exist."""
-    def commit(_):
-        writers.add_frame(t_ns, files_written=True)
-        bar.update(1)
-    pipeline.submit(work, commit)
-
-
-def _close_frame_loop(pipeline, timer, bar, t0: float, c0: float) -> None:
-    """Wait for every queued frame, record the loop's wall and CPU time, close the progress bar."""
-    pipeline.drain()
-    timer.add("frame loop", time.perf_counter() - t0)
-    timer.add("frame loop CPU", time.process_time() - c0)
-    bar.close()
+def _row_commit(writers, t_ns: int):
+    """A frame's commit: its CSV rows and progress marker, written after its files exist."""
+    return lambda _: writers.add_frame(t_ns, files_written=True)
 
 
 def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, timer, workers, scheduler,
                               egl_devices) -> None:
     """:func:`render_frames` with the frames rendered by :class:`sim.render_workers.ChunkSource`."""
-    from tqdm import tqdm
-    from sim.frame_pipeline import FramePipeline
     from sim.render_workers import ChunkSource
-    from sim.stage_timer import NO_TIMER
 
     c = setup.config
     timer = timer or NO_TIMER
     n = len(setup.frame_t_ns)
     devices, ids_written = [], not c.segmentation
-    bar = tqdm(total=n, initial=start, desc="render", unit="pair", disable=not progress, dynamic_ncols=True)
-    t0, c0, first_s = time.perf_counter(), time.process_time(), 0.0
+    t0, first_s = time.perf_counter(), 0.0
     png = PngOptions.of(c.render) if c.format == "euroc" else None    # EuRoC images: encoded by the workers
     with ChunkSource(c, workers, resolve, scheduler, egl_devices, png) as source, \
-            FramePipeline(threads) as pipeline:
+            FrameLoop(n, "render", threads, progress, start, timer) as loop:
         for chunk in source.chunks(start, n):
             if not ids_written:
                 writers.add_segmentation_ids(setup.scene.segmentation_rows(chunk.geom_names))
@@ -300,8 +282,7 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
                 def work(k=k, t_ns=t_ns, images=images, depth=depth, seg=seg):
                     writers.write_frame_files(k, t_ns, images, depth=depth, seg=seg, timer=timer)
 
-                _submit_in_order(pipeline, writers, bar, t_ns, work)
-        _close_frame_loop(pipeline, timer, bar, t0, c0)
+                loop.submit(work, _row_commit(writers, t_ns))
     writers.add_metadata({"rendering": sorted(devices)})
     return None
 

@@ -144,8 +144,8 @@ def test_rig_with_principal_point_outside_the_image_is_refused(tmp_path, capsys,
     rig = _rig_yaml(tmp_path, lambda d: d["cameras"][0].__setitem__(key, value))
     code, _, err = vo_testbed(capsys, "generate", "--rig", rig, "--scene", "indoor", "--duration", "0.5",
                               "--no-images", "--out", tmp_path / "o")
-    assert f"{rig}: camera 'cam0'.{key}: principal point {value:g} px is outside the image (0 to {size} px" \
-        in error_line(code, err)
+    assert (f"{rig}: cameras[0]: camera 'cam0'.{key}: principal point {value:g} px is outside the image "
+            f"(0 to {size} px") in error_line(code, err)
 
 
 def test_principal_point_on_the_border_is_accepted():

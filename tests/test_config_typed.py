@@ -138,3 +138,45 @@ def test_load_dataclass_names_the_file(tmp_path):
         load_dataclass(Outer, f, ToyError)
     with pytest.raises(ToyError, match="cannot read file"):
         load_dataclass(Outer, tmp_path / "missing.yaml", ToyError)
+
+
+@dataclass(frozen=True)
+class Mount:
+    """A required field (no default), a field a mapping must state (``required``), a ``check`` hook."""
+    name: str
+    offset: tuple[float, float] = knob((1.0, 0.0), required=True, check=lambda v: "must be on the unit circle"
+                                        if not math.isclose(math.hypot(*v), 1.0) else None)
+
+    def __post_init__(self):
+        check_fields(self, ToyError, f"mount {self.name!r}.")
+
+
+@dataclass(frozen=True)
+class Holder:
+    KEY_ALIASES = {"first": "mounts"}       # not a field: a short key resolve_key replaces
+    mounts: tuple[Mount, ...] = ()
+
+    def __post_init__(self):
+        check_fields(self, ToyError)
+
+
+def test_mappings_name_missing_and_checked_fields_by_their_path():
+    ok = from_mapping(Holder, {"mounts": [{"name": "a", "offset": [0.6, 0.8]}]}, ToyError)
+    assert ok.mounts == (Mount("a", (0.6, 0.8)),)
+    for data, message in (({"mounts": [{"offset": [1, 0]}]}, "mounts[0].name: missing field"),
+                          ({"mounts": [{"name": "a"}]}, "mounts[0].offset: missing field"),
+                          ({"mounts": [{"name": "a", "offset": [1, 1]}]}, "mounts[0].offset: must be on the unit "),
+                          ({"mounts": [{"name": "a", "offset": [1]}]}, "mounts[0].offset: expected a list of 2 ")):
+        with pytest.raises(ToyError) as e:
+            from_mapping(Holder, data, ToyError)
+        assert str(e.value).startswith(message), str(e.value)
+    assert Mount("b").offset == (1.0, 0.0)                    # code may leave a "required" field at its default
+    with pytest.raises(ToyError, match=r"^mount 'c'\.offset: must be on the unit circle"):
+        Mount("c", (2.0, 0.0))
+
+
+def test_aliases_resolve_to_their_field():
+    h = replace_path(Holder(), "first", [{"name": "a", "offset": [0.0, 1.0]}], ToyError)
+    assert h.mounts[0].offset == (0.0, 1.0)
+    with pytest.raises(ToyError, match="^frist: unknown key; valid keys: mounts, first$"):
+        replace_path(Holder(), "frist", [], ToyError)

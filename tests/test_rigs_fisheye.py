@@ -66,7 +66,7 @@ def test_rig_yaml_bad_model_names_the_field(tmp_path):
     text = (tmp_path / "r.yaml")
     save_rig(get_rig("fisheye150"), text)
     text.write_text(text.read_text().replace("dist_model: equidistant", "dist_model: fov", 1))
-    with pytest.raises(RigError, match=r"r\.yaml: cameras\[0\]\.dist_model: expected one of radtan, equidistant"):
+    with pytest.raises(RigError, match=r"r\.yaml: cameras\[0\]\.dist_model: unknown 'fov'; valid: radtan, equidistant"):
         load_rig(text)
 
 

@@ -45,7 +45,7 @@ def test_imu_model_swap_keeps_mounting():
     ("cam2.fx=3", "override 'cam2.fx=3': cam2.fx: unknown key"),
     ("imu=adis", "override 'imu=adis': imu model 'adis': unknown; valid names: euroc-adis16448, ideal, paper002"),
     ("cameras.width=7.5", "override 'cameras.width=7.5': cameras.width: must be an integer, got 7.5"),
-    ("cameras.width=-3", "override 'cameras.width=-3': camera 'cam0'.width: must be a positive integer"),
+    ("cameras.width=-3", "override 'cameras.width=-3': cameras.width: must be >= 1, got -3"),
     ("camera_rate_hz=.nan", "override 'camera_rate_hz=.nan': camera_rate_hz: must be a finite number, got nan"),
     ("imu.rate_hz=true", "override 'imu.rate_hz=true': imu.rate_hz: must be a finite number, got True"),
     ("wheels.ticks_per_rev=10.5", "override 'wheels.ticks_per_rev=10.5': wheels.ticks_per_rev: must be an integer"),

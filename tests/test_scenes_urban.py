@@ -267,9 +267,11 @@ def test_actor_truth_matches_rendered_segmentation():
 def test_dynamic_fraction_counts_features_where_the_texture_is():
     """Texture only in the region labelled moving -> every feature is dynamic; only outside -> none.
     The image is not square, so swapped (x, y) lookups would fail."""
+    from rigs.model import Camera
     from sim.app.validation.dynamic_fraction import dynamic_fraction
     rng = np.random.default_rng(0)
     H, W = 240, 400
+    camera = Camera(name="cam0", width=W, height=H, fx=300.0, fy=300.0, cx=W / 2 - 0.5, cy=H / 2 - 0.5)
     base = (rng.random((H // 8, W // 8)) * 255).astype(np.uint8)
     tex = np.kron(base, np.ones((8, 8), np.uint8))
     seg = np.ones((H, W), np.int64)
@@ -280,6 +282,6 @@ def test_dynamic_fraction_counts_features_where_the_texture_is():
         img[:, cols] = tex[:, cols]
         frames = [np.roll(img, k, axis=0) for k in range(3)]        # a little motion to track
         segs = [np.roll(seg, k, axis=0) for k in range(3)]
-        res = dynamic_fraction(frames, segs, {7})
+        res = dynamic_fraction(frames, segs, {7}, camera)
         assert res.n_features > 20 and res.n_frames == 3
         assert res.fraction == pytest.approx(expect, abs=0.02)      # features on the 150-px border may fall either side

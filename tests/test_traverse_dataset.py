@@ -59,7 +59,7 @@ def test_slip_grows_with_slope():
 @pytest.mark.slow
 def test_traverse_writes_and_reads_back(tmp_path, config):
     from rigs.geometry import quat_wxyz_from_R
-    from sim.dataset.traverse_writer import generate_traverse
+    from sim.generate_traverse import generate_traverse
     from sim.vehicles.rover import MastHead
     from vo.dataset.traverse_reader import is_traverse, read_drive, read_traverse
     from rigs.trajfile import read_tum

@@ -101,11 +101,11 @@ class TraverseDemo:
 
 def run_traverse_demo(scenario: str, out_dir, progress: bool = True) -> TraverseDemo:
     """Generate the traverse ``scenario`` into the scenario cache (once), then localize it."""
-    from sim.dataset.traverse_writer import generate_traverse
+    from sim.generate_traverse import generate_traverse
     from sim.scenarios import cache_root, get_scenario, traverse_scenarios
     from vo.crosssite.traverse import run_and_write
     config = get_scenario(scenario)
     path = cache_root() / f"traverse-{scenario}-{config.config_hash()}"
-    if not (path / "sites" / "groundtruth_tum.txt").is_file():
+    if not (path / "metadata.yaml").is_file():             # written last: the traverse is complete
         generate_traverse(config, traverse_scenarios()[scenario], path, progress=progress, overwrite=True)
     return TraverseDemo(run_and_write(path, out_dir, progress=progress))

@@ -139,7 +139,7 @@ def _labelled(names: list, fn, *args, **kwargs):
 def _traverse(ctx, scenario, config_file, out_dir, overwrite, no_progress, overrides, as_json, flags):
     """A stop-and-go traverse scenario: ``--set traverse.<field>=v`` items go to its TraverseConfig."""
     from rigs.typed_config import replace_path, split_item
-    from sim.dataset.traverse_writer import generate_traverse
+    from sim.generate_traverse import generate_traverse
     from sim.errors import SimError
     from sim.scenarios import traverse_scenarios
     tcfg = traverse_scenarios()[scenario]

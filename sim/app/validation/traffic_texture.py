@@ -8,7 +8,8 @@ background without the sky). Density = corners per 1000 pixels, summed over the 
 counts, so a frame with a large actor weighs more). ``ratio`` = actors / background is the figure judged
 (the sky has no corners, so it is the stricter of the two; ``ratio_static`` excludes it).
 
-The dynamic fraction is :func:`sim.app.validation.dynamic_fraction.dynamic_fraction` (VINS-Mono's front-end).
+The dynamic fraction is :func:`sim.app.validation.dynamic_fraction.dynamic_fraction` (the ``vins`` estimator's
+VINS-Mono front-end, on the left camera).
 
 Frames: either a generated EuRoC folder written with ``--segmentation`` (:func:`dataset_frames`) or blocks of
 consecutive frames rendered in memory from a scenario (:func:`scenario_frames`): ``n_blocks`` blocks of
@@ -24,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.app.validation.dynamic_fraction import (FrontEndConfig, _read_seg, dynamic_fraction, track_features)
+from rigs.rig_yaml import load_rig
+from sim.app.validation.dynamic_fraction import dynamic_fraction, track_features
 from sim.errors import SimError
 
 DENSITY_RATIO_TARGET = 1.5
@@ -151,11 +153,14 @@ class TrafficCheck:
 # ---------------------------------------------------------------------------- frames
 @dataclass(frozen=True)
 class Block:
-    """Consecutive frames: grey left images, segmentation id maps (seg id = geom + 1, 0 = sky)."""
+    """Consecutive frames: grey left images, segmentation id maps (seg id = geom + 1, 0 = sky), and the left
+    ``camera`` (:class:`rigs.model.Camera`) that took them."""
 
     first: int
     images: list
     segs: list
+    camera: object
+    camera: object
 
 
 def scenario_frames(config, n_blocks: int = 8, block_frames: int = 12, progress: bool = True):
@@ -187,7 +192,7 @@ def scenario_frames(config, n_blocks: int = 8, block_frames: int = 12, progress:
                 images.append(imgs[0])
                 segs.append(seg[0][..., 0].astype(np.int32) + 1)
                 bar.update(1)
-            blocks.append(Block(int(s), images, segs))
+            blocks.append(Block(int(s), images, segs, setup.rig.cameras[0]))
         bar.close()
     return blocks, _actor_ids(rows), {r[0] for r in rows if r[2] > 0 and r[4]}
 
@@ -215,22 +220,32 @@ def dataset_frames(folder, max_frames: int | None = None):
     moving = {int(r["seg_id"]) for r in rows if int(r["moving"]) == 1}
     names = sorted(p.name for p in (cam / "data").glob("*.png"))[:max_frames]
     images = [cv2.imread(str(cam / "data" / n), cv2.IMREAD_GRAYSCALE) for n in names]
-    return [Block(0, images, [_read_seg(seg_dir / n) for n in names])], actor_ids, moving
+    camera = load_rig(folder / "rig.yaml").cameras[0]
+    return [Block(0, images, [read_seg(seg_dir / n) for n in names], camera)], actor_ids, moving
 
 
-def check_traffic(blocks, actor_ids, moving_ids, source: str, front_end: FrontEndConfig = FrontEndConfig(),
+def read_seg(path: Path) -> np.ndarray:
+    """A segmentation PNG as an (H, W) int64 id map."""
+    import cv2
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise SimError(f"{path}: missing or unreadable segmentation image")
+    return img.astype(np.int64)
+
+
+def check_traffic(blocks, actor_ids, moving_ids, source: str,
                   corners: CornerConfig = CornerConfig()) -> TrafficCheck:
     """Corner density over every frame of ``blocks`` and the dynamic fraction, tracking within each block."""
     dens = CornerDensity(0, 0, 0, 0, 0, 0, 0)
     n_feat = n_dyn = 0
     for b in blocks:
         dens = dens + corner_density(b.images, b.segs, actor_ids, corners)
-        res = dynamic_fraction(b.images, b.segs, moving_ids, front_end)
+        res = dynamic_fraction(b.images, b.segs, moving_ids, b.camera)
         n_feat, n_dyn = n_feat + res.n_features, n_dyn + res.n_dynamic
     return TrafficCheck(source, dens, n_feat, n_dyn, tuple((b.first, len(b.images)) for b in blocks))
 
 
-def plot_features(blocks, moving_ids, path, title: str = "", front_end: FrontEndConfig = FrontEndConfig()):
+def plot_features(blocks, moving_ids, path, title: str = ""):
     """Figure of one frame with its tracked features coloured static (green) / dynamic (red): the last frame of
     the block with the most dynamic features. Returns ``(block first frame + index, n static, n dynamic)``."""
     import matplotlib
@@ -239,7 +254,7 @@ def plot_features(blocks, moving_ids, path, title: str = "", front_end: FrontEnd
     moving = np.array(sorted(moving_ids), dtype=np.int64)
     best = None
     for b in blocks:
-        for k, pts in track_features(b.images, front_end):
+        for k, pts in track_features(b.images, b.camera):
             if k != len(b.images) - 1:
                 continue
             seg = b.segs[k]
