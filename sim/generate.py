@@ -6,6 +6,7 @@ separate per sensor (``sim.rng``), so turning images off does not change the IMU
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
