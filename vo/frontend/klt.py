@@ -14,6 +14,7 @@ import numpy as np
 from vo.errors import VoError
 from vo.frontend.grid import Grid
 from vo.frontend.lk_invariant import lk_illumination_invariant
+from vo.frontend.lk_normalized import lk_pyramids, normalized_pyramid
 from vo.frontend.stereo import epipolar_mask
 
 
@@ -28,6 +29,11 @@ class KltConfig:
     tolerance; ``quality_level``, ``min_distance``, ``block_size`` Shi-Tomasi parameters;
     ``min_eigenvalue`` absolute floor on the Shi-Tomasi score (rejects corners of blank cells);
     ``illumination_invariant`` use :func:`lk_illumination_invariant` instead of OpenCV's LK;
+    ``normalize_box`` (default 2): OpenCV's LK runs on local-mean-normalised pyramids
+    (:mod:`vo.frontend.lk_normalized`, seed 003's intensity-invariant residual of section 5.2), each level
+    divided by its mean over ``normalize_box`` x ``win`` pixels; 0 = the raw images (brightness constancy).
+    Two windows rather than one: on the ideal-camera indoor route the 1-window mean cost stereo matches at
+    large disparities (the normalised window then holds less of the coarse structure), see docs/estimators.md;
     ``stereo_win`` LK window of the left -> right stereo match in :func:`stereo_klt` only (0 = ``win``;
     temporal tracking always uses ``win``). Seed 003 uses one 21x21 window for both.
     """
@@ -47,6 +53,7 @@ class KltConfig:
     lk_eps: float = 0.01
     illumination_invariant: bool = False
     stereo_win: int = 0
+    normalize_box: float = 2.0
 
     def __post_init__(self):
         checks = {
@@ -57,11 +64,12 @@ class KltConfig:
             "block_size": self.block_size >= 3 and self.block_size % 2 == 1, "min_eigenvalue": self.min_eigenvalue >= 0,
             "lk_iters": self.lk_iters >= 1, "lk_eps": self.lk_eps > 0,
             "stereo_win": self.stereo_win == 0 or (self.stereo_win >= 3 and self.stereo_win % 2 == 1),
+            "normalize_box": self.normalize_box == 0 or self.normalize_box >= 1,
         }
         for name, good in checks.items():
             if not good:
                 raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
-                              "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, levels>=1, "
+                              "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, levels>=1, normalize_box 0 or >= 1, "
                               "0<=max_empty_fraction<=1, thresholds > 0)")
 
     @classmethod
@@ -79,6 +87,15 @@ class KltConfig:
         if bad:
             raise VoError(f"{where}: unknown field(s) {bad}; valid: {', '.join(names)}")
         return cls(**value)
+
+    @property
+    def box(self) -> int:
+        """Odd side (px) of the local-mean window of the normalised pyramids (0 = no normalisation)."""
+        return int(round(self.normalize_box * self.win)) | 1 if self.normalize_box else 0
+
+    def pyramid(self, img: np.ndarray) -> list | None:
+        """The normalised pyramid of ``img`` (:func:`normalized_pyramid`), or None without normalisation."""
+        return normalized_pyramid(img, self.levels, self.box) if self.box else None
 
     @property
     def max_level(self) -> int:
@@ -116,13 +133,19 @@ def detect_in_empty_cells(img: np.ndarray, grid: Grid, existing_pts: np.ndarray,
     return uv[cells[keep]]
 
 
-def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig()) -> tuple:
-    """One-directional pyramidal LK -> ``(p1 (N,2), ok (N,))`` (OpenCV, or the illumination-invariant one)."""
+def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig(),
+       pyramids: tuple | None = None) -> tuple:
+    """One-directional pyramidal LK -> ``(p1 (N,2), ok (N,))``: the illumination-invariant one when
+    ``config.illumination_invariant``, else OpenCV's on the normalised pyramids (``pyramids``, the two
+    images' :meth:`KltConfig.pyramid`, built here when None) or, with ``normalize_box = 0``, on the raw images."""
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
     if p0.shape[0] == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
     if config.illumination_invariant:
         return lk_illumination_invariant(img0, img1, p0, config.win, config.levels, config.lk_iters, config.lk_eps)
+    if config.box:
+        pyr0, pyr1 = pyramids if pyramids is not None else (config.pyramid(img0), config.pyramid(img1))
+        return lk_pyramids(pyr0, pyr1, p0, config.win, config.lk_iters, config.lk_eps)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     p1, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, p0.astype(np.float32).reshape(-1, 1, 2), None,
                                          winSize=(config.win, config.win), maxLevel=config.max_level,
@@ -140,10 +163,11 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
     Returns ``(p1 (N,2) float64, ok (N,) bool)``.
     """
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
-    p1, ok_f = lk(img0, img1, p0, config)
     if p0.shape[0] == 0:
-        return p1, ok_f
-    p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config)
+        return np.zeros((0, 2)), np.zeros(0, bool)
+    pyr = (config.pyramid(img0), config.pyramid(img1)) if config.box and not config.illumination_invariant else None
+    p1, ok_f = lk(img0, img1, p0, config, pyr)
+    p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config, None if pyr is None else pyr[::-1])
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
     return p1, ok
 

@@ -36,6 +36,7 @@ from vo.errors import VoError
 from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells
+from vo.frontend.lk_normalized import lk_fb_pyramids
 from vo.frontend.stereo import epipolar_mask
 from vo.rop.relative import normalized_points
 from rigs.geometry.pinhole import to_normalized
@@ -80,11 +81,16 @@ class FourView:
 
 
 def lk_fb(img0, img1, p0, config: KltConfig, guess=None) -> tuple[np.ndarray, np.ndarray]:
-    """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back; ``ok`` where both
-    directions converge inside the image and the round trip ends < ``fb_threshold_px`` from ``p0``."""
+    """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``); ``ok``
+    where both directions converge inside the image and the round trip ends < ``fb_threshold_px`` from
+    ``p0``. With ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
+    :mod:`vo.frontend.lk_normalized` (seed 003's intensity-invariant residual), else on the raw images."""
     n = len(p0)
     if n == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
+    if config.box:
+        return lk_fb_pyramids(config.pyramid(img0), config.pyramid(img1), p0, config.win, config.lk_iters,
+                              config.lk_eps, config.fb_threshold_px, guess)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
     a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
