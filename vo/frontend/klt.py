@@ -14,7 +14,7 @@ import numpy as np
 from vo.errors import VoError
 from vo.frontend.grid import Grid
 from vo.frontend.lk_invariant import lk_illumination_invariant
-from vo.frontend.lk_normalized import lk_pyramids, normalized_pyramid
+from vo.frontend.lk_normalized import PyramidCache, lk_pyramids, normalized_pyramid
 from vo.frontend.stereo import epipolar_mask
 
 
@@ -97,6 +97,10 @@ class KltConfig:
         """The normalised pyramid of ``img`` (:func:`normalized_pyramid`), or None without normalisation."""
         return normalized_pyramid(img, self.levels, self.box) if self.box else None
 
+    def pyramid_cache(self) -> PyramidCache | None:
+        """A :class:`PyramidCache` of this configuration's pyramids (None without normalisation)."""
+        return PyramidCache(self.levels, self.box) if self.box else None
+
     @property
     def max_level(self) -> int:
         """OpenCV ``maxLevel`` (0-based index of the coarsest level)."""
@@ -157,15 +161,18 @@ def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = K
     return p1, ok
 
 
-def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig()) -> tuple:
+def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig(),
+             pyramid=None) -> tuple:
     """LK ``img0 -> img1`` then back; keep points whose round trip ends < ``fb_threshold_px`` from the start.
+    ``pyramid`` (image -> normalised pyramid, e.g. a :class:`PyramidCache`) defaults to ``config.pyramid``.
 
     Returns ``(p1 (N,2) float64, ok (N,) bool)``.
     """
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
     if p0.shape[0] == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
-    pyr = (config.pyramid(img0), config.pyramid(img1)) if config.box and not config.illumination_invariant else None
+    pyramid = pyramid or config.pyramid
+    pyr = (pyramid(img0), pyramid(img1)) if config.box and not config.illumination_invariant else None
     p1, ok_f = lk(img0, img1, p0, config, pyr)
     p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config, None if pyr is None else pyr[::-1])
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
@@ -173,13 +180,14 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
 
 
 def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,
-               config: KltConfig = KltConfig()) -> tuple:
+               config: KltConfig = KltConfig(), pyramid=None) -> tuple:
     """Left -> right LK with forward-backward and calibrated epipolar checks -> ``(p_right, ok)``.
 
-    The LK window (both directions) is ``config.stereo_win`` when set, else ``config.win``."""
+    The LK window (both directions) is ``config.stereo_win`` when set, else ``config.win`` (a ``pyramid``
+    cache is then not used: its box follows ``win``)."""
     if config.stereo_win:
-        config = replace(config, win=config.stereo_win)
-    p_right, ok = track_fb(left, right, p_left, config)
+        config, pyramid = replace(config, win=config.stereo_win), None
+    p_right, ok = track_fb(left, right, p_left, config, pyramid)
     if ok.any():
         ok[ok] &= epipolar_mask(rig, np.asarray(p_left)[ok], p_right[ok], config.epipolar_threshold_px)
     return p_right, ok
@@ -210,6 +218,7 @@ class KltTracker:
         self.ids = np.zeros(0, np.int64)
         self.image = None
         self._ids = TrackIds()
+        self.pyramid = config.pyramid_cache()     # normalised pyramids of the last images (None: raw LK)
 
     def track(self, img: np.ndarray) -> np.ndarray:
         """Track all points into ``img`` (forward-backward checked); drop failures. Returns the
@@ -219,7 +228,7 @@ class KltTracker:
             ok = np.zeros(len(self.pts), bool)
             self.pts, self.ids = self.pts[ok], self.ids[ok]
             return ok
-        p1, ok = track_fb(self.image, img, self.pts, self.config)
+        p1, ok = track_fb(self.image, img, self.pts, self.config, self.pyramid)
         self.pts, self.ids, self.image = p1[ok], self.ids[ok], img
         return ok
 

@@ -35,9 +35,27 @@ def normalized_pyramid(img: np.ndarray, levels: int, box: int) -> list:
     for level in range(levels):
         if level:
             f = cv2.pyrDown(f)
-        mean = cv2.blur(f, (box, box), borderType=cv2.BORDER_REFLECT)
-        out.append(np.clip(NORMALIZED_SCALE * f / np.maximum(mean, 1.0) + 0.5, 0.0, 255.0).astype(np.uint8))
+        mean = cv2.max(cv2.blur(f, (box, box), borderType=cv2.BORDER_REFLECT), 1.0)
+        out.append(cv2.divide(f, mean, scale=NORMALIZED_SCALE, dtype=cv2.CV_8U))     # rounded, saturated
     return out
+
+
+class PyramidCache:
+    """The normalised pyramids of the last ``size`` images seen (by identity: a front-end passes the same
+    array for the frame's left image to its temporal and stereo calls, and again as the previous image next
+    frame): ``cache(img)`` -> :func:`normalized_pyramid` ``(img, levels, box)``, built once per image."""
+
+    def __init__(self, levels: int, box: int, size: int = 3):
+        self.levels, self.box, self.size = levels, box, size
+        self._items: list = []           # (image, pyramid), newest last; the image is kept so its id stays valid
+
+    def __call__(self, img: np.ndarray) -> list:
+        for im, pyr in self._items:
+            if im is img:
+                return pyr
+        pyr = normalized_pyramid(img, self.levels, self.box)
+        self._items = (self._items + [(img, pyr)])[-self.size:]
+        return pyr
 
 
 def lk_pyramids(pyr0: list, pyr1: list, p0: np.ndarray, win: int, iters: int, eps: float,

@@ -80,16 +80,18 @@ class FourView:
         return x[p[0]][sel], x[p[1]][sel]
 
 
-def lk_fb(img0, img1, p0, config: KltConfig, guess=None) -> tuple[np.ndarray, np.ndarray]:
+def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``); ``ok``
     where both directions converge inside the image and the round trip ends < ``fb_threshold_px`` from
     ``p0``. With ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
-    :mod:`vo.frontend.lk_normalized` (seed 003's intensity-invariant residual), else on the raw images."""
+    :mod:`vo.frontend.lk_normalized` (seed 003's intensity-invariant residual; ``pyramid`` image -> pyramid,
+    default ``config.pyramid``), else on the raw images."""
     n = len(p0)
     if n == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
     if config.box:
-        return lk_fb_pyramids(config.pyramid(img0), config.pyramid(img1), p0, config.win, config.lk_iters,
+        pyramid = pyramid or config.pyramid
+        return lk_fb_pyramids(pyramid(img0), pyramid(img1), p0, config.win, config.lk_iters,
                               config.lk_eps, config.fb_threshold_px, guess)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
@@ -126,6 +128,7 @@ class KltFourView:
         self.view = None             # the current FourView
         self._prev_left = None
         self._ids = TrackIds()       # identities of new tracks
+        self._pyramid = config.pyramid_cache()   # normalised pyramids of the last images (None: raw LK)
 
     def normalize(self, p, k):
         cam = self.cams[k]
@@ -134,7 +137,7 @@ class KltFourView:
         return normalized_points(p, cam.K, cam.dist_coeffs)
 
     def _stereo(self, left, right, p_l, guess=None):
-        p_r, ok = lk_fb(left, right, p_l, self.config, guess)
+        p_r, ok = lk_fb(left, right, p_l, self.config, guess, self._pyramid)
         if ok.any():
             ok[ok] &= epipolar_mask(self.rig, p_l[ok], p_r[ok], self.config.epipolar_threshold_px)
         return p_r, ok
@@ -171,7 +174,7 @@ class KltFourView:
         """Track the keyframe features into the current stereo frame -> the current :class:`FourView`."""
         v = self.view
         t0 = cv2.getTickCount()
-        p3, ok = lk_fb(self._prev_left, left, v.p3, self.config)
+        p3, ok = lk_fb(self._prev_left, left, v.p3, self.config, pyramid=self._pyramid)
         A3, A4 = self._warps(v)
         t3, t4 = self._templates(v)
         if t3 is not None and ok.any():
