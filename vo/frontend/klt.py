@@ -34,6 +34,9 @@ class KltConfig:
     divided by its mean over ``normalize_box`` x ``win`` pixels; 0 = the raw images (brightness constancy).
     Two windows rather than one: on the ideal-camera indoor route the 1-window mean cost stereo matches at
     large disparities (the normalised window then holds less of the coarse structure), see docs/estimators.md;
+    ``raw_fallback`` (with ``normalize_box``): the points the normalised LK loses are tried again by OpenCV's
+    LK on the raw images (forward-backward checked alike), so a view where brightness constancy holds and the
+    normalised windows lack coarse structure (fast turns, large disparities) keeps the matches it had;
     ``stereo_win`` LK window of the left -> right stereo match in :func:`stereo_klt` only (0 = ``win``;
     temporal tracking always uses ``win``). Seed 003 uses one 21x21 window for both.
     """
@@ -54,6 +57,7 @@ class KltConfig:
     illumination_invariant: bool = False
     stereo_win: int = 0
     normalize_box: float = 2.0
+    raw_fallback: bool = True
 
     def __post_init__(self):
         checks = {
@@ -176,6 +180,9 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
     p1, ok_f = lk(img0, img1, p0, config, pyr)
     p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config, None if pyr is None else pyr[::-1])
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
+    if pyr is not None and config.raw_fallback and not ok.all():
+        lost = np.flatnonzero(~ok)
+        p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0))
     return p1, ok
 
 

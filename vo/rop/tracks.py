@@ -27,7 +27,7 @@ we keep the calls to four per frame (temporal and stereo, each forward and backw
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -91,8 +91,13 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[
         return np.zeros((0, 2)), np.zeros(0, bool)
     if config.box:
         pyramid = pyramid or config.pyramid
-        return lk_fb_pyramids(pyramid(img0), pyramid(img1), p0, config.win, config.lk_iters,
-                              config.lk_eps, config.fb_threshold_px, guess)
+        p1, ok = lk_fb_pyramids(pyramid(img0), pyramid(img1), p0, config.win, config.lk_iters,
+                                config.lk_eps, config.fb_threshold_px, guess)
+        if config.raw_fallback and not ok.all():       # the lost points: brightness constancy on the raw images
+            lost = np.flatnonzero(~ok)
+            p1[lost], ok[lost] = lk_fb(img0, img1, p0[lost], replace(config, normalize_box=0),
+                                       None if guess is None else np.asarray(guess)[lost])
+        return p1, ok
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
     a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
