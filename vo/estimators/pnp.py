@@ -174,7 +174,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         with _timer(timings, "stereo"):
             sel = np.isin(self.tracker.ids, new_ids)
             p_l = self.tracker.pts[sel]
-            p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config)
+            p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid)
             p_o, ok_t = self._triangulate_o(p_l, p_r)
             ok &= ok_t
             for i, p in zip(self.tracker.ids[sel][ok], p_o[ok]):

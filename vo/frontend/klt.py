@@ -14,6 +14,7 @@ import numpy as np
 from vo.errors import VoError
 from vo.frontend.grid import Grid
 from vo.frontend.lk_invariant import lk_illumination_invariant
+from vo.frontend.lk_normalized import PyramidCache, lk_pyramids, normalized_pyramid
 from vo.frontend.stereo import epipolar_mask
 
 
@@ -28,6 +29,14 @@ class KltConfig:
     tolerance; ``quality_level``, ``min_distance``, ``block_size`` Shi-Tomasi parameters;
     ``min_eigenvalue`` absolute floor on the Shi-Tomasi score (rejects corners of blank cells);
     ``illumination_invariant`` use :func:`lk_illumination_invariant` instead of OpenCV's LK;
+    ``normalize_box`` (default 2): OpenCV's LK runs on local-mean-normalised pyramids
+    (:mod:`vo.frontend.lk_normalized`, seed 003's intensity-invariant residual of section 5.2), each level
+    divided by its mean over ``normalize_box`` x ``win`` pixels; 0 = the raw images (brightness constancy).
+    Two windows rather than one: on the ideal-camera indoor route the 1-window mean cost stereo matches at
+    large disparities (the normalised window then holds less of the coarse structure), see docs/estimators.md;
+    ``raw_fallback`` (with ``normalize_box``): the points the normalised LK loses are tried again by OpenCV's
+    LK on the raw images (forward-backward checked alike), so a view where brightness constancy holds and the
+    normalised windows lack coarse structure (fast turns, large disparities) keeps the matches it had;
     ``stereo_win`` LK window of the left -> right stereo match in :func:`stereo_klt` only (0 = ``win``;
     temporal tracking always uses ``win``). Seed 003 uses one 21x21 window for both.
     """
@@ -47,6 +56,8 @@ class KltConfig:
     lk_eps: float = 0.01
     illumination_invariant: bool = False
     stereo_win: int = 0
+    normalize_box: float = 2.0
+    raw_fallback: bool = True
 
     def __post_init__(self):
         checks = {
@@ -57,11 +68,12 @@ class KltConfig:
             "block_size": self.block_size >= 3 and self.block_size % 2 == 1, "min_eigenvalue": self.min_eigenvalue >= 0,
             "lk_iters": self.lk_iters >= 1, "lk_eps": self.lk_eps > 0,
             "stereo_win": self.stereo_win == 0 or (self.stereo_win >= 3 and self.stereo_win % 2 == 1),
+            "normalize_box": self.normalize_box == 0 or self.normalize_box >= 1,
         }
         for name, good in checks.items():
             if not good:
                 raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
-                              "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, levels>=1, "
+                              "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, levels>=1, normalize_box 0 or >= 1, "
                               "0<=max_empty_fraction<=1, thresholds > 0)")
 
     @classmethod
@@ -79,6 +91,19 @@ class KltConfig:
         if bad:
             raise VoError(f"{where}: unknown field(s) {bad}; valid: {', '.join(names)}")
         return cls(**value)
+
+    @property
+    def box(self) -> int:
+        """Odd side (px) of the local-mean window of the normalised pyramids (0 = no normalisation)."""
+        return int(round(self.normalize_box * self.win)) | 1 if self.normalize_box else 0
+
+    def pyramid(self, img: np.ndarray) -> list | None:
+        """The normalised pyramid of ``img`` (:func:`normalized_pyramid`), or None without normalisation."""
+        return normalized_pyramid(img, self.levels, self.box) if self.box else None
+
+    def pyramid_cache(self) -> PyramidCache | None:
+        """A :class:`PyramidCache` of this configuration's pyramids (None without normalisation)."""
+        return PyramidCache(self.levels, self.box) if self.box else None
 
     @property
     def max_level(self) -> int:
@@ -116,13 +141,19 @@ def detect_in_empty_cells(img: np.ndarray, grid: Grid, existing_pts: np.ndarray,
     return uv[cells[keep]]
 
 
-def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig()) -> tuple:
-    """One-directional pyramidal LK -> ``(p1 (N,2), ok (N,))`` (OpenCV, or the illumination-invariant one)."""
+def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig(),
+       pyramids: tuple | None = None) -> tuple:
+    """One-directional pyramidal LK -> ``(p1 (N,2), ok (N,))``: the illumination-invariant one when
+    ``config.illumination_invariant``, else OpenCV's on the normalised pyramids (``pyramids``, the two
+    images' :meth:`KltConfig.pyramid`, built here when None) or, with ``normalize_box = 0``, on the raw images."""
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
     if p0.shape[0] == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
     if config.illumination_invariant:
         return lk_illumination_invariant(img0, img1, p0, config.win, config.levels, config.lk_iters, config.lk_eps)
+    if config.box:
+        pyr0, pyr1 = pyramids if pyramids is not None else (config.pyramid(img0), config.pyramid(img1))
+        return lk_pyramids(pyr0, pyr1, p0, config.win, config.lk_iters, config.lk_eps)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     p1, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, p0.astype(np.float32).reshape(-1, 1, 2), None,
                                          winSize=(config.win, config.win), maxLevel=config.max_level,
@@ -134,28 +165,36 @@ def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = K
     return p1, ok
 
 
-def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig()) -> tuple:
+def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig(),
+             pyramid=None) -> tuple:
     """LK ``img0 -> img1`` then back; keep points whose round trip ends < ``fb_threshold_px`` from the start.
+    ``pyramid`` (image -> normalised pyramid, e.g. a :class:`PyramidCache`) defaults to ``config.pyramid``.
 
     Returns ``(p1 (N,2) float64, ok (N,) bool)``.
     """
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
-    p1, ok_f = lk(img0, img1, p0, config)
     if p0.shape[0] == 0:
-        return p1, ok_f
-    p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config)
+        return np.zeros((0, 2)), np.zeros(0, bool)
+    pyramid = pyramid or config.pyramid
+    pyr = (pyramid(img0), pyramid(img1)) if config.box and not config.illumination_invariant else None
+    p1, ok_f = lk(img0, img1, p0, config, pyr)
+    p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config, None if pyr is None else pyr[::-1])
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
+    if pyr is not None and config.raw_fallback and not ok.all():
+        lost = np.flatnonzero(~ok)
+        p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0))
     return p1, ok
 
 
 def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,
-               config: KltConfig = KltConfig()) -> tuple:
+               config: KltConfig = KltConfig(), pyramid=None) -> tuple:
     """Left -> right LK with forward-backward and calibrated epipolar checks -> ``(p_right, ok)``.
 
-    The LK window (both directions) is ``config.stereo_win`` when set, else ``config.win``."""
+    The LK window (both directions) is ``config.stereo_win`` when set, else ``config.win`` (a ``pyramid``
+    cache is then not used: its box follows ``win``)."""
     if config.stereo_win:
-        config = replace(config, win=config.stereo_win)
-    p_right, ok = track_fb(left, right, p_left, config)
+        config, pyramid = replace(config, win=config.stereo_win), None
+    p_right, ok = track_fb(left, right, p_left, config, pyramid)
     if ok.any():
         ok[ok] &= epipolar_mask(rig, np.asarray(p_left)[ok], p_right[ok], config.epipolar_threshold_px)
     return p_right, ok
@@ -186,6 +225,7 @@ class KltTracker:
         self.ids = np.zeros(0, np.int64)
         self.image = None
         self._ids = TrackIds()
+        self.pyramid = config.pyramid_cache()     # normalised pyramids of the last images (None: raw LK)
 
     def track(self, img: np.ndarray) -> np.ndarray:
         """Track all points into ``img`` (forward-backward checked); drop failures. Returns the
@@ -195,7 +235,7 @@ class KltTracker:
             ok = np.zeros(len(self.pts), bool)
             self.pts, self.ids = self.pts[ok], self.ids[ok]
             return ok
-        p1, ok = track_fb(self.image, img, self.pts, self.config)
+        p1, ok = track_fb(self.image, img, self.pts, self.config, self.pyramid)
         self.pts, self.ids, self.image = p1[ok], self.ids[ok], img
         return ok
 

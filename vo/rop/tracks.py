@@ -27,7 +27,7 @@ we keep the calls to four per frame (temporal and stereo, each forward and backw
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -36,6 +36,7 @@ from vo.errors import VoError
 from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells
+from vo.frontend.lk_normalized import lk_fb_pyramids
 from vo.frontend.stereo import epipolar_mask
 from vo.rop.relative import normalized_points
 from rigs.geometry.pinhole import to_normalized
@@ -79,12 +80,24 @@ class FourView:
         return x[p[0]][sel], x[p[1]][sel]
 
 
-def lk_fb(img0, img1, p0, config: KltConfig, guess=None) -> tuple[np.ndarray, np.ndarray]:
-    """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back; ``ok`` where both
-    directions converge inside the image and the round trip ends < ``fb_threshold_px`` from ``p0``."""
+def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[np.ndarray, np.ndarray]:
+    """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``); ``ok``
+    where both directions converge inside the image and the round trip ends < ``fb_threshold_px`` from
+    ``p0``. With ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
+    :mod:`vo.frontend.lk_normalized` (seed 003's intensity-invariant residual; ``pyramid`` image -> pyramid,
+    default ``config.pyramid``), else on the raw images."""
     n = len(p0)
     if n == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
+    if config.box:
+        pyramid = pyramid or config.pyramid
+        p1, ok = lk_fb_pyramids(pyramid(img0), pyramid(img1), p0, config.win, config.lk_iters,
+                                config.lk_eps, config.fb_threshold_px, guess)
+        if config.raw_fallback and not ok.all():       # the lost points: brightness constancy on the raw images
+            lost = np.flatnonzero(~ok)
+            p1[lost], ok[lost] = lk_fb(img0, img1, p0[lost], replace(config, normalize_box=0),
+                                       None if guess is None else np.asarray(guess)[lost])
+        return p1, ok
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
     a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
@@ -120,6 +133,7 @@ class KltFourView:
         self.view = None             # the current FourView
         self._prev_left = None
         self._ids = TrackIds()       # identities of new tracks
+        self._pyramid = config.pyramid_cache()   # normalised pyramids of the last images (None: raw LK)
 
     def normalize(self, p, k):
         cam = self.cams[k]
@@ -128,7 +142,7 @@ class KltFourView:
         return normalized_points(p, cam.K, cam.dist_coeffs)
 
     def _stereo(self, left, right, p_l, guess=None):
-        p_r, ok = lk_fb(left, right, p_l, self.config, guess)
+        p_r, ok = lk_fb(left, right, p_l, self.config, guess, self._pyramid)
         if ok.any():
             ok[ok] &= epipolar_mask(self.rig, p_l[ok], p_r[ok], self.config.epipolar_threshold_px)
         return p_r, ok
@@ -165,7 +179,7 @@ class KltFourView:
         """Track the keyframe features into the current stereo frame -> the current :class:`FourView`."""
         v = self.view
         t0 = cv2.getTickCount()
-        p3, ok = lk_fb(self._prev_left, left, v.p3, self.config)
+        p3, ok = lk_fb(self._prev_left, left, v.p3, self.config, pyramid=self._pyramid)
         A3, A4 = self._warps(v)
         t3, t4 = self._templates(v)
         if t3 is not None and ok.any():
