@@ -30,6 +30,9 @@ class KltConfig:
     ``illumination_invariant`` use :func:`lk_illumination_invariant` instead of OpenCV's LK;
     ``stereo_win`` LK window of the left -> right stereo match in :func:`stereo_klt` only (0 = ``win``;
     temporal tracking always uses ``win``). Seed 003 uses one 21x21 window for both.
+    ``edge_win``, ``edge_win_h``, ``edge_threshold_px`` the depth-edge test of new stereo landmarks
+    (:mod:`vo.frontend.depth_edge`; not in seed 003): LK window (width x height, px) of its disparity samples
+    and the largest one-sided second difference of the disparity (px) a landmark may show; 0 turns it off.
     """
 
     cell: int = 32
@@ -47,6 +50,9 @@ class KltConfig:
     lk_eps: float = 0.01
     illumination_invariant: bool = False
     stereo_win: int = 0
+    edge_win: int = 15
+    edge_win_h: int = 5
+    edge_threshold_px: float = 2.0
 
     def __post_init__(self):
         checks = {
@@ -57,12 +63,14 @@ class KltConfig:
             "block_size": self.block_size >= 3 and self.block_size % 2 == 1, "min_eigenvalue": self.min_eigenvalue >= 0,
             "lk_iters": self.lk_iters >= 1, "lk_eps": self.lk_eps > 0,
             "stereo_win": self.stereo_win == 0 or (self.stereo_win >= 3 and self.stereo_win % 2 == 1),
+            "edge_win": self.edge_win >= 3 and self.edge_win % 2 == 1,
+            "edge_win_h": self.edge_win_h >= 3 and self.edge_win_h % 2 == 1, "edge_threshold_px": self.edge_threshold_px >= 0,
         }
         for name, good in checks.items():
             if not good:
                 raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
-                              "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, levels>=1, "
-                              "0<=max_empty_fraction<=1, thresholds > 0)")
+                              "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, odd edge_win>=3, levels>=1, "
+                              "0<=max_empty_fraction<=1, thresholds > 0, edge_threshold_px >= 0)")
 
     @classmethod
     def from_option(cls, value, where: str = "klt_config") -> "KltConfig":
