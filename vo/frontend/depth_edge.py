@@ -24,8 +24,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-MIN_EIG = 1e-3
-FB_PX = 0.5
+MIN_EIG = 0.0
+FB_PX = np.inf
 DIRECTIONS = np.array([(1, 0), (-1, 0), (0, 1), (0, -1)], dtype=np.float64)
 
 

@@ -50,8 +50,8 @@ class KltConfig:
     lk_eps: float = 0.01
     illumination_invariant: bool = False
     stereo_win: int = 0
-    edge_win: int = 15
-    edge_win_h: int = 5
+    edge_win: int = 11
+    edge_win_h: int = 11
     edge_threshold_px: float = 2.0
 
     def __post_init__(self):
