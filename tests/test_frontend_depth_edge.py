@@ -58,7 +58,7 @@ def test_points_on_one_plane_score_near_zero(a, b, c):
     score = edge_score(left, right, p_l, p_r)
     # LK on an 8-bit, linearly interpolated texture: offsets within ~0.1 px, second differences within 0.5 px
     assert np.all(score < 0.5), score
-    assert np.all(off_edge(left, right, p_l, p_r, KltConfig()))
+    assert np.all(off_edge(left, right, p_l, p_r, KltConfig(edge_threshold_px=2.0)))
 
 
 def test_corners_at_an_occlusion_score_the_disparity_step():
@@ -71,14 +71,15 @@ def test_corners_at_an_occlusion_score_the_disparity_step():
     score = edge_score(left, right, p_l, p_r)
     # one side of the corner's 11-px window lies 10 px of disparity away; a mixed centre sees >= 2 px of it
     assert np.all(score > 2.0), score
-    assert not np.any(off_edge(left, right, p_l, p_r, KltConfig()))
+    assert not np.any(off_edge(left, right, p_l, p_r, KltConfig(edge_threshold_px=2.0)))
     # far from the boundary (beyond 2 s + the window) the same pair passes
     far_pts = _points(np.array([60.0, 260.0]))
     far_r = far_pts - np.array([[d_near, 0.0], [d_far, 0.0]])
     assert np.all(edge_score(left, right, far_pts, far_r) < 0.5)
 
 
-def test_threshold_zero_turns_the_test_off_and_empty_input_is_empty():
+def test_threshold_zero_turns_the_test_off_and_is_the_default_and_empty_input_is_empty():
+    assert KltConfig().edge_threshold_px == 0.0
     left, right = _step_pair(160.0, 14.0, 4.0)
     p_l = _points(np.array([160.0]))
     off = KltConfig(edge_threshold_px=0.0)

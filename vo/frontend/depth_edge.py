@@ -15,9 +15,13 @@ the corner ``p`` and at ``p + s u`` and ``p + 2 s u`` for the four directions ``
 
 vanishes on one plane (there the disparity is an affine function of the pixel, whatever the plane's slant:
 ground, facades) and is the disparity step between the corner and that side on the far side of a boundary.
-A landmark is rejected when ``max_u e_u`` exceeds ``threshold_px``; a direction whose shifted matches fail
-(no texture, out of the image, LK status 0) gives no evidence. Thresholds are in pixels of disparity, so the
-same default holds for every rig and scene scale.
+A landmark is rejected when ``max_u e_u`` exceeds ``threshold_px`` or the centre match itself fails; a
+direction whose shifted matches fail (LK status 0, out of the image) gives no evidence. Thresholds are in
+pixels of disparity, the same for every rig and scene scale. Optional sample gates (``min_eig``: smallest
+eigenvalue of the window's gradient matrix; ``fb_px``: right -> left round trip) are off by default: on
+``urban-dynamic`` they discard most of the edge evidence (ROC area against big-step edges 0.54 with them,
+0.88 without; docs/estimators.md "Depth-edge test", which also gives the drift measured with the test on:
+it is off in the front-ends by default, ``KltConfig.edge_threshold_px = 0``).
 """
 from __future__ import annotations
 
@@ -31,7 +35,7 @@ DIRECTIONS = np.array([(1, 0), (-1, 0), (0, 1), (0, -1)], dtype=np.float64)
 
 def _offsets(left: np.ndarray, right: np.ndarray, q_l: np.ndarray, q_r0: np.ndarray, win: tuple,
              iters: int, eps: float, min_eig: float, fb_px: float) -> np.ndarray:
-    """(M,2) right - left offsets of one-level ``win`` x ``win`` LK matches of left pixels ``q_l`` started at
+    """(M,2) right - left offsets of one-level ``win`` (width, height) LK matches of left pixels ``q_l`` started at
     ``q_r0``; NaN where a sample says nothing: LK fails, a window leaves either image, the left window's
     gradient matrix has a smallest eigenvalue below ``min_eig`` (OpenCV's normalisation: per pixel, grey
     levels / 255; too little texture, or texture in one direction only, pins no offset), or the right -> left
@@ -55,12 +59,13 @@ def _offsets(left: np.ndarray, right: np.ndarray, q_l: np.ndarray, q_r0: np.ndar
 
 
 def edge_score(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, p_right: np.ndarray,
-               win: int = 15, win_h: int = 5, iters: int = 30, eps: float = 0.01, min_eig: float = MIN_EIG,
+               win: int = 11, win_h: int = 11, iters: int = 30, eps: float = 0.01, min_eig: float = MIN_EIG,
                fb_px: float = FB_PX) -> np.ndarray:
     """(N,) largest one-sided second difference of the stereo offset around each left/right pair (px; see the
     module docstring); 0 where no direction could be measured, inf where the centre match itself fails.
 
-    ``left``, ``right`` grey images (H,W) uint8; ``p_left``, ``p_right`` (N,2) raw pixels of the stereo pairs."""
+    ``left``, ``right`` grey images (H,W) uint8; ``p_left``, ``p_right`` (N,2) raw pixels of the stereo pairs;
+    ``win`` x ``win_h`` the sample window (px), ``iters``/``eps`` LK's stopping rule."""
     p_l = np.asarray(p_left, np.float64).reshape(-1, 2)
     n = len(p_l)
     if n == 0:

@@ -32,7 +32,9 @@ class KltConfig:
     temporal tracking always uses ``win``). Seed 003 uses one 21x21 window for both.
     ``edge_win``, ``edge_win_h``, ``edge_threshold_px`` the depth-edge test of new stereo landmarks
     (:mod:`vo.frontend.depth_edge`; not in seed 003): LK window (width x height, px) of its disparity samples
-    and the largest one-sided second difference of the disparity (px) a landmark may show; 0 turns it off.
+    and the largest one-sided second difference of the disparity (px) a landmark may show; 0 (the default)
+    turns it off: at 2 px it removes most big-step edge landmarks but did not lower the drift
+    (docs/estimators.md, "Depth-edge test").
     """
 
     cell: int = 32
@@ -52,7 +54,7 @@ class KltConfig:
     stereo_win: int = 0
     edge_win: int = 11
     edge_win_h: int = 11
-    edge_threshold_px: float = 2.0
+    edge_threshold_px: float = 0.0
 
     def __post_init__(self):
         checks = {
