@@ -19,8 +19,8 @@ A landmark is rejected when ``max_u e_u`` exceeds ``threshold_px`` or the centre
 direction whose shifted matches fail (LK status 0, out of the image) gives no evidence. Thresholds are in
 pixels of disparity, the same for every rig and scene scale. Optional sample gates (``min_eig``: smallest
 eigenvalue of the window's gradient matrix; ``fb_px``: right -> left round trip) are off by default: on
-``urban-dynamic`` they discard most of the edge evidence (ROC area against big-step edges 0.54 with them,
-0.88 without; docs/estimators.md "Depth-edge test", which also gives the drift measured with the test on:
+``urban-dynamic`` they discard most of the edge evidence (ROC area against big-step edges, 15x5 windows: 0.54
+with them, 0.85 without; docs/estimators.md "Depth-edge test", which also gives the drift measured with the test on:
 it is off in the front-ends by default, ``KltConfig.edge_threshold_px = 0``).
 """
 from __future__ import annotations

@@ -66,7 +66,8 @@ class KltConfig:
             "lk_iters": self.lk_iters >= 1, "lk_eps": self.lk_eps > 0,
             "stereo_win": self.stereo_win == 0 or (self.stereo_win >= 3 and self.stereo_win % 2 == 1),
             "edge_win": self.edge_win >= 3 and self.edge_win % 2 == 1,
-            "edge_win_h": self.edge_win_h >= 3 and self.edge_win_h % 2 == 1, "edge_threshold_px": self.edge_threshold_px >= 0,
+            "edge_win_h": self.edge_win_h >= 3 and self.edge_win_h % 2 == 1,
+            "edge_threshold_px": self.edge_threshold_px >= 0,
         }
         for name, good in checks.items():
             if not good:
