@@ -56,8 +56,10 @@ def test_points_on_one_plane_score_near_zero(a, b, c):
     p_l = _points(np.arange(60.0, 260.0, 20.0))
     p_r = p_l - np.column_stack([disparity(p_l), np.zeros(len(p_l))])
     score = edge_score(left, right, p_l, p_r)
-    # LK on an 8-bit, linearly interpolated texture: offsets within ~0.1 px, second differences within 0.5 px
-    assert np.all(score < 0.5), score
+    # LK on an 8-bit, linearly interpolated texture: offsets within ~0.1 px on a fronto-parallel plane; a vertical
+    # disparity gradient shears the 11x11 window (0.12 px/px spreads its rows over 1.3 px of disparity), which
+    # moves each sample's disparity by up to ~0.3 px: second differences stay below 1 px, half the 2 px threshold
+    assert np.all(score < 1.0), score
     assert np.all(off_edge(left, right, p_l, p_r, KltConfig(edge_threshold_px=2.0)))
 
 
