@@ -29,6 +29,7 @@ import numpy as np
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
+from vo.frontend.depth_edge import off_edge
 from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
 from vo.frontend.grid import Grid
 from rigs.image import to_gray
@@ -175,6 +176,8 @@ class KltPnpEstimator(_StereoPnpEstimator):
             sel = np.isin(self.tracker.ids, new_ids)
             p_l = self.tracker.pts[sel]
             p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid)
+            if ok.any():
+                ok[ok] &= off_edge(left, right, p_l[ok], p_r[ok], self.klt_config)
             p_o, ok_t = self._triangulate_o(p_l, p_r)
             ok &= ok_t
             for i, p in zip(self.tracker.ids[sel][ok], p_o[ok]):

@@ -39,6 +39,11 @@ class KltConfig:
     normalised windows lack coarse structure (fast turns, large disparities) keeps the matches it had;
     ``stereo_win`` LK window of the left -> right stereo match in :func:`stereo_klt` only (0 = ``win``;
     temporal tracking always uses ``win``). Seed 003 uses one 21x21 window for both.
+    ``edge_win``, ``edge_win_h``, ``edge_threshold_px`` the depth-edge test of new stereo landmarks
+    (:mod:`vo.frontend.depth_edge`; not in seed 003): LK window (width x height, px) of its disparity samples
+    and the largest one-sided second difference of the disparity (px) a landmark may show; 0 (the default)
+    turns it off: at 2 px it removes most big-step edge landmarks but did not lower the drift
+    (docs/estimators.md, "Depth-edge test").
     """
 
     cell: int = 32
@@ -58,6 +63,9 @@ class KltConfig:
     stereo_win: int = 0
     normalize_box: float = 2.0
     raw_fallback: bool = True
+    edge_win: int = 11
+    edge_win_h: int = 11
+    edge_threshold_px: float = 0.0
 
     def __post_init__(self):
         checks = {
@@ -69,12 +77,16 @@ class KltConfig:
             "lk_iters": self.lk_iters >= 1, "lk_eps": self.lk_eps > 0,
             "stereo_win": self.stereo_win == 0 or (self.stereo_win >= 3 and self.stereo_win % 2 == 1),
             "normalize_box": self.normalize_box == 0 or self.normalize_box >= 1,
+            "edge_win": self.edge_win >= 3 and self.edge_win % 2 == 1,
+            "edge_win_h": self.edge_win_h >= 3 and self.edge_win_h % 2 == 1,
+            "edge_threshold_px": self.edge_threshold_px >= 0,
         }
         for name, good in checks.items():
             if not good:
                 raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
-                              "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, levels>=1, normalize_box 0 or >= 1, "
-                              "0<=max_empty_fraction<=1, thresholds > 0)")
+                              "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, odd edge_win>=3, levels>=1, "
+                              "normalize_box 0 or >= 1, 0<=max_empty_fraction<=1, thresholds > 0, "
+                              "edge_threshold_px >= 0)")
 
     @classmethod
     def from_option(cls, value, where: str = "klt_config") -> "KltConfig":

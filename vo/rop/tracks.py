@@ -34,6 +34,7 @@ import numpy as np
 
 from vo.errors import VoError
 from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
+from vo.frontend.depth_edge import off_edge
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells
 from vo.frontend.lk_normalized import lk_fb_pyramids
@@ -160,6 +161,8 @@ class KltFourView:
         new = detect_in_empty_cells(left, self.grid, p1, self.config, peaks_only=False)
         t1 = cv2.getTickCount()
         new_r, ok = self._stereo(left, right, new)
+        if ok.any():
+            ok[ok] &= off_edge(left, right, new[ok], new_r[ok], self.config)
         if self.refine == "affine" and ok.any():
             new_r[ok], _, ok[ok] = self._refine_right(affine_template(left, new[ok], self.config.win), right,
                                                       new_r[ok], None, new[ok])
