@@ -111,11 +111,11 @@ class _StereoPnpEstimator(Estimator):
         self._T_prev_curr, self.T_o_c0, self._coast = T_prev_curr, T_o_c0_new, 0
         return True
 
-    def _pnp(self, p_o, px_raw, timings):
+    def _pnp(self, p_o, px_raw, timings, near=None, origin_o=None):
         with _timer(timings, "pnp"):
             cam = self.rig.cameras[0]
             return solve_pnp(p_o, undistort_px(px_raw, cam), cam.K, self.pnp_config,
-                             T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr)
+                             T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr, near=near, origin_o=origin_o)
 
     def _triangulate_o(self, p_left, p_right) -> tuple:
         """Raw stereo pixel pairs -> ``(p_o (N,3), ok (N,))`` in the odometry frame at the current pose."""
@@ -141,11 +141,13 @@ class KltPnpEstimator(_StereoPnpEstimator):
         cam = rig.cameras[0]
         self.tracker = KltTracker(cam.width, cam.height, self.klt_config)
         self.landmarks: dict = {}        # track id -> p_o (3,)
+        self.near: dict = {}             # track id -> (closer than pnp_config.near_baselines at birth, birth c_o (3,))
         self._next_keyframe = False
 
     def _initialize(self, left, right, timings) -> int:
         self.tracker.reset()
         self.landmarks.clear()
+        self.near.clear()
         with _timer(timings, "detect"):
             new_ids = self.tracker.detect(left)
         n = self._add_landmarks(left, right, new_ids, timings)
@@ -160,8 +162,11 @@ class KltPnpEstimator(_StereoPnpEstimator):
             p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config)
             p_o, ok_t = self._triangulate_o(p_l, p_r)
             ok &= ok_t
-            for i, p in zip(self.tracker.ids[sel][ok], p_o[ok]):
+            z_c0 = transform_points(inv_T(self.T_o_c0), p_o)[:, 2]
+            near = z_c0 < self.pnp_config.near_baselines * self.rig.baseline
+            for i, p, c in zip(self.tracker.ids[sel][ok], p_o[ok], near[ok]):
                 self.landmarks[int(i)] = p
+                self.near[int(i)] = (bool(c), self.T_o_c0[:3, 3].copy())
             self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
         return int(ok.sum())
 
@@ -174,7 +179,9 @@ class KltPnpEstimator(_StereoPnpEstimator):
         if n_feat < self.pnp_config.min_features:
             return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
         p_o = np.array([self.landmarks[int(i)] for i in ids])
-        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
+        near = np.array([self.near[int(i)][0] for i in ids], bool)
+        origin_o = np.array([self.near[int(i)][1] for i in ids]).reshape(-1, 3)
+        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings, near, origin_o)
         n_inl = int(inl.sum())
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked")
@@ -186,6 +193,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
             n_new = self._add_landmarks(left, right, new_ids, timings)
             status, msg = "keyframe", f"{n_new} new landmarks"
         self.landmarks = {int(i): self.landmarks[int(i)] for i in self.tracker.ids}
+        self.near = {i: self.near[i] for i in self.landmarks}
         self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
         return self._result(t_ns, status, n_feat, n_inl, msg)
 
