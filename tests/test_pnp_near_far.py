@@ -1,4 +1,4 @@
-"""The close/far split of the stereo PnP (``vo.estimators.pnp_core.refine_on_near``) against exact geometry.
+"""The close/far split of the stereo PnP (``vo.estimators.near_far``) against exact geometry.
 
 Scene: a KITTI-like rig (f 718 px, baseline 0.54 m: 40 baselines = 21.5 m, 18 px disparity), landmarks
 triangulated in frame 0 (= ``o``) and seen exactly in frame 1 after 1 m forward, 0.2 m right and 2.5 deg of
@@ -15,6 +15,7 @@ import pytest
 
 from rigs.geometry import inv_T, make_T, rot_y, rotation_angle, transform_points
 from rigs.geometry.pinhole import project
+from vo.estimators.near_far import NearFarGate, refine_on_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 
 F, B = 718.0, 0.54
@@ -46,7 +47,10 @@ def _step_ratio(T_o_c1):
 
 
 def _solve(p_o, x, near, config=PnpConfig()):
-    return solve_pnp(p_o, x, K, config, T_o_c0_prior=np.eye(4), near=near, origin_o=np.zeros_like(p_o))
+    """The joint PnP fit, then the split -> ``(T_o_c1, inliers)``."""
+    T_o_c1, inl = solve_pnp(p_o, x, K, config, T_o_c0_prior=np.eye(4))
+    T_c1_o, inl = refine_on_near(inv_T(T_o_c1), inl, near, np.zeros_like(p_o), p_o, x, K, config)
+    return inv_T(T_c1_o), inl
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -77,9 +81,24 @@ def test_too_few_near_landmarks_keep_the_joint_fit():
     p_o, x, near, _ = _scene(np.random.default_rng(4), n_near=8, n_far=150, delta=1.4)
     cfg = PnpConfig()
     assert near.sum() < cfg.min_near_inliers
-    joint, inl_joint = _solve(p_o, x, near, dataclasses.replace(cfg, near_baselines=0))
-    T, inl = _solve(p_o, x, near, cfg)
-    np.testing.assert_array_equal(T, joint)
-    np.testing.assert_array_equal(inl, inl_joint)
-    T_none, _ = solve_pnp(p_o, x, K, cfg, T_o_c0_prior=np.eye(4))           # no split without near flags
-    np.testing.assert_array_equal(T_none, joint)
+    T_o_c1, inl = solve_pnp(p_o, x, K, cfg, T_o_c0_prior=np.eye(4))
+    T_c1_o = inv_T(T_o_c1)
+    for config, flags in ((cfg, near), (dataclasses.replace(cfg, near_baselines=0), np.ones_like(near))):
+        T, inl_out = refine_on_near(T_c1_o, inl, flags, np.zeros_like(p_o), p_o, x, K, config)
+        assert T is T_c1_o and inl_out is inl                 # the joint fit, unchanged
+
+
+def test_gate_needs_a_consistent_disagreement_beyond_the_calibration_tolerance():
+    """Limit: 0.5 px at the boundary disparity 718 / 40 = 17.95 px -> |median log ratio| > 2.79 %."""
+    cfg = PnpConfig()
+    gate = NearFarGate(cfg, F)
+    assert gate.limit == pytest.approx(0.5 * 40 / 718)
+    # an exact calibration: the far landmarks' step scatters around the near ones' (+-2 %): never
+    assert not any(gate.use_split(1.0 + e, 1.0) for e in (0.02, -0.02, 0.01, -0.015, 0.02, -0.01, 0.0))
+    # the real excerpt: far landmarks 6 % longer on every frame; not before min_frames frames
+    gate = NearFarGate(cfg, F)
+    used = [gate.use_split(1.06, 1.0) for _ in range(8)]
+    assert used == [False] * (NearFarGate.min_frames - 1) + [True] * (9 - NearFarGate.min_frames)
+    gate = NearFarGate(cfg, F)                                  # either sign
+    assert [gate.use_split(1.0, 1.06) for _ in range(5)][-1]
+    assert not NearFarGate(dataclasses.replace(cfg, near_baselines=0), F).use_split(2.0, 1.0)

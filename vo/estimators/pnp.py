@@ -28,6 +28,7 @@ import numpy as np
 
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
+from vo.estimators.near_far import NearFarGate, refine_on_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
 from vo.frontend.grid import Grid
@@ -111,11 +112,11 @@ class _StereoPnpEstimator(Estimator):
         self._T_prev_curr, self.T_o_c0, self._coast = T_prev_curr, T_o_c0_new, 0
         return True
 
-    def _pnp(self, p_o, px_raw, timings, near=None, origin_o=None):
+    def _pnp(self, p_o, px_raw, timings):
         with _timer(timings, "pnp"):
             cam = self.rig.cameras[0]
             return solve_pnp(p_o, undistort_px(px_raw, cam), cam.K, self.pnp_config,
-                             T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr, near=near, origin_o=origin_o)
+                             T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr)
 
     def _triangulate_o(self, p_left, p_right) -> tuple:
         """Raw stereo pixel pairs -> ``(p_o (N,3), ok (N,))`` in the odometry frame at the current pose."""
@@ -143,6 +144,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.landmarks: dict = {}        # track id -> p_o (3,)
         self.near: dict = {}             # track id -> (closer than pnp_config.near_baselines at birth, birth c_o (3,))
         self._next_keyframe = False
+        self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]))
 
     def _initialize(self, left, right, timings) -> int:
         self.tracker.reset()
@@ -181,7 +183,9 @@ class KltPnpEstimator(_StereoPnpEstimator):
         p_o = np.array([self.landmarks[int(i)] for i in ids])
         near = np.array([self.near[int(i)][0] for i in ids], bool)
         origin_o = np.array([self.near[int(i)][1] for i in ids]).reshape(-1, 3)
-        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings, near, origin_o)
+        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
+        if T_o_c0 is not None:
+            T_o_c0, inl = self._near_far(T_o_c0, inl, p_o, near, origin_o, timings)
         n_inl = int(inl.sum())
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked")
@@ -196,6 +200,22 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.near = {i: self.near[i] for i in self.landmarks}
         self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
         return self._result(t_ns, status, n_feat, n_inl, msg)
+
+    def _near_far(self, T_o_c0, inl, p_o, near, origin_o, timings) -> tuple:
+        """The close/far split's pose (:mod:`vo.estimators.near_far`) where its gate says the calibration is
+        inconsistent, else the joint fit's; the split's inliers either way (near landmarks that only the joint
+        fit, pulled by the far ones, rejects stay tracks)."""
+        with _timer(timings, "pnp"):
+            cam = self.rig.cameras[0]
+            T_c0_o = inv_T(T_o_c0)
+            T_c0_o_split, inl_split = refine_on_near(T_c0_o, inl, near, origin_o, p_o,
+                                                     undistort_px(self.tracker.pts, cam), cam.K, self.pnp_config)
+            if T_c0_o_split is T_c0_o:                  # no split this frame (too few near or far landmarks)
+                return T_o_c0, inl
+            T_split, c_prev = inv_T(T_c0_o_split), self.T_o_c0[:3, 3]
+            use = self._gate.use_split(float(np.linalg.norm(T_o_c0[:3, 3] - c_prev)),
+                                       float(np.linalg.norm(T_split[:3, 3] - c_prev)))
+        return (T_split if use else T_o_c0), inl_split
 
 
 class OrbPnpEstimator(_StereoPnpEstimator):

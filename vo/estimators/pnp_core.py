@@ -23,7 +23,6 @@ from typing import Literal
 
 import cv2
 import numpy as np
-from scipy.optimize import least_squares
 
 from rigs.geometry import inv_T, make_T, transform_points
 from rigs.geometry.pinhole import project
@@ -46,9 +45,9 @@ class PnpConfig:
     "largest" (RANSAC's largest consensus, seed 003); ``max_models`` motions fitted in turn;
     ``min_model_fraction`` a motion competes with at least this fraction of the landmarks as inliers;
     ``separation_px`` two motions are different when at least that many landmarks of one lie more than
-    this far off the other's reprojection (:func:`separated`); ``near_baselines`` landmarks closer than this
-    many stereo baselines (at birth) give the step length, far ones its direction; ``min_near_inliers``
-    fewer near landmarks in the gate -> the joint fit of every inlier (:func:`refine_on_near`; 0 turns the split off)."""
+    this far off the other's reprojection (:func:`separated`); ``near_baselines``, ``min_near_inliers``,
+    ``calib_tolerance_px``: the close/far split of :mod:`vo.estimators.near_far` (``near_baselines`` 0 turns
+    it off)."""
 
     method: Literal[tuple(PNP_METHODS)] = "epnp"
     ransac_reproj_px: float = knob(2.0, gt=0)
@@ -66,6 +65,7 @@ class PnpConfig:
     separation_px: float = knob(4.0, gt=0)
     near_baselines: float = knob(40.0, ge=0)
     min_near_inliers: int = knob(10, ge=6)
+    calib_tolerance_px: float = knob(0.5, ge=0)
 
     def __post_init__(self):
         check_fields(self, EstimatorError, "pnp.")
@@ -221,79 +221,12 @@ def choose_motion(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: 
     return (*_exclusive_refit(models[i], others, p_o, x, K, config), True)
 
 
-def _far_residuals(T_c0_o: np.ndarray, p_o: np.ndarray, origin_o: np.ndarray, bearing: np.ndarray, f: float):
-    """(M,) angle (times the focal length ``f``: ~px) between each observed bearing (M,3) and the plane through
-    the current camera centre and the landmark's ray (birth camera centre ``origin_o`` (M,3) through ``p_o``
-    (M,3)): the epipolar constraint, independent of the landmark's depth along its ray."""
-    a_c = transform_points(T_c0_o, p_o)
-    d_c = (T_c0_o[:3, :3] @ (p_o - origin_o).T).T
-    n = np.cross(a_c, d_c)
-    n_norm = np.maximum(np.linalg.norm(n, axis=1), 1e-12)
-    return f * np.einsum("ij,ij->i", n, bearing) / n_norm
-
-
-def refine_on_near(T_c0_o: np.ndarray, inl: np.ndarray, near: np.ndarray | None, origin_o: np.ndarray | None,
-                   p_o, x, K, config: PnpConfig) -> tuple:
-    """ORB-SLAM2's close/far split (Mur-Artal & Tardos 2017, sec. III-A; not in seed 003): refit the pose
-    ``T_c0_o`` with the ``near`` (N,) bool landmarks (closer than ``config.near_baselines`` baselines when
-    triangulated) as 3-D points (reprojection error) and the far inliers of ``inl`` (N,) as rays from their
-    birth camera centre ``origin_o`` (N,3) (epipolar error, :func:`_far_residuals`): far landmarks constrain
-    the rotation and the direction of travel, near ones also the length of the step. Returns
-    ``(T_c0_o, inliers)``: the far inliers as given, the near ones re-gated under the refitted pose.
-
-    Why: stereo depth error grows as ``z^2 / (f b)``; a disparity error ``e`` px makes a landmark ``e / d``
-    long and the translation it implies long by the same factor. Under a constant calibration offset (1.4 px
-    on the real KITTI excerpt, docs/estimators.md) landmarks at 5-18 px disparity are 8-28 % long, those
-    nearer than 40 baselines (> 18 px at f = 718 px) at most 8 %; a pose fitted on all of them is long and
-    rejects most near landmarks as outliers, which then leave the tracks. So the near landmarks are selected
-    at twice the gate around the joint fit, then at the gate around each refit (two refits). The threshold is
-    in baselines, i.e. in disparity (``f / near_baselines`` px), on every rig. With fewer than
-    ``config.min_near_inliers`` near landmarks in the gate, fewer than ``config.min_pnp_inliers`` far inliers,
-    or ``near`` None, the joint fit stands. ``scipy.optimize.least_squares`` (LM) on the pose (rotation
-    vector, translation)."""
-    if near is None or origin_o is None or config.near_baselines <= 0:
-        return T_c0_o, inl
-    sel_f = inl & ~near
-    if sel_f.sum() < config.min_pnp_inliers:
-        return T_c0_o, inl
-    f = float(K[0, 0])
-    pf, of = p_o[sel_f], origin_o[sel_f]
-    bf = np.c_[(x[sel_f] - K[:2, 2]) / np.diag(K)[:2], np.ones(int(sel_f.sum()))]
-    bf /= np.linalg.norm(bf, axis=1, keepdims=True)
-
-    def pose(v):
-        return make_T(cv2.Rodrigues(v[:3].reshape(3, 1))[0], v[3:])
-
-    T = T_c0_o
-    for gate in (2.0 * config.ransac_reproj_px, config.ransac_reproj_px):
-        sel_n = near & (_residuals(T, p_o, x, K) < gate)
-        if sel_n.sum() < config.min_near_inliers:
-            return T_c0_o, inl
-        pn, xn = p_o[sel_n], x[sel_n]
-
-        def residuals(v):
-            T_v = pose(v)
-            return np.r_[(project(transform_points(T_v, pn), K) - xn).ravel(), _far_residuals(T_v, pf, of, bf, f)]
-
-        v0 = np.r_[cv2.Rodrigues(T[:3, :3])[0].ravel(), T[:3, 3]]
-        try:
-            T = pose(least_squares(residuals, v0, method="lm", x_scale="jac").x)
-        except (ValueError, np.linalg.LinAlgError):
-            return T_c0_o, inl
-        if not np.all(np.isfinite(T)):
-            return T_c0_o, inl
-    return T, sel_f | (near & (_residuals(T, p_o, x, K) < config.ransac_reproj_px))
-
-
 def solve_pnp(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: PnpConfig,
-              T_o_c0_prior: np.ndarray | None = None, near: np.ndarray | None = None,
-              origin_o: np.ndarray | None = None) -> tuple:
+              T_o_c0_prior: np.ndarray | None = None) -> tuple:
     """3-D landmarks ``p_o`` (N,3) seen at undistorted pixels ``x_undist`` (N,2) -> ``(T_o_c0 | None, inliers (N,) bool)``.
 
     ``cv2.solvePnPRansac`` (minimal solver ``config.method``) then ``cv2.solvePnPRefineLM`` on the inliers;
-    with ``config.consensus == "prior"`` and a prior pose ``T_o_c0_prior``, :func:`choose_motion`; with
-    ``near`` (N,) bool and the landmarks' birth camera centres ``origin_o`` (N,3) the pose is refitted with far
-    landmarks as rays (:func:`refine_on_near`).
+    with ``config.consensus == "prior"`` and a prior pose ``T_o_c0_prior``, :func:`choose_motion`.
     """
     n = len(p_o)
     if n < max(6, config.min_pnp_inliers):
@@ -307,9 +240,7 @@ def solve_pnp(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: PnpC
         if not models or models[0][1].sum() < config.min_pnp_inliers:
             return None, np.zeros(n, bool)
         chosen = models[0]
-    T_c0_o, inl = refine_on_near(chosen[0], chosen[1], near, origin_o, np.asarray(p_o, float),
-                                 np.asarray(x_undist, float), K, config)
-    return inv_T(T_c0_o), inl
+    return inv_T(chosen[0]), chosen[1]
 
 
 def _one_model(config: PnpConfig) -> PnpConfig:
