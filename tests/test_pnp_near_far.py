@@ -89,16 +89,19 @@ def test_too_few_near_landmarks_keep_the_joint_fit():
 
 
 def test_gate_needs_a_consistent_disagreement_beyond_the_calibration_tolerance():
-    """Limit: 0.5 px at the boundary disparity 718 / 40 = 17.95 px -> |median log ratio| > 2.79 %."""
+    """Limit: 0.5 px at the boundary disparity 718 / 40 = 17.95 px -> far steps more than 2.79 % off."""
     cfg = PnpConfig()
-    gate = NearFarGate(cfg, F)
+    gate = NearFarGate(cfg, F, B)
     assert gate.limit == pytest.approx(0.5 * 40 / 718)
     # an exact calibration: the far landmarks' step scatters around the near ones' (+-2 %): never
     assert not any(gate.use_split(1.0 + e, 1.0) for e in (0.02, -0.02, 0.01, -0.015, 0.02, -0.01, 0.0))
+    # standing still: steps of a millimetre disagree by 100 %, but say nothing before a baseline of travel
+    gate = NearFarGate(cfg, F, B)
+    assert not any(gate.use_split(0.002, 0.001) for _ in range(20))
     # the real excerpt: far landmarks 6 % longer on every frame; not before min_frames frames
-    gate = NearFarGate(cfg, F)
+    gate = NearFarGate(cfg, F, B)
     used = [gate.use_split(1.06, 1.0) for _ in range(8)]
     assert used == [False] * (NearFarGate.min_frames - 1) + [True] * (9 - NearFarGate.min_frames)
-    gate = NearFarGate(cfg, F)                                  # either sign
+    gate = NearFarGate(cfg, F, B)                                  # either sign
     assert [gate.use_split(1.0, 1.06) for _ in range(5)][-1]
-    assert not NearFarGate(dataclasses.replace(cfg, near_baselines=0), F).use_split(2.0, 1.0)
+    assert not NearFarGate(dataclasses.replace(cfg, near_baselines=0), F, B).use_split(2.0, 1.0)

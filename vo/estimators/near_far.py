@@ -85,19 +85,24 @@ def refine_on_near(T_c0_o: np.ndarray, inl: np.ndarray, near: np.ndarray | None,
 
 
 class NearFarGate:
-    """Whether the close/far split's pose replaces the joint one, from the frames so far: the median of
-    ``log(step_joint / step_split)`` (the far landmarks' excess step length) against the scale a disparity
-    offset of ``config.calib_tolerance_px`` makes at the boundary disparity ``d_n = f / near_baselines``
-    (``tolerance / d_n``), once ``min_frames`` frames with a split were seen. Both signs count (an offset
-    of either sign makes far landmarks disagree)."""
+    """Whether the close/far split's pose replaces the joint one, from the frames so far: the far landmarks'
+    excess step length ``sum(step_joint - step_split) / sum(step_split)`` (summed, so that frames standing
+    still, whose ratio is noise, weigh nothing) against the scale a disparity offset of
+    ``config.calib_tolerance_px`` makes at the boundary disparity ``d_n = f / near_baselines``
+    (``tolerance / d_n``), once ``min_frames`` frames with a split and one stereo baseline of split steps
+    were seen (before that the steps are too short for their ratio to mean anything). Both signs count (an
+    offset of either sign makes far landmarks disagree)."""
 
     min_frames = 5
 
-    def __init__(self, config: PnpConfig, f_px: float):
+    def __init__(self, config: PnpConfig, f_px: float, baseline_m: float):
+        self.baseline_m = baseline_m
         self.limit = config.calib_tolerance_px * config.near_baselines / f_px if config.near_baselines > 0 else np.inf
-        self.log_ratios: list = []
+        self.n, self.sum_excess_m, self.sum_split_m = 0, 0.0, 0.0
 
     def use_split(self, step_joint_m: float, step_split_m: float) -> bool:
-        if step_joint_m > 0 and step_split_m > 0:
-            self.log_ratios.append(np.log(step_joint_m / step_split_m))
-        return len(self.log_ratios) >= self.min_frames and abs(float(np.median(self.log_ratios))) > self.limit
+        self.n += 1
+        self.sum_excess_m += step_joint_m - step_split_m
+        self.sum_split_m += step_split_m
+        return (self.n >= self.min_frames and self.sum_split_m >= self.baseline_m
+                and abs(self.sum_excess_m / self.sum_split_m) > self.limit)

@@ -144,7 +144,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.landmarks: dict = {}        # track id -> p_o (3,)
         self.near: dict = {}             # track id -> (closer than pnp_config.near_baselines at birth, birth c_o (3,))
         self._next_keyframe = False
-        self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]))
+        self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]), rig.baseline)
 
     def _initialize(self, left, right, timings) -> int:
         self.tracker.reset()
@@ -202,9 +202,9 @@ class KltPnpEstimator(_StereoPnpEstimator):
         return self._result(t_ns, status, n_feat, n_inl, msg)
 
     def _near_far(self, T_o_c0, inl, p_o, near, origin_o, timings) -> tuple:
-        """The close/far split's pose (:mod:`vo.estimators.near_far`) where its gate says the calibration is
-        inconsistent, else the joint fit's; the split's inliers either way (near landmarks that only the joint
-        fit, pulled by the far ones, rejects stay tracks)."""
+        """The close/far split's pose and inliers (:mod:`vo.estimators.near_far`) where its gate says the
+        calibration is inconsistent (near landmarks that only the joint fit, pulled by the far ones, rejects
+        then stay tracks), else the joint fit's: with a consistent calibration the estimator is unchanged."""
         with _timer(timings, "pnp"):
             cam = self.rig.cameras[0]
             T_c0_o = inv_T(T_o_c0)
@@ -215,7 +215,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
             T_split, c_prev = inv_T(T_c0_o_split), self.T_o_c0[:3, 3]
             use = self._gate.use_split(float(np.linalg.norm(T_o_c0[:3, 3] - c_prev)),
                                        float(np.linalg.norm(T_split[:3, 3] - c_prev)))
-        return (T_split if use else T_o_c0), inl_split
+        return (T_split, inl_split) if use else (T_o_c0, inl)
 
 
 class OrbPnpEstimator(_StereoPnpEstimator):
