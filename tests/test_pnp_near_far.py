@@ -49,7 +49,7 @@ def _step_ratio(T_o_c1):
 def _solve(p_o, x, near, config=PnpConfig()):
     """The joint PnP fit, then the split -> ``(T_o_c1, inliers)``."""
     T_o_c1, inl = solve_pnp(p_o, x, K, config, T_o_c0_prior=np.eye(4))
-    T_c1_o, inl = refine_on_near(inv_T(T_o_c1), inl, near, np.zeros_like(p_o), p_o, x, K, config)
+    T_c1_o, inl = refine_on_near(inv_T(T_o_c1), inl, near, (np.zeros_like(p_o), p_o), p_o, x, K, config)
     return inv_T(T_c1_o), inl
 
 
@@ -84,7 +84,7 @@ def test_too_few_near_landmarks_keep_the_joint_fit():
     T_o_c1, inl = solve_pnp(p_o, x, K, cfg, T_o_c0_prior=np.eye(4))
     T_c1_o = inv_T(T_o_c1)
     for config, flags in ((cfg, near), (dataclasses.replace(cfg, near_baselines=0), np.ones_like(near))):
-        T, inl_out = refine_on_near(T_c1_o, inl, flags, np.zeros_like(p_o), p_o, x, K, config)
+        T, inl_out = refine_on_near(T_c1_o, inl, flags, (np.zeros_like(p_o), p_o), p_o, x, K, config)
         assert T is T_c1_o and inl_out is inl                 # the joint fit, unchanged
 
 

@@ -25,23 +25,25 @@ from rigs.geometry.pinhole import project
 from vo.estimators.pnp_core import PnpConfig, _residuals
 
 
-def _far_residuals(T_c0_o: np.ndarray, p_o: np.ndarray, origin_o: np.ndarray, bearing: np.ndarray, f: float):
+def _far_residuals(T_c0_o: np.ndarray, origin_o: np.ndarray, dir_o: np.ndarray, bearing: np.ndarray, f: float):
     """(M,) angle (times the focal length ``f``: ~px) between each observed bearing (M,3) and the plane through
-    the current camera centre and the landmark's ray (birth camera centre ``origin_o`` (M,3) through ``p_o``
-    (M,3)): the epipolar constraint, independent of the landmark's depth along its ray."""
-    a_c = transform_points(T_c0_o, p_o)
-    d_c = (T_c0_o[:3, :3] @ (p_o - origin_o).T).T
+    the current camera centre and the landmark's ray (from its birth camera centre ``origin_o`` (M,3) along
+    the left camera's bearing at birth ``dir_o`` (M,3)): the epipolar constraint, independent of the
+    landmark's depth along its ray (and of where stereo triangulation put it off that ray)."""
+    a_c = transform_points(T_c0_o, origin_o)
+    d_c = (T_c0_o[:3, :3] @ dir_o.T).T
     n = np.cross(a_c, d_c)
     n_norm = np.maximum(np.linalg.norm(n, axis=1), 1e-12)
     return f * np.einsum("ij,ij->i", n, bearing) / n_norm
 
 
-def refine_on_near(T_c0_o: np.ndarray, inl: np.ndarray, near: np.ndarray | None, origin_o: np.ndarray | None,
+def refine_on_near(T_c0_o: np.ndarray, inl: np.ndarray, near: np.ndarray | None, rays: tuple | None,
                    p_o, x, K, config: PnpConfig) -> tuple:
     """Refit the pose
     ``T_c0_o`` with the ``near`` (N,) bool landmarks (closer than ``config.near_baselines`` baselines when
-    triangulated) as 3-D points (reprojection error) and the far inliers of ``inl`` (N,) as rays from their
-    birth camera centre ``origin_o`` (N,3) (epipolar error, :func:`_far_residuals`): far landmarks constrain
+    triangulated) as 3-D points (reprojection error) and the far inliers of ``inl`` (N,) as rays ``rays`` =
+    ``(origin_o (N,3), dir_o (N,3))``: birth camera centre and left bearing at birth (epipolar error,
+    :func:`_far_residuals`): far landmarks constrain
     the rotation and the direction of travel, near ones also the length of the step. Returns
     ``(T_c0_o, inliers)``: the far inliers as given, the near ones re-gated under the refitted pose.
 
@@ -50,13 +52,13 @@ def refine_on_near(T_c0_o: np.ndarray, inl: np.ndarray, near: np.ndarray | None,
     ``config.min_near_inliers`` near landmarks in the gate, fewer than ``config.min_pnp_inliers`` far inliers,
     or ``near`` None, the joint fit stands. ``scipy.optimize.least_squares`` (LM) on the pose (rotation
     vector, translation)."""
-    if near is None or origin_o is None or config.near_baselines <= 0:
+    if near is None or rays is None or config.near_baselines <= 0:
         return T_c0_o, inl
     sel_f = inl & ~near
     if sel_f.sum() < config.min_pnp_inliers:
         return T_c0_o, inl
     f = float(K[0, 0])
-    pf, of = p_o[sel_f], origin_o[sel_f]
+    of, df = rays[0][sel_f], rays[1][sel_f]
     bf = np.c_[(x[sel_f] - K[:2, 2]) / np.diag(K)[:2], np.ones(int(sel_f.sum()))]
     bf /= np.linalg.norm(bf, axis=1, keepdims=True)
 
@@ -72,7 +74,7 @@ def refine_on_near(T_c0_o: np.ndarray, inl: np.ndarray, near: np.ndarray | None,
 
         def residuals(v):
             T_v = pose(v)
-            return np.r_[(project(transform_points(T_v, pn), K) - xn).ravel(), _far_residuals(T_v, pf, of, bf, f)]
+            return np.r_[(project(transform_points(T_v, pn), K) - xn).ravel(), _far_residuals(T_v, of, df, bf, f)]
 
         v0 = np.r_[cv2.Rodrigues(T[:3, :3])[0].ravel(), T[:3, 3]]
         try:

@@ -142,7 +142,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         cam = rig.cameras[0]
         self.tracker = KltTracker(cam.width, cam.height, self.klt_config)
         self.landmarks: dict = {}        # track id -> p_o (3,)
-        self.near: dict = {}             # track id -> (closer than pnp_config.near_baselines at birth, birth c_o (3,))
+        self.near: dict = {}             # track id -> (nearer than near_baselines at birth, birth c_o (3,), bearing_o (3,))
         self._next_keyframe = False
         self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]), rig.baseline)
 
@@ -166,9 +166,12 @@ class KltPnpEstimator(_StereoPnpEstimator):
             ok &= ok_t
             z_c0 = transform_points(inv_T(self.T_o_c0), p_o)[:, 2]
             near = z_c0 < self.pnp_config.near_baselines * self.rig.baseline
-            for i, p, c in zip(self.tracker.ids[sel][ok], p_o[ok], near[ok]):
+            cam = self.rig.cameras[0]
+            x_n = (undistort_px(p_l, cam) - cam.K[:2, 2]) / np.diag(cam.K)[:2] if len(p_l) else np.zeros((0, 2))
+            dir_o = (self.T_o_c0[:3, :3] @ np.c_[x_n, np.ones(len(x_n))].T).T
+            for i, p, c, d in zip(self.tracker.ids[sel][ok], p_o[ok], near[ok], dir_o[ok]):
                 self.landmarks[int(i)] = p
-                self.near[int(i)] = (bool(c), self.T_o_c0[:3, 3].copy())
+                self.near[int(i)] = (bool(c), self.T_o_c0[:3, 3].copy(), d)
             self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
         return int(ok.sum())
 
@@ -182,10 +185,10 @@ class KltPnpEstimator(_StereoPnpEstimator):
             return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
         p_o = np.array([self.landmarks[int(i)] for i in ids])
         near = np.array([self.near[int(i)][0] for i in ids], bool)
-        origin_o = np.array([self.near[int(i)][1] for i in ids]).reshape(-1, 3)
+        rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
         T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
         if T_o_c0 is not None:
-            T_o_c0, inl = self._near_far(T_o_c0, inl, p_o, near, origin_o, timings)
+            T_o_c0, inl = self._near_far(T_o_c0, inl, p_o, near, rays, timings)
         n_inl = int(inl.sum())
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked")
@@ -201,14 +204,14 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
         return self._result(t_ns, status, n_feat, n_inl, msg)
 
-    def _near_far(self, T_o_c0, inl, p_o, near, origin_o, timings) -> tuple:
+    def _near_far(self, T_o_c0, inl, p_o, near, rays, timings) -> tuple:
         """The close/far split's pose and inliers (:mod:`vo.estimators.near_far`) where its gate says the
         calibration is inconsistent (near landmarks that only the joint fit, pulled by the far ones, rejects
         then stay tracks), else the joint fit's: with a consistent calibration the estimator is unchanged."""
         with _timer(timings, "pnp"):
             cam = self.rig.cameras[0]
             T_c0_o = inv_T(T_o_c0)
-            T_c0_o_split, inl_split = refine_on_near(T_c0_o, inl, near, origin_o, p_o,
+            T_c0_o_split, inl_split = refine_on_near(T_c0_o, inl, near, rays, p_o,
                                                      undistort_px(self.tracker.pts, cam), cam.K, self.pnp_config)
             if T_c0_o_split is T_c0_o:                  # no split this frame (too few near or far landmarks)
                 return T_o_c0, inl
