@@ -15,6 +15,10 @@ Moving objects (our extension): each frame's PnP takes, among the rigid motions 
 nearest the constant-velocity prediction (``pnp_config.consensus="prior"``, default;
 :mod:`vo.estimators.pnp_core`), not RANSAC's largest consensus, which in traffic is often a car ahead.
 
+Close/far split (``klt-pnp``; ORB-SLAM2's rule, not in seed 003): where near and far landmarks disagree on
+the step length beyond a calibration tolerance (a stereo disparity offset, as on the real KITTI excerpt), the
+pose is refitted with far landmarks as rays (:mod:`vo.estimators.near_far`); otherwise the PnP pose stands.
+
 Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on the
 keyframe where they were born; old key points are not re-matched left-right on later keyframes, since those
 extra observations only serve BA); PnP outliers are dropped from the tracks.
@@ -142,7 +146,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         cam = rig.cameras[0]
         self.tracker = KltTracker(cam.width, cam.height, self.klt_config)
         self.landmarks: dict = {}        # track id -> p_o (3,)
-        self.near: dict = {}             # track id -> (nearer than near_baselines at birth, birth c_o (3,), bearing_o (3,))
+        self.near: dict = {}             # track id -> (near at birth, birth c_o (3,), birth bearing_o (3,))
         self._next_keyframe = False
         self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]), rig.baseline)
 

@@ -235,12 +235,11 @@ def solve_pnp(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: PnpC
         chosen = choose_motion(p_o, x_undist, K, config, T_o_c0_prior)
         if chosen is None or chosen[1].sum() < config.min_pnp_inliers:
             return None, np.zeros(n, bool)
-    else:
-        models = candidate_motions(p_o, x_undist, K, _one_model(config))
-        if not models or models[0][1].sum() < config.min_pnp_inliers:
-            return None, np.zeros(n, bool)
-        chosen = models[0]
-    return inv_T(chosen[0]), chosen[1]
+        return inv_T(chosen[0]), chosen[1]
+    models = candidate_motions(p_o, x_undist, K, _one_model(config))
+    if not models or models[0][1].sum() < config.min_pnp_inliers:
+        return None, np.zeros(n, bool)
+    return inv_T(models[0][0]), models[0][1]
 
 
 def _one_model(config: PnpConfig) -> PnpConfig:
