@@ -15,6 +15,10 @@ Moving objects (our extension): each frame's PnP takes, among the rigid motions 
 nearest the constant-velocity prediction (``pnp_config.consensus="prior"``, default;
 :mod:`vo.estimators.pnp_core`), not RANSAC's largest consensus, which in traffic is often a car ahead.
 
+Close/far split (``klt-pnp``; ORB-SLAM2's rule, not in seed 003): where near and far landmarks disagree on
+the step length beyond a calibration tolerance (a stereo disparity offset, as on the real KITTI excerpt), the
+pose is refitted with far landmarks as rays (:mod:`vo.estimators.near_far`); otherwise the PnP pose stands.
+
 Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on the
 keyframe where they were born; old key points are not re-matched left-right on later keyframes, since those
 extra observations only serve BA); PnP outliers are dropped from the tracks.
@@ -28,6 +32,7 @@ import numpy as np
 
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
+from vo.estimators.near_far import NearFarGate, refine_on_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.frontend.depth_edge import off_edge
 from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
@@ -159,11 +164,14 @@ class KltPnpEstimator(_StereoPnpEstimator):
         cam = rig.cameras[0]
         self.tracker = KltTracker(cam.width, cam.height, self.klt_config)
         self.landmarks: dict = {}        # track id -> p_o (3,)
+        self.near: dict = {}             # track id -> (near at birth, birth c_o (3,), birth bearing_o (3,))
         self._next_keyframe = False
+        self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]), rig.baseline)
 
     def _initialize(self, left, right, timings) -> int:
         self.tracker.reset()
         self.landmarks.clear()
+        self.near.clear()
         with _timer(timings, "detect"):
             new_ids = self.tracker.detect(left)
         n = self._add_landmarks(left, right, new_ids, timings)
@@ -180,8 +188,14 @@ class KltPnpEstimator(_StereoPnpEstimator):
                 ok[ok] &= off_edge(left, right, p_l[ok], p_r[ok], self.klt_config)
             p_o, ok_t = self._triangulate_o(p_l, p_r)
             ok &= ok_t
-            for i, p in zip(self.tracker.ids[sel][ok], p_o[ok]):
+            z_c0 = transform_points(inv_T(self.T_o_c0), p_o)[:, 2]
+            near = z_c0 < self.pnp_config.near_baselines * self.rig.baseline
+            cam = self.rig.cameras[0]
+            x_n = (undistort_px(p_l, cam) - cam.K[:2, 2]) / np.diag(cam.K)[:2] if len(p_l) else np.zeros((0, 2))
+            dir_o = (self.T_o_c0[:3, :3] @ np.c_[x_n, np.ones(len(x_n))].T).T
+            for i, p, c, d in zip(self.tracker.ids[sel][ok], p_o[ok], near[ok], dir_o[ok]):
                 self.landmarks[int(i)] = p
+                self.near[int(i)] = (bool(c), self.T_o_c0[:3, 3].copy(), d)
             self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
         return int(ok.sum())
 
@@ -194,7 +208,11 @@ class KltPnpEstimator(_StereoPnpEstimator):
         if n_feat < self.pnp_config.min_features:
             return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
         p_o = np.array([self.landmarks[int(i)] for i in ids])
+        near = np.array([self.near[int(i)][0] for i in ids], bool)
+        rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
         T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
+        if T_o_c0 is not None:
+            T_o_c0, inl = self._near_far(T_o_c0, inl, p_o, near, rays, timings)
         n_inl = int(inl.sum())
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked")
@@ -206,8 +224,25 @@ class KltPnpEstimator(_StereoPnpEstimator):
             n_new = self._add_landmarks(left, right, new_ids, timings)
             status, msg = "keyframe", f"{n_new} new landmarks"
         self.landmarks = {int(i): self.landmarks[int(i)] for i in self.tracker.ids}
+        self.near = {i: self.near[i] for i in self.landmarks}
         self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
         return self._result(t_ns, status, n_feat, n_inl, msg)
+
+    def _near_far(self, T_o_c0, inl, p_o, near, rays, timings) -> tuple:
+        """The close/far split's pose and inliers (:mod:`vo.estimators.near_far`) where its gate says the
+        calibration is inconsistent (near landmarks that only the joint fit, pulled by the far ones, rejects
+        then stay tracks), else the joint fit's: with a consistent calibration the estimator is unchanged."""
+        with _timer(timings, "pnp"):
+            cam = self.rig.cameras[0]
+            T_c0_o = inv_T(T_o_c0)
+            T_c0_o_split, inl_split = refine_on_near(T_c0_o, inl, near, rays, p_o,
+                                                     undistort_px(self.tracker.pts, cam), cam.K, self.pnp_config)
+            if T_c0_o_split is T_c0_o:                  # no split this frame (too few near or far landmarks)
+                return T_o_c0, inl
+            T_split, c_prev = inv_T(T_c0_o_split), self.T_o_c0[:3, 3]
+            use = self._gate.use_split(float(np.linalg.norm(T_o_c0[:3, 3] - c_prev)),
+                                       float(np.linalg.norm(T_split[:3, 3] - c_prev)))
+        return (T_split, inl_split) if use else (T_o_c0, inl)
 
 
 class OrbPnpEstimator(_StereoPnpEstimator):
