@@ -308,5 +308,9 @@ def test_parked_cars_are_each_a_car_of_their_own(built):
     body = CarBody("van", (1.05, 1.0, 0.97))
     from scenes.urban_actors import parts_mesh
     v = np.asarray(parts_mesh("car", body.parts(), body.wheels())[0]).reshape(-1, 3)
-    np.testing.assert_allclose(v.max(0)[:2], body.half_xy(), atol=1e-9)
-    assert abs(v.max(0)[2] - body.height()) < 1e-9 and abs(v.min(0)[2]) < 1e-9
+    assert abs(v.max(0)[0] - body.half_xy()[0]) < 1e-9 and abs(v.max(0)[2] - body.height()) < 1e-9
+    assert body.half_xy()[1] <= v.max(0)[1] <= body.half_xy()[1] + 0.02 + 1e-9   # tyres 2 cm proud, as the traffic's
+    assert abs(v.min(0)[2]) < 1e-9
+    for kind in BODIES:                       # a traffic car's body fits the footprint its clearance checks use
+        fit = CarBody(kind, (1.06, 1.04, 1.0)).fitted((2.2, 0.9))
+        assert fit.half_xy()[0] <= 2.2 + 1e-9 and fit.half_xy()[1] <= 0.9 + 1e-9
