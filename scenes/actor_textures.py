@@ -116,36 +116,73 @@ def _tyre(at, cell, hub):
     at.disc(cell, 0.5, 0.5, 0.12, hub * 0.55)
 
 
-def car_atlas(rng: np.random.Generator) -> np.ndarray:
-    """A car: paint on ``paint``/``body_side``/``front``/``rear``, windows on ``cabin_side``/``windscreen``."""
+# a moving car's layout (fractions of each cell; handle: dx0, y0, dx1, y1 from its seam); a parked car draws
+# its own (:func:`car_layout`)
+CAR_LAYOUT = {"seams": (0.36, 0.62), "handle": (0.04, 0.22, 0.1, 0.3), "sill": 0.84, "arches": ((0.19, 0.81), 0.16),
+              "headlight": (0.05, 0.12, 0.22, 0.24), "grille": (0.32, 0.2, 0.68, 0.46), "bumper": (0.66, 0.84),
+              "front_plate": (0.41, 0.62, 0.59, 0.76), "taillight": (0.03, 0.14, 0.18, 0.22),
+              "rear_plate": (0.4, 0.4, 0.6, 0.56), "panes": (0.1, 0.47, 0.53, 0.88), "pane_y": (0.12, 0.92),
+              "screen": (0.06, 0.1, 0.94, 0.95), "trim": 0}
+TRIMS = ((0.09, 0.09, 0.1), (0.5, 0.51, 0.53), (0.2, 0.2, 0.21))   # black, chrome-grey, dark grey
+
+
+def car_layout(rng: np.random.Generator, arches=((0.19, 0.81), 0.16)) -> dict:
+    """A parked car's own layout, :data:`CAR_LAYOUT`'s keys: 2 or 4 doors (seams), lights, grille, plates,
+    window panes and trim drawn from ``rng``; ``arches``: its body's wheel arches
+    (:meth:`scenes.car_shapes.CarBody.arches`)."""
+    u = rng.uniform
+    doors = (float(u(0.42, 0.52)),) if rng.random() < 0.3 else (float(u(0.32, 0.4)), float(u(0.58, 0.66)))
+    hx, hw, hy, hh = u(0.02, 0.1), u(0.14, 0.26), u(0.08, 0.2), u(0.12, 0.3)
+    tx, tw, ty, th = u(0.0, 0.08), u(0.12, 0.24), u(0.08, 0.22), u(0.12, 0.3)
+    gw, gy, gh = u(0.2, 0.42), u(0.16, 0.3), u(0.12, 0.3)
+    split = u(0.45, 0.6)
+    dx, hy = u(0.03, 0.06), u(0.16, 0.28)
+    return {"seams": doors, "handle": (dx, hy, dx + u(0.05, 0.08), hy + 0.08), "sill": u(0.8, 0.9),
+            "arches": arches, "headlight": (hx, hy, hw, hh), "grille": (0.5 - gw / 2, gy, 0.5 + gw / 2, gy + gh),
+            "bumper": (u(0.6, 0.7), u(0.8, 0.9)), "front_plate": (0.41, u(0.58, 0.66), 0.59, u(0.72, 0.78)),
+            "taillight": (tx, ty, tw, th), "rear_plate": (0.4, u(0.34, 0.5), 0.6, u(0.5, 0.6)),
+            "panes": (u(0.06, 0.16), split - 0.03, split + 0.03, u(0.84, 0.94)),
+            "pane_y": (u(0.08, 0.2), u(0.86, 0.95)),
+            "screen": (u(0.04, 0.1), u(0.06, 0.16), 1 - u(0.04, 0.1), u(0.9, 0.96)), "trim": int(rng.integers(0, 3))}
+
+
+def car_atlas(rng: np.random.Generator, layout: dict | None = None) -> np.ndarray:
+    """A car: paint on ``paint``/``body_side``/``front``/``rear``, windows on ``cabin_side``/``windscreen``;
+    lights, plates, seams, windows and trim where ``layout`` puts them (None: :data:`CAR_LAYOUT`)."""
+    L = CAR_LAYOUT if layout is None else layout
     at = _Atlas("car", rng)
     paint = _pick(rng, CAR_COLOURS)
-    seam, trim = paint * 0.55, np.array([0.09, 0.09, 0.1])
+    seam, trim = paint * 0.55, np.array(TRIMS[L["trim"]])
     at.fill("paint", paint, gradient=0.08, noise=0.012)
     at.fill("under", RUBBER * 1.5)
     at.fill("body_side", paint, gradient=0.15, noise=0.012)
-    for fx in (0.36, 0.62):                                               # door seams and handles
+    hdx, hy0, hdw, hy1 = L["handle"]
+    for fx in L["seams"]:                                                 # door seams and handles
         at.rect("body_side", fx, 0.08, fx + 0.012, 0.8, seam)
-        at.rect("body_side", fx + 0.04, 0.22, fx + 0.1, 0.3, paint * 0.7)
-    at.rect("body_side", 0.0, 0.84, 1.0, 1.0, trim)                     # sill
-    for fx in (0.19, 0.81):                                               # wheel arches
-        at.disc("body_side", fx, 1.0, 0.16, trim)
+        at.rect("body_side", fx + hdx, hy0, fx + hdw, hy1, paint * 0.7)
+    at.rect("body_side", 0.0, L["sill"], 1.0, 1.0, trim)                 # sill
+    arch_x, arch_r = L["arches"]
+    for fx in arch_x:                                                     # wheel arches
+        at.disc("body_side", fx, 1.0, arch_r, trim)
     at.fill("front", paint, gradient=0.12, noise=0.012)
-    for fx in (0.05, 0.73):
-        at.rect("front", fx, 0.12, fx + 0.22, 0.36, (0.93, 0.92, 0.84))   # headlights
-    at.rect("front", 0.32, 0.2, 0.68, 0.46, trim)                         # grille
-    at.rect("front", 0.0, 0.66, 1.0, 0.84, trim * 1.4)                    # bumper
-    at.rect("front", 0.41, 0.62, 0.59, 0.76, (0.9, 0.9, 0.86))            # plate
+    hx, hy, hw, hh = L["headlight"]
+    for fx in (hx, 1.0 - hx - hw):
+        at.rect("front", fx, hy, fx + hw, hy + hh, (0.93, 0.92, 0.84))   # headlights
+    at.rect("front", *L["grille"], trim)                                  # grille
+    at.rect("front", 0.0, L["bumper"][0], 1.0, L["bumper"][1], trim * 1.4)   # bumper
+    at.rect("front", *L["front_plate"], (0.9, 0.9, 0.86))                # plate
     at.fill("rear", paint, gradient=0.12, noise=0.012)
-    for fx in (0.03, 0.79):
-        at.rect("rear", fx, 0.14, fx + 0.18, 0.36, (0.62, 0.06, 0.05))    # tail-lights
-    at.rect("rear", 0.0, 0.66, 1.0, 0.84, trim * 1.4)
-    at.rect("rear", 0.4, 0.4, 0.6, 0.56, (0.9, 0.9, 0.86))                # plate
+    tx, ty, tw, th = L["taillight"]
+    for fx in (tx, 1.0 - tx - tw):
+        at.rect("rear", fx, ty, fx + tw, ty + th, (0.62, 0.06, 0.05))    # tail-lights
+    at.rect("rear", 0.0, L["bumper"][0], 1.0, L["bumper"][1], trim * 1.4)
+    at.rect("rear", *L["rear_plate"], (0.9, 0.9, 0.86))                  # plate
     at.fill("cabin_side", paint, gradient=0.1)
-    at.glass("cabin_side", 0.1, 0.12, 0.47, 0.92)
-    at.glass("cabin_side", 0.53, 0.12, 0.88, 0.92)
+    (p0, p1, p2, p3), (py0, py1) = L["panes"], L["pane_y"]
+    at.glass("cabin_side", p0, py0, p1, py1)
+    at.glass("cabin_side", p2, py0, p3, py1)
     at.fill("windscreen", paint, gradient=0.1)
-    at.glass("windscreen", 0.06, 0.1, 0.94, 0.95)
+    at.glass("windscreen", *L["screen"])
     _tyre(at, "tyre", np.array([0.55, 0.56, 0.58]) + rng.normal(0, 0.03))
     return at.done()
 

@@ -11,8 +11,10 @@ interpolates, so :meth:`LunarScene.ground_height` is the rendered surface exactl
 
 The surface carries a grey regolith texture (grains and pits down to ~4 mm: a 1024-texel tile per
 :data:`TEX_TILE_M` = 4 m) in :data:`N_TEX_VARIANTS` seeded variants, one chosen per 20 m chunk with
-a random offset, so no pattern repeats along the route. One sun (``sun_elevation_deg``,
-``sun_azimuth_deg``), no ambient light, no headlight, a black sky; shadows on unless
+a random offset, its own angle, handedness and tile size (3.4-4.6 m, :func:`chunk_uv_transform`), so no two
+chunks show the same pattern at the same orientation and scale; craters and rocks are each drawn on
+their own (sizes, depths, places), no two alike. Within a chunk its variant still repeats every tile.
+One sun (``sun_elevation_deg``, ``sun_azimuth_deg``), no ambient light, no headlight, a black sky; shadows on unless
 ``shadows: false``.
 
 Route: 17 sites (S00..S16) joined by 16 legs of 5-9.5 m, 114.5 m of straight legs, first heading
@@ -42,6 +44,7 @@ CORRIDOR_M = 1.5
 TEX_TILE_M = 4.0
 TEX_SIZE = 1024
 N_TEX_VARIANTS = 4
+TILE_STRETCH = (0.85, 1.15)        # a chunk's tile size, as a multiple of TEX_TILE_M
 LEG_M = (8.5, 9.0, 7.5, 6.0, 8.0, 9.5, 5.5, 7.0, 8.0, 6.5, 7.5, 9.0, 6.0, 5.0, 6.5, 5.0)
 LEG_HEADING_DEG = (-90, -90, -60, -20, 10, 40, 75, 110, 140, 170, 200, 220, 210, 235, 250, 260)
 CRUISE_MPS = 0.2
@@ -73,6 +76,17 @@ def regolith_texture(rng: np.random.Generator, size: int, richness: float) -> np
         img[np.ix_((cy + yy[:, 0]) % size, (cx + xx[0]) % size)] += stamp
     grey = np.clip(0.42 + float(richness) * img, 0, 1)
     return np.repeat(np.round(grey * 255).astype(np.uint8)[..., None], 3, axis=2)
+
+
+def chunk_uv_transform(uv: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """(N, 2) texture coordinates of one terrain chunk turned by its own angle (uniform in 0-360 deg),
+    mirrored with probability 1/2 and scaled by its own tile size (:data:`TILE_STRETCH` x the tile), about
+    the chunk's first vertex: no two chunks show a variant at the same orientation, handedness and scale."""
+    a = rng.uniform(0.0, 2.0 * np.pi)
+    mirror = -1.0 if rng.random() < 0.5 else 1.0
+    k = 1.0 / rng.uniform(*TILE_STRETCH)
+    R = k * np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]) @ np.diag([mirror, 1.0])
+    return (uv - uv[0]) @ R.T + uv[0]
 
 
 class LunarScene(Scene):
@@ -181,11 +195,13 @@ class LunarScene(Scene):
                 Z = self.z[i0:i1 + 1, j0:j1 + 1]
                 off = rng.random(2)
                 uv = np.stack([X.ravel() / TEX_TILE_M + off[0], -Y.ravel() / TEX_TILE_M + off[1]], axis=1)
+                variant = int(rng.integers(N_TEX_VARIANTS))
+                uv = chunk_uv_transform(uv, rng)
                 m = spec.add_mesh(name=f"mesh/terrain_{ci}_{cj}")
                 m.uservert = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1).ravel().tolist()
                 m.usertexcoord = uv.ravel().tolist()
                 m.userface = terrain.grid_triangles(*Z.shape).ravel().tolist()
                 m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
                 spec.worldbody.add_geom(name=f"static/terrain_{ci}_{cj}", type=mujoco.mjtGeom.mjGEOM_MESH,
-                                        meshname=m.name, material=f"mat/regolith/{int(rng.integers(N_TEX_VARIANTS))}",
+                                        meshname=m.name, material=f"mat/regolith/{variant}",
                                         contype=0, conaffinity=0, group=0)

@@ -44,7 +44,6 @@ WHEELS = {"car": (0.32, 0.12, tuple((x, y, 0.32) for x in (-1.36, 1.36) for y in
           "bus": (0.5, 0.15, tuple((x, y, 0.5) for x in (-3.3, 3.3) for y in (-1.15, 1.15))),
           "pedestrian": (0.0, 0.0, ())}
 SHAPES = {"car": (CAR_PARTS, 1.0), "bus": (BUS_PARTS, 2.0), "pedestrian": (PED_PARTS, 0.5)}   # parts, (unused) tile
-CAR_MODELS = ((1.0, 1.0, 1.0), (0.86, 0.97, 0.95), (1.08, 1.03, 1.1), (0.95, 1.0, 1.18), (1.12, 1.05, 0.92))
 ATLAS_POOL = {"car": 48, "bus": 24, "pedestrian": 32}             # distinct atlases per kind
 SPECULAR = {"car": 0.35, "bus": 0.25, "pedestrian": 0.05}           # painted bodies and glass shine, clothes do not
 
@@ -212,9 +211,11 @@ def first_contact(actors, t_ns, T_w_b, footprint, near_m: float = 15.0):
 
 
 # ---------------------------------------------------------------------------- MJCF
-def _parts_mesh(kind: str) -> tuple:
+def parts_mesh(kind: str, parts=None, wheels=None) -> tuple:
     """(vertices, texcoords, faces) of a ``kind`` actor: the union of its boxes (each face onto its atlas cell,
-    :mod:`scenes.actor_textures`) and its wheels (octagonal prisms along y, caps onto the ``tyre`` cell)."""
+    :mod:`scenes.actor_textures`) and its wheels (octagonal prisms along y, caps onto the ``tyre`` cell).
+    ``parts`` / ``wheels``: as :data:`CAR_PARTS` / :data:`WHEELS` (None: the kind's own; a parked car passes
+    its body's, :mod:`scenes.car_shapes`)."""
     from scenes.actor_textures import cell_uv
     v, uv, f = [], [], []
 
@@ -227,7 +228,7 @@ def _parts_mesh(kind: str) -> tuple:
             tris = [[a, c, b] for a, b, c in tris]
         f.extend(tris)
 
-    for _, half, centre, cells in SHAPES[kind][0]:
+    for _, half, centre, cells in (SHAPES[kind][0] if parts is None else parts):
         half, centre = np.asarray(half, float), np.asarray(centre, float)
         for ax in range(3):
             ua, va = [a for a in range(3) if a != ax]
@@ -241,7 +242,7 @@ def _parts_mesh(kind: str) -> tuple:
                 n = np.zeros(3)
                 n[ax] = sgn
                 face(pts, [tuple(map(float, t)) for t in tex], n)
-    radius, hw, centres = WHEELS[kind]
+    radius, hw, centres = WHEELS[kind] if wheels is None else wheels
     ang = np.linspace(0.0, 2 * np.pi, 9)[:-1]
     for c in centres:
         c = np.asarray(c, float)
@@ -262,43 +263,45 @@ def actor_mesh_name(kind: str) -> str:
     return f"mesh/{ACTOR_SCOPE}{kind}"
 
 
-def car_model_mesh_name(j: int) -> str:
-    return f"mesh/{ACTOR_SCOPE}car/model{int(j)}"
-
-
 def add_actor_meshes(spec) -> None:
-    """The shared mesh of each actor kind (:func:`_parts_mesh`), named :func:`actor_mesh_name`, and the car
-    mesh scaled to each of :data:`CAR_MODELS` (:func:`car_model_mesh_name`; the parked cars)."""
+    """The shared mesh of each actor kind (:func:`parts_mesh`), named :func:`actor_mesh_name`."""
     for kind in SHAPES:
         m = spec.add_mesh(name=actor_mesh_name(kind))
-        m.uservert, m.usertexcoord, m.userface = _parts_mesh(kind)
-    car = _parts_mesh("car")
-    for j, scale in enumerate(CAR_MODELS):
-        m = spec.add_mesh(name=car_model_mesh_name(j))
-        m.uservert, m.usertexcoord, m.userface = car
-        m.scale = list(map(float, scale))
+        m.uservert, m.usertexcoord, m.userface = parts_mesh(kind)
 
 
 def add_actors(spec, builder, actors) -> None:
     """Add one mocap body per actor, posed at its start, carrying one textured mesh geom
-    ``dyn/urban/actor_<k>/body`` (the kind's mesh, added before by :func:`add_actor_meshes`); each actor has its
-    atlas (:func:`scenes.actor_textures.actor_atlas`): actor ``k`` of ``kind`` wears atlas ``k % ATLAS_POOL[kind]``
-    (scene stream ``texture/urban-actor/<kind>/<j>``), so consecutive actors of a lane look different while the
-    texture memory stays bounded (moving actors are no place a loop closure could confuse)."""
+    ``dyn/urban/actor_<k>/body``; each actor has its atlas (:func:`scenes.actor_textures.actor_atlas`): actor
+    ``k`` of ``kind`` wears atlas ``k % ATLAS_POOL[kind]`` (scene stream ``texture/urban-actor/<kind>/<j>``,
+    a car's with its own layout of lights, windows and trim, :func:`scenes.actor_textures.car_layout`), so
+    consecutive actors of a lane look different while the texture memory stays bounded. A car also has a
+    body of its own (:func:`scenes.car_shapes.draw_body`, stream ``urban/actor-shape/<k>``, fitted into the
+    footprint of :data:`CAR_PARTS`), mesh ``mesh/urban/actor_<k>``: standing cars (``urban-static``) are
+    places a loop closure could confuse; buses and pedestrians use their kind's mesh
+    (:func:`add_actor_meshes`)."""
     import mujoco
-    from scenes.actor_textures import actor_atlas
+    from scenes.actor_textures import actor_atlas, car_atlas, car_layout
+    from scenes.car_shapes import draw_body
     made = {}
+    footprint = CAR_PARTS[0][1][:2]
     for a in actors:
         h = a.heading
         body = spec.worldbody.add_body(name=a.body_name, mocap=True, pos=[*map(float, a.origin_xy), 0.0],
                                        quat=[float(np.cos(h / 2)), 0.0, 0.0, float(np.sin(h / 2))])
         key = (a.kind, a.actor_id % ATLAS_POOL[a.kind])
         if key not in made:
-            img = actor_atlas(a.kind, builder.streams(f"texture/urban-actor/{key[0]}/{key[1]}"))
+            rng = builder.streams(f"texture/urban-actor/{key[0]}/{key[1]}")
+            img = car_atlas(rng, car_layout(rng)) if a.kind == "car" else actor_atlas(a.kind, rng)
             made[key] = builder.image_material(f"actor/{key[0]}/{key[1]}", img, specular=SPECULAR[a.kind])
-        mat = made[key]
+        mat, meshname = made[key], actor_mesh_name(a.kind)
+        if a.kind == "car":
+            shape = draw_body(builder.streams(f"urban/actor-shape/{a.actor_id}")).fitted(footprint)
+            meshname = f"mesh/{a.body_name}"
+            m = spec.add_mesh(name=meshname)
+            m.uservert, m.usertexcoord, m.userface = parts_mesh("car", shape.parts(), shape.wheels())
         body.add_geom(name=f"{GEOM_PREFIX}{a.body_name}/body", type=mujoco.mjtGeom.mjGEOM_MESH,
-                      meshname=actor_mesh_name(a.kind), material=mat, contype=0, conaffinity=0, group=1)
+                      meshname=meshname, material=mat, contype=0, conaffinity=0, group=1)
 
 
 def actor_of_geom(geom_name: str) -> int:

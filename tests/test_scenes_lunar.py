@@ -96,3 +96,21 @@ def test_rendered_depth_matches_ground_height(scene):
         p_c = np.linalg.inv(cam.K) @ np.array([u, v, 1.0]) * d[v, u]
         p_w = T_w_c[:3, :3] @ p_c + T_w_c[:3, 3]
         assert p_w[2] == pytest.approx(float(scene.ground_height(p_w[0], p_w[1])), abs=1e-3)
+
+
+def test_chunk_texture_transform_is_a_similarity_of_its_own_per_chunk():
+    """Each chunk's texture mapping is a rotation (+ mirror) and scale about its first vertex, tile 3.4-4.6 m;
+    64 chunks draw 64 different ones."""
+    from scenes.lunar import TILE_STRETCH, chunk_uv_transform
+    uv = np.random.default_rng(0).random((50, 2)) * 5
+    rng = np.random.default_rng(1)
+    seen = set()
+    for _ in range(64):
+        out = chunk_uv_transform(uv, rng)
+        A, *_ = np.linalg.lstsq(np.c_[uv - uv[0], np.ones(len(uv))], out - out[0], rcond=None)
+        L = A[:2].T
+        k = np.sqrt(abs(np.linalg.det(L)))
+        np.testing.assert_allclose(L @ L.T, k * k * np.eye(2), atol=1e-9)       # similarity, no shear
+        assert 1 / TILE_STRETCH[1] - 1e-12 <= k <= 1 / TILE_STRETCH[0] + 1e-12
+        seen.add(tuple(np.round(L.ravel(), 6)))
+    assert len(seen) == 64

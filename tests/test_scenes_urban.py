@@ -285,3 +285,34 @@ def test_dynamic_fraction_counts_features_where_the_texture_is():
         res = dynamic_fraction(frames, segs, {7}, camera)
         assert res.n_features > 20 and res.n_frames == 3
         assert res.fraction == pytest.approx(expect, abs=0.02)      # features on the 150-px border may fall either side
+
+
+def test_parked_cars_are_each_a_car_of_their_own(built):
+    """Every parked car has its own mesh (body type and stretch) and texture: no two share extents or texture;
+    every body type of scenes.car_shapes appears (seed 0); a body's footprint is its mesh's."""
+    import mujoco
+    from scenes.car_shapes import BODIES, CarBody, draw_body
+    _, _, m = built
+    role = int(mujoco.mjtTextureRole.mjTEXROLE_RGB)
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in range(m.ngeom)]
+    cars = [g for g, n in enumerate(names) if n.startswith("static/parked")]
+    assert len(cars) > 30
+    meshes = [int(m.geom_dataid[g]) for g in cars]
+    texs = [int(m.mat_texid[m.geom_matid[g], role]) for g in cars]
+    assert len(set(meshes)) == len(cars) and len(set(texs)) == len(cars)
+    extents = set()
+    for mid in meshes:
+        v = m.mesh_vert[m.mesh_vertadr[mid]:m.mesh_vertadr[mid] + m.mesh_vertnum[mid]]
+        extents.add(tuple(np.round(v.max(0) - v.min(0), 3)))
+    assert len(extents) == len(cars)
+    rng = np.random.default_rng(4)
+    assert {draw_body(rng).kind for _ in range(200)} == set(BODIES)
+    body = CarBody("van", (1.05, 1.0, 0.97))
+    from scenes.urban_actors import parts_mesh
+    v = np.asarray(parts_mesh("car", body.parts(), body.wheels())[0]).reshape(-1, 3)
+    assert abs(v.max(0)[0] - body.half_xy()[0]) < 1e-9 and abs(v.max(0)[2] - body.height()) < 1e-9
+    assert body.half_xy()[1] <= v.max(0)[1] <= body.half_xy()[1] + 0.02 + 1e-9   # tyres 2 cm proud, as the traffic's
+    assert abs(v.min(0)[2]) < 1e-9
+    for kind in BODIES:                       # a traffic car's body fits the footprint its clearance checks use
+        fit = CarBody(kind, (1.06, 1.04, 1.0)).fitted((2.2, 0.9))
+        assert fit.half_xy()[0] <= 2.2 + 1e-9 and fit.half_xy()[1] <= 0.9 + 1e-9

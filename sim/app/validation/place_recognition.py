@@ -63,9 +63,10 @@ class View:
 
 
 def route_place_poses(scene, spacing_m: float) -> tuple:
-    """``(T_w_b (N,4,4), arc (N,))``: body poses every ``spacing_m`` along the route polyline, yaw along it."""
+    """``(T_w_b (N,4,4), arc (N,))``: body poses every ``spacing_m`` along the route polyline (the scene's
+    ``path_xy``, or its route's waypoints where it has none: the lunar traverse's legs), yaw along it."""
     from rigs.geometry import make_T, rot_z
-    xy = np.asarray(scene.path_xy, float)
+    xy = np.asarray(scene.path_xy if hasattr(scene, "path_xy") else scene.route.waypoints_xy, float)
     if scene.route.closed:
         xy = np.vstack([xy, xy[:1]])
     seg = np.diff(xy, axis=0)
