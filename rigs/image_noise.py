@@ -22,7 +22,7 @@ quantisation): ``clip(rint(img + sigma n), 0, 255)``. Two draws of it:
   decisions make any change of draw act as a new noise draw (klt-pnp on campus-short, sigma 1: end
   positions 10-24 mm apart, as far as two seeds).
 
-:class:`ImageNoiseDataset` is used by the Monte-Carlo runs (:class:`sim.app.consistency.NoisyDataset`,
+:class:`ImageNoiseDataset` is used by the Monte-Carlo runs (:class:`sim.app.nees.NoisyDataset`,
 which adds IMU noise) and by the re-noising propagation (:mod:`vo.errorprop.renoise`). Frame ``k`` of
 stream ``key`` draws from ``default_rng([*key, k, tag])`` alone, so frames may be read in any order
 and give the same bytes.
@@ -39,7 +39,7 @@ import numpy as np
 from rigs.records import StereoFrame
 from rigs.errors import RecordError
 
-MC_TAG = 0xC0FFEE           # the Monte-Carlo runs' stream tag (sim.app.consistency)
+MC_TAG = 0xC0FFEE           # the Monte-Carlo runs' stream tag (sim.app.nees)
 TABLE_BITS = 16             # add_quantized_noise: one 16-bit uniform per pixel
 MAX_OFFSET = 255            # offsets beyond +-255 grey levels clip alike (merged into +-255)
 _ESCAPE = np.iinfo(np.int16).min

@@ -1,4 +1,4 @@
-"""Common base of the procedural scenes built with :class:`scenes.spec_helpers.SceneBuilder`."""
+"""Common base of the procedural scenes built with :class:`scenes.builder.SceneBuilder`."""
 from __future__ import annotations
 
 import abc
@@ -51,7 +51,7 @@ class BuiltScene(Scene):
         """Add everything through the ``SceneBuilder`` ``b``."""
 
     def add_to_spec(self, spec, textures=None) -> None:
-        from scenes.spec_helpers import SceneBuilder   # mujoco only when building
+        from scenes.builder import SceneBuilder   # mujoco only when building
         c = self.config
         b = SceneBuilder(spec, self.streams, c.texture_richness, c.lighting, c.shadows, textures=textures)
         self._build(b)

@@ -139,7 +139,7 @@ class LunarScene(Scene):
 
     def footprints(self) -> list:
         """Top-down outlines for maps: craters (rim circles, wider than 1.6 m) and rocks."""
-        from scenes.spec_helpers import Footprint
+        from scenes.builder import Footprint
         out = [Footprint(f"crater{k}", "crater", (c.x, c.y), radius=c.radius)
                for k, c in enumerate(self.craters) if c.radius > 0.8]
         return out + [Footprint(f"rock{k}", "rock", (r[0], r[1]), radius=r[2]) for k, r in enumerate(self.rocks)]

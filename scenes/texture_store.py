@@ -30,7 +30,7 @@ import numpy as np
 
 from rigs.atomic_io import atomic_write_bytes
 
-_CODE_FILES = ("textures.py", "lunar.py", "spec_helpers.py")
+_CODE_FILES = ("textures.py", "lunar.py", "builder.py")
 
 
 def _code_digest() -> str:

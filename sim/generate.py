@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.config import GenerateConfig
-from sim.dataset.common import PngOptions
+from sim.generate_config import GenerateConfig
+from sim.writers.common import PngOptions
 from sim.errors import SimError
 from sim.frame_pipeline import FrameLoop
 from sim.rng import indexed_stream, scene_streams, stream
@@ -301,15 +301,15 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
              egl_devices=()) -> GenerateResult:
     """Generate the dataset described by ``config`` into ``out_dir``.
 
-    The folder is locked for the whole run (:func:`sim.dataset.common.claim_folder`): a second writer gets
+    The folder is locked for the whole run (:func:`sim.writers.common.claim_folder`): a second writer gets
     a one-line error naming this process. It carries an ``INCOMPLETE`` marker until everything is written,
     bags included; an interrupted run is resumed by calling ``generate`` again with the same config
     (frames already on disk are skipped; the result is byte-identical to an uninterrupted run).
-    ``overwrite`` deletes a dataset of ours (marked :data:`sim.dataset.common.OWNER`), never anything else.
+    ``overwrite`` deletes a dataset of ours (marked :data:`sim.writers.common.OWNER`), never anything else.
     ``threads``, ``timer``, ``workers``, ``scheduler`` and ``egl_devices``: as :func:`render_frames` (the
     bytes do not depend on them, but for ``metadata.yaml``'s ``rendering``, the renderer that drew the frames).
     """
-    from sim.dataset.common import claim_folder
+    from sim.writers.common import claim_folder
     if workers > 1 or scheduler:
         from sim.render_workers import check_splittable
         check_splittable(config)                    # before anything is written
@@ -320,8 +320,8 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
 def _generate(config: GenerateConfig, out_dir: Path, progress: bool, threads=None, timer=None, workers: int = 1,
               scheduler=None, egl_devices=()) -> GenerateResult:
     """:func:`generate` in a folder this process has claimed."""
-    from sim.dataset import DatasetWriters
-    from sim.dataset.common import PngOptions
+    from sim.writers import DatasetWriters
+    from sim.writers.common import PngOptions
     from sim.sensors.calib_error import perturb_rig
     from sim.sensors.effects_truth import time_offset_ns, write_calibration_truth, write_frame_effects
     from sim.sensors.wheels import with_vehicle_geometry

@@ -1,14 +1,14 @@
 """Generate a stop-and-go traverse dataset (seed 001): plan, simulate, render; the writer only writes.
 
 ``generate_traverse(config, tcfg, out_dir)`` is what ``vo-testbed generate --scenario yutu-traverse`` calls;
-the files are written by :mod:`sim.dataset.traverse_writer`. It follows :func:`sim.generate.generate`'s stages:
-the output folder is claimed and locked (:func:`sim.dataset.common.claim_folder`); the IMU is measured and
+the files are written by :mod:`sim.writers.traverse_writer`. It follows :func:`sim.generate.generate`'s stages:
+the output folder is claimed and locked (:func:`sim.writers.common.claim_folder`); the IMU is measured and
 made noisy as there (:func:`sim.generate.measured_imu`); the panorama pairs go through the same frame loop
 (:class:`sim.frame_pipeline.FrameLoop`: rendering on this thread, grey conversion, image noise, PNG encoding and
 writing on workers, a site's ``site.yaml`` committed in order once its pairs exist); ``metadata.yaml`` is
 written last, atomically, so a folder without it is incomplete and a rerun writes it again. On top of
 those, the rover's onboard dead reckoning (:mod:`sim.sensors.deadreckoning`) runs on the written sensors.
-Random streams: ``motion``, ``mast`` (:mod:`sim.traverse`), ``imu_white``, ``imu_bias``, ``wheels``, and
+Random streams: ``motion``, ``mast`` (:mod:`sim.traverse_plan`), ``imu_white``, ``imu_bias``, ``wheels``, and
 ``image_noise`` indexed ``100 site + pair``.
 """
 from __future__ import annotations
@@ -21,8 +21,8 @@ from rigs.image import to_gray
 from rigs.records import ImuSamples
 from rigs.rig_yaml import rig_to_dict
 from rigs.typed_config import to_mapping
-from sim.dataset.common import claim_folder
-from sim.dataset.traverse_writer import TraverseWriter
+from sim.writers.common import claim_folder
+from sim.writers.traverse_writer import TraverseWriter
 from sim.errors import SimError
 from sim.frame_pipeline import FrameLoop
 from sim.generate import measured_imu
@@ -30,7 +30,7 @@ from sim.rng import indexed_stream
 from sim.sensors.camera import add_noise
 from sim.sensors.deadreckoning import DeadReckoningConfig, dead_reckon
 from sim.sensors.imu import imu_times_ns
-from sim.traverse import plan, wheel_travel
+from sim.traverse_plan import plan, wheel_travel
 from sim.vehicles.rover import MastHead
 from sim.version import __version__
 
@@ -40,7 +40,7 @@ DR_RATE_HZ = 20.0             # the dead-reckoning filter's IMU rate (block aver
 def generate_traverse(config, tcfg, out_dir, progress: bool = True, overwrite: bool = False,
                       threads: int | None = None) -> dict:
     """Plan, simulate and write the traverse of ``config`` (GenerateConfig) with ``tcfg``
-    (:class:`sim.traverse.TraverseConfig`) into ``out_dir``; returns a summary dict. ``threads``: the frame
+    (:class:`sim.traverse_plan.TraverseConfig`) into ``out_dir``; returns a summary dict. ``threads``: the frame
     loop's workers (:class:`sim.frame_pipeline.FramePipeline`; the bytes do not depend on it)."""
     out = Path(out_dir)
     with claim_folder(out, overwrite):        # locked; --overwrite deletes only a folder of ours

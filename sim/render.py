@@ -32,7 +32,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from rigs.model import Rig  # noqa: E402
-from sim.config import check_supersample  # noqa: E402
+from sim.generate_config import check_supersample  # noqa: E402
 from sim.errors import SimError  # noqa: E402
 from sim.stage_timer import NO_TIMER  # noqa: E402
 from sim.world import World  # noqa: E402

@@ -27,7 +27,7 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 
-from sim.dataset.common import EncodedPng, encode_png
+from sim.writers.common import EncodedPng, encode_png
 from sim.errors import SimError
 
 CHUNK_FRAMES = 16           # frames per task: the unit of progress, of scheduling and of memory in flight
@@ -97,7 +97,7 @@ def render_chunk(config, a: int, b: int, resolve, png=None) -> RenderedChunk:
     """Frames ``a .. b-1`` of ``config`` with noise and effects (module docstring); any process, any order.
     ``resolve``: config -> setup (scene, rig, trajectory, frame times): :func:`sim.generate.resolve`, passed in
     (pickled by reference) so that this module does not import the generator that imports it. With ``png``
-    (:class:`sim.dataset.common.PngOptions`) the images come back PNG-encoded (:class:`EncodedPng`, as the
+    (:class:`sim.writers.common.PngOptions`) the images come back PNG-encoded (:class:`EncodedPng`, as the
     EuRoC writer encodes them), so that encoding is spread over the processes too."""
     from sim.rng import indexed_stream
     from sim.sensors.camera import add_noise

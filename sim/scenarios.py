@@ -1,4 +1,4 @@
-"""Named scenarios (typed :class:`~sim.config.GenerateConfig` instances) and the on-disk cache of their datasets.
+"""Named scenarios (typed :class:`~sim.generate_config.GenerateConfig` instances) and the on-disk cache of their datasets.
 
 A scenario's dataset is cached under ``$VO_TESTBED_CACHE`` (default ``~/.cache/vo-testbed``)
 in a folder named by the configuration hash, so ``vo-testbed check`` regenerates only when
@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from sim.cache_dir import cache_root
-from sim.config import CalibError, GenerateConfig
+from sim.generate_config import CalibError, GenerateConfig
 from sim.errors import SimError
 
 URBAN_DYNAMIC_DENSITY = 1.0      # all actors move: 15-19 % of tracked features on them (vo-testbed validate traffic)
@@ -41,7 +41,7 @@ def _urban(rig: str, density: float, time_of_day: str = "day", duration_s=None) 
     """Seed 002's urban canyon driven by the ``car`` (its wheelbase and track in the motion model): the whole
     667 m route (99.9 s with the stop at the intersection) unless ``duration_s``."""
     from scenes.base import SceneConfig
-    from sim.config import rig_of
+    from sim.generate_config import rig_of
     from sim.motion import MotionConfig
     from sim.vehicles.car import CAR
     scene = SceneConfig(name="urban", seed=None, dynamic_density=density, time_of_day=time_of_day)
@@ -69,7 +69,7 @@ SCENARIOS["urban-kitti-calib"] = dataclasses.replace(
 def _lunar(duration_s=None) -> GenerateConfig:
     """Seed 001's lunar field driven by the ``rover`` carrying ``yutu-navcam`` (its wheelbase and track
     in the motion model): the whole 17-site route unless ``duration_s``."""
-    from sim.config import rig_of
+    from sim.generate_config import rig_of
     from sim.motion import MotionConfig
     from sim.vehicles.rover import ROVER
     return GenerateConfig(scene="lunar", rig=rig_of("yutu-navcam"), duration_s=duration_s, seed=0, vehicle="rover",
@@ -92,8 +92,8 @@ SCENARIOS.update({f"{name}-realistic": _realistic(name) for name in ("campus", "
 
 
 def traverse_scenarios() -> dict:
-    """Scenario name -> its :class:`sim.traverse.TraverseConfig`: these generate a traverse dataset."""
-    from sim.traverse import TraverseConfig
+    """Scenario name -> its :class:`sim.traverse_plan.TraverseConfig`: these generate a traverse dataset."""
+    from sim.traverse_plan import TraverseConfig
     return {"yutu-traverse": TraverseConfig()}
 
 
@@ -149,11 +149,11 @@ def cached_dataset(config: GenerateConfig, progress: bool = True) -> Path:
 
     The entry is locked (``.<entry>.lock`` beside it) while it is checked and written: a second process
     (a CI matrix sharing the cache) waits for the first and then reuses its result. A complete entry is
-    verified against its manifest (:mod:`sim.dataset.manifest`); a damaged one is regenerated with a
+    verified against its manifest (:mod:`sim.writers.manifest`); a damaged one is regenerated with a
     warning on stderr."""
-    from sim.dataset.common import MARKER, METADATA, OWNER
-    from sim.dataset.locking import FolderLock
-    from sim.dataset.manifest import verify_manifest
+    from sim.writers.common import MARKER, METADATA, OWNER
+    from sim.writers.locking import FolderLock
+    from sim.writers.manifest import verify_manifest
     from sim.generate import generate
 
     root = cache_root()

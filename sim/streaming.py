@@ -14,7 +14,7 @@ from typing import Iterator
 
 import numpy as np
 
-from sim.config import GenerateConfig
+from sim.generate_config import GenerateConfig
 from sim.errors import SimError
 
 

@@ -13,7 +13,7 @@ def campus_short(tmp_path_factory):
     Generated once per session (about 15 s); the cart accelerates from rest to walking speed,
     so the sequence covers start-up (tiny motion) and ~4 m of travel.
     """
-    from sim.config import GenerateConfig
+    from sim.generate_config import GenerateConfig
     from sim.generate import generate
     out = tmp_path_factory.mktemp("campus_short")
     generate(GenerateConfig(scene="campus", rig="cart27", duration_s=6.0, seed=0), out, progress=False)
@@ -23,7 +23,7 @@ def campus_short(tmp_path_factory):
 @pytest.fixture(scope="session")
 def campus_depth_ideal(tmp_path_factory):
     """4 s of the campus route (cart27), noise-free images with depth, seed 0 (about 10 s to render)."""
-    from sim.config import GenerateConfig
+    from sim.generate_config import GenerateConfig
     from sim.generate import generate
     out = tmp_path_factory.mktemp("campus_depth")
     generate(GenerateConfig(scene="campus", rig="cart27", duration_s=4.0, seed=0, ideal=True, depth=True), out,

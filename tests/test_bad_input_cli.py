@@ -11,7 +11,7 @@ import pytest
 
 import vo.pipeline
 from sim.app.cli import main
-from sim.dataset import EurocWriter
+from sim.writers import EurocWriter
 from test_dataset_synth import Synth
 
 

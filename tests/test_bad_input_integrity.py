@@ -13,7 +13,7 @@ from rigs.errors import RigError
 from rigs.presets import get_rig
 from rigs.rig_yaml import rig_to_dict
 from sim.app.cli import main
-from sim.dataset import EurocWriter, KittiWriter
+from sim.writers import EurocWriter, KittiWriter
 from test_dataset_synth import Synth
 from vo.dataset import open_dataset
 from vo.errors import DatasetError

@@ -3,8 +3,8 @@ the folder's frames, images, rig, IMU and ground truth, and ``run`` on it gives 
 import numpy as np
 import pytest
 
-from sim.dataset import EurocWriter
-from sim.dataset.rosbag_writer import export_rosbag
+from sim.writers import EurocWriter
+from sim.writers.rosbag_writer import export_rosbag
 from test_dataset_synth import Synth
 from vo.dataset import open_dataset
 from vo.errors import DatasetError
@@ -58,7 +58,7 @@ def test_sensor_only_bag_has_no_ground_truth(euroc_dir, tmp_path):
 
 def test_not_a_stereo_bag_names_the_topic(tmp_path):
     from rosbags.rosbag1 import Writer
-    from sim.dataset.rosmsgs import RosMessages
+    from sim.writers.rosmsgs import RosMessages
     msgs = RosMessages(ros1=True)
     with Writer(tmp_path / "imu.bag") as w:
         c = w.add_connection("/imu0", "sensor_msgs/msg/Imu", typestore=msgs.store)

@@ -61,7 +61,7 @@ def test_bench_real_on_the_kitti_excerpt(tmp_path):
 
 @pytest.mark.slow
 def test_bench_real_cli_on_a_generated_dataset_in_both_layouts(tmp_path):
-    from sim.config import GenerateConfig
+    from sim.generate_config import GenerateConfig
     from sim.generate import generate
     data = tmp_path / "data"
     generate(GenerateConfig(scene="campus", rig="cart27", duration_s=3.0, seed=1, format="both"), data, progress=False)

@@ -8,7 +8,7 @@ from rigs.errors import TestbedError
 from rigs.presets import get_rig
 from rigs.typed_config import to_mapping
 from scenes.base import SceneConfig
-from sim.config import GenerateConfig, NoiseConfig, RenderConfig, load_generate_config
+from sim.generate_config import GenerateConfig, NoiseConfig, RenderConfig, load_generate_config
 from sim.errors import SimError
 from sim.motion import MotionConfig
 from sim.scenarios import SCENARIOS, get_scenario

@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 from sim.app.cli import main
-from sim.config import load_generate_config
+from sim.generate_config import load_generate_config
 
 
 def run(capsys, *argv) -> tuple:

@@ -8,7 +8,7 @@ import pytest
 from rigs.errors import RigError
 from rigs.overrides import apply_overrides
 from rigs.typed_config import has_path, replace_path, valid_keys
-from sim.config import GenerateConfig
+from sim.generate_config import GenerateConfig
 from sim.errors import SimError
 
 

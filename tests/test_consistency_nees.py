@@ -1,7 +1,7 @@
-"""The Monte-Carlo NEES pipeline (sim.app.consistency.evaluate_runs) on a tiny synthetic case, no rendering."""
+"""The Monte-Carlo NEES pipeline (sim.app.nees.evaluate_runs) on a tiny synthetic case, no rendering."""
 import numpy as np
 
-from sim.app.consistency import evaluate_runs
+from sim.app.nees import evaluate_runs
 from rigs.geometry import make_T, so3_exp
 
 
@@ -63,7 +63,7 @@ def test_nees_split_separates_common_error_from_spread():
 def test_consistency_rejects_unknown_vary():
     import pytest
     from sim.errors import SimError
-    from sim.app.consistency import consistency
+    from sim.app.nees import consistency
     with pytest.raises(SimError, match="vary: 'texture'; valid: noise, scene"):
         consistency("smoke", "rop", runs=2, vary="texture")
 
@@ -94,7 +94,7 @@ def test_end_errors_reads_the_last_pose_error_in_the_first_camera_frame():
     """A run whose estimate is the truth moved by a known last-pose error, on a truth that does not
     start at the origin: end_errors returns that error (camera-0 frame of the run), for one truth
     shared by all runs (vary noise) and one truth per run (vary scene)."""
-    from sim.app.consistency import end_errors
+    from sim.app.nees import end_errors
     T0 = make_T(so3_exp([0.0, 0.3, 0.0]), [5.0, -2.0, 1.0])
     gt = np.array([T0 @ make_T(np.eye(3), [0.0, 0.0, 0.1 * k]) for k in range(5)])
     rel = np.linalg.inv(T0) @ gt

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 
 from rigs.geometry import make_T, rot_z
-from vo.crosssite.config import CrossSiteConfig
+from vo.crosssite.localizer_config import CrossSiteConfig
 from vo.crosssite.localizer import _resection_inliers, initial_pose, second_motion
 from vo.crosssite.regions import project
 from vo.crosssite.ties import TieSet

@@ -9,7 +9,7 @@ from scipy.stats import chi2
 from rigs.geometry import inv_T, make_T, rot_z
 from rigs.presets import get_rig
 from vo.crosssite.bundle import TieObservations, bundle_adjust
-from vo.crosssite.initial import intersect_rectified, resection, right_from_left
+from vo.crosssite.intersect_resect import intersect_rectified, resection, right_from_left
 from vo.crosssite.types import mast_T_b_c
 
 RIG = get_rig("yutu-navcam")

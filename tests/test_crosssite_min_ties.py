@@ -8,7 +8,7 @@ import numpy as np
 
 from rigs.geometry import make_T, rot_z
 from vo.crosssite import localizer
-from vo.crosssite.config import CrossSiteConfig
+from vo.crosssite.localizer_config import CrossSiteConfig
 from vo.crosssite.regions import project
 from vo.crosssite.ties import TieSet
 from vo.crosssite.types import Site, StereoCal, StereoPair

@@ -9,7 +9,7 @@ import pytest
 from helpers.ground_plane import navcam_pose, regolith_texture
 from rigs.geometry import inv_T, make_T
 from vo.crosssite import asift, ortho
-from vo.crosssite.config import CrossSiteConfig
+from vo.crosssite.localizer_config import CrossSiteConfig
 
 W = H = 512
 F = 600.0

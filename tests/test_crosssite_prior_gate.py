@@ -4,7 +4,7 @@ import gtsam
 import numpy as np
 from scipy.stats import chi2
 
-from vo.crosssite.config import CrossSiteConfig
+from vo.crosssite.localizer_config import CrossSiteConfig
 from vo.crosssite.localizer import prior_chi2
 
 LEG_M = 8.5                                   # site pair 0->1 of yutu-traverse

@@ -13,7 +13,7 @@ import pytest
 from helpers.ground_plane import navcam_pose, regolith_texture
 from rigs.geometry import inv_T, make_T
 from vo.crosssite import asift
-from vo.crosssite.config import CrossSiteConfig
+from vo.crosssite.localizer_config import CrossSiteConfig
 from vo.crosssite.ties import candidate_ties
 from vo.crosssite.types import Site, StereoCal, StereoPair
 

@@ -8,8 +8,8 @@ import pytest
 
 from rigs.geometry import make_T, rot_y, rot_z
 from vo.crosssite.asift import SQRT2, tilt_set, transition, view_params
-from vo.crosssite.config import CrossSiteConfig
-from vo.crosssite.consistency import distance_consistency
+from vo.crosssite.localizer_config import CrossSiteConfig
+from vo.crosssite.distance_test import distance_consistency
 from vo.crosssite.wallis import local_stats, wallis, wallis_coefficients
 from vo.crosssite.zncc import match_stereo
 from vo.errors import VoError

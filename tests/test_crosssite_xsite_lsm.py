@@ -9,7 +9,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter, map_coordinates
 
 from rigs.geometry import make_T, rot_y, rot_z
-from vo.crosssite.config import CrossSiteConfig
+from vo.crosssite.localizer_config import CrossSiteConfig
 from vo.crosssite.regions import project
 from vo.crosssite.ties import TieSet, _to_previous_resolution, refine_cross_site
 from vo.crosssite.types import Site, StereoCal, StereoPair

@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 from sim.app.cli import main
-from sim.dataset.common import MARKER, OWNER
-from sim.dataset.locking import LOCK_NAME, FolderBusy, FolderLock, holder_pid
-from sim.dataset.manifest import verify_manifest
+from sim.writers.common import MARKER, OWNER
+from sim.writers.locking import LOCK_NAME, FolderBusy, FolderLock, holder_pid
+from sim.writers.manifest import verify_manifest
 
 REPO = Path(__file__).resolve().parents[1]
 CLI = [sys.executable, "-c", "from sim.app.cli import main; main()"]
@@ -70,7 +70,7 @@ def data_rows(csv: Path) -> list:
 def test_lock_names_its_holder_and_is_dropped_when_the_holder_dies(tmp_path):
     """A second FolderLock in another process fails at once naming our pid; a killed holder frees it."""
     lock = FolderLock(tmp_path / "x.lock", "thing").acquire(wait=False)
-    probe = ("import sys; from sim.dataset.locking import FolderLock, FolderBusy\n"
+    probe = ("import sys; from sim.writers.locking import FolderLock, FolderBusy\n"
              "try:\n    FolderLock(sys.argv[1], 'thing').acquire(wait=False)\n"
              "except FolderBusy as e:\n    print(e.pid, e)\n    sys.exit(2)\n")
     r = subprocess.run([sys.executable, "-c", probe, str(tmp_path / "x.lock")], env=env(), capture_output=True,
@@ -79,7 +79,7 @@ def test_lock_names_its_holder_and_is_dropped_when_the_holder_dies(tmp_path):
     lock.release()
     assert holder_pid(tmp_path / "x.lock") is None          # emptied on release
 
-    holder = spawn([sys.executable, "-c", "import sys, time; from sim.dataset.locking import FolderLock; "
+    holder = spawn([sys.executable, "-c", "import sys, time; from sim.writers.locking import FolderLock; "
                     "FolderLock(sys.argv[1], 'thing').acquire(wait=False); time.sleep(600)", str(tmp_path / "y.lock")])
     wait_for(lambda: holder_pid(tmp_path / "y.lock") == holder.pid, holder, "the holder's lock")
     with pytest.raises(FolderBusy, match=f"process {holder.pid} is writing it"):

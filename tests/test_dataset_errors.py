@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from sim.dataset import EurocWriter, KittiWriter
+from sim.writers import EurocWriter, KittiWriter
 from sim.errors import SimError
 from test_dataset_synth import Synth
 from vo.dataset import open_dataset
@@ -103,7 +103,7 @@ def test_writer_refuses_complete_folder_and_foreign_folder(euroc, tmp_path):
 
 
 def test_vo_dataset_does_not_import_mujoco():
-    code = ("import sys, vo.dataset, vo.dataset.euroc_reader, vo.dataset.kitti_reader, vo.dataset.open, sim.dataset; "
+    code = ("import sys, vo.dataset, vo.dataset.euroc_reader, vo.dataset.kitti_reader, vo.dataset.open, sim.writers; "
             "print('mujoco' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

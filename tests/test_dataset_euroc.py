@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.dataset import EurocWriter
+from sim.writers import EurocWriter
 from test_dataset_synth import Synth, folder_hashes
 from vo.dataset import open_dataset
 from vo.dataset.interp import interpolate_poses
@@ -106,7 +106,7 @@ def test_same_inputs_give_byte_identical_folders(tmp_path):
 
 def test_imu_object_form_tum_helper_and_mav0_path(tmp_path, written):
     from types import SimpleNamespace
-    from sim.dataset import DatasetWriters, write_tum_groundtruth
+    from sim.writers import DatasetWriters, write_tum_groundtruth
     from sim.errors import SimError
     from rigs.trajfile import read_tum
     s, out = written

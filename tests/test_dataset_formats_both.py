@@ -6,8 +6,8 @@ import logging
 import numpy as np
 import pytest
 
-from sim.config import GenerateConfig
-from sim.dataset import DatasetWriters
+from sim.generate_config import GenerateConfig
+from sim.writers import DatasetWriters
 from sim.errors import SimError
 from test_dataset_synth import Synth
 from vo.dataset import open_dataset

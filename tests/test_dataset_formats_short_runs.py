@@ -52,7 +52,7 @@ def test_three_seconds_at_start_speed_cover_the_distance_and_no_empty_gcp_file(t
     # cover 3.6 m (planar; vibration adds < 1 %). No check point is reached in either: no gcps.csv
     # (an empty one is rejected by `eval --gcps`), and metadata.yaml says why.
     from rigs.config_io import read_yaml_file
-    from sim.config import GenerateConfig
+    from sim.generate_config import GenerateConfig
     from sim.generate import generate
     runs = {}
     for name, over in (("rest", ()), ("moving", ("motion.start_speed_mps=1.2",))):

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.dataset import DatasetWriters, KittiWriter
+from sim.writers import DatasetWriters, KittiWriter
 from test_dataset_synth import Synth, folder_hashes, make_rig
 from vo.dataset import open_dataset
 from rigs.geometry import inv_T

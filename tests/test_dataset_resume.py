@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from sim.dataset import EurocWriter, KittiWriter, resume_state
+from sim.writers import EurocWriter, KittiWriter, resume_state
 from sim.errors import SimError
 from test_dataset_synth import Synth, folder_hashes
 
@@ -23,7 +23,7 @@ def test_euroc_resume_counts_only_complete_frames(tmp_path):
     w, k = crash_after(EurocWriter, tmp_path / "r", s, 3)
     assert resume_state(tmp_path / "r") == 3
     # Partial frame 3: cam0 png + cam0 row written, cam1 missing -> still 3.
-    from sim.dataset.common import write_png
+    from sim.writers.common import write_png
     write_png(tmp_path / f"r/mav0/cam0/data/{s.t_frames[3]}.png", s.images[3][0])
     w._cams[0].append(s.t_frames[3], [f"{s.t_frames[3]}.png"])
     assert resume_state(tmp_path / "r") == 3

@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from vo.errors import VoError
-from vo.vins.oracle import rule_confusion
+from vo.vins.truth_segmentation import rule_confusion
 from vo.vins.tables import (TABLE_CONFIGS, after_init, feature_stats, format_table23, improvement_pct, rpe_series,
                              table23)
 

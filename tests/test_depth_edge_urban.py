@@ -20,7 +20,7 @@ from sim.scenarios import get_scenario
 from vo.dataset import open_dataset
 from vo.frontend.depth_edge import off_edge
 from vo.frontend.klt import KltConfig, KltTracker, stereo_klt
-from vo.vins.oracle import FeatureLabels
+from vo.vins.truth_segmentation import FeatureLabels
 
 BIG_STEP_PX = 3.0
 EDGE_PX = 2.0      # the threshold measured in docs/estimators.md (off by default)

@@ -4,7 +4,7 @@ frame smeared horizontally over f omega E pixels."""
 import numpy as np
 import pytest
 
-from sim.config import CameraEffects
+from sim.generate_config import CameraEffects
 from sim.generate import resolve
 from sim.scenarios import get_scenario
 from sim.sensors.camera import FrameExposer, StereoCamera

@@ -7,7 +7,7 @@ from scipy.spatial.transform import Rotation
 
 from rigs.presets import get_rig
 from rigs.rig_yaml import load_rig
-from sim.config import CalibError, GenerateConfig
+from sim.generate_config import CalibError, GenerateConfig
 from sim.rng import stream
 from sim.sensors.calib_error import perturb_rig
 

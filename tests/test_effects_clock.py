@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 import yaml
 
-from sim.config import GenerateConfig
+from sim.generate_config import GenerateConfig
 from sim.generate import generate, resolve
 from sim.sensors.effects_timing import frame_stamps_ns
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rigs.model import Camera, Rig
-from sim.config import CameraEffects, GenerateConfig
+from sim.generate_config import CameraEffects, GenerateConfig
 from sim.rng import indexed_stream
 from sim.sensors.camera import FrameExposer, add_noise
 

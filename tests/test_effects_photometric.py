@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from rigs.model import Camera, Rig
-from sim.config import CameraEffects
+from sim.generate_config import CameraEffects
 from sim.sensors.camera import FrameExposer
 from sim.sensors.photometric import AutoExposure, noise_variance, sensor_noise, vignetting_map
 

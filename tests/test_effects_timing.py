@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rigs.model import Camera, Rig
-from sim.config import CameraEffects
+from sim.generate_config import CameraEffects
 from sim.sensors.camera import FrameExposer
 from sim.sensors.effects_timing import exposure_plan
 

@@ -9,7 +9,7 @@ variance ``(sigma^2 + 1/12) / P``.
 import numpy as np
 import pytest
 
-from sim.app.consistency import NoisyDataset
+from sim.app.nees import NoisyDataset
 from rigs.image_noise import MC_TAG, ImageNoiseDataset
 from rigs.records import StereoFrame
 from rigs.errors import TestbedError
@@ -67,7 +67,7 @@ def test_image_noise_is_seeded_per_frame_and_key():
 
 
 def test_monte_carlo_runs_keep_their_bytes():
-    """sim.app.consistency.NoisyDataset is the image-noise reader with the runs' stream: the documented
+    """sim.app.nees.NoisyDataset is the image-noise reader with the runs' stream: the documented
     draw ``default_rng([seed, frame index, 0xC0FFEE])``, unchanged by the move to vo/."""
     base = TexturedDataset()
     f = base.frame(3)
@@ -137,7 +137,7 @@ def test_renoise_runs_rop_on_a_rendered_recording(campus_depth_ideal):
 
 def test_consistency_rejects_bad_renoise():
     from sim.errors import SimError
-    from sim.app.consistency import consistency
+    from sim.app.nees import consistency
     with pytest.raises(SimError, match="renoise: 2; must be 0"):
         consistency("smoke", "rop", runs=2, renoise=2)
     with pytest.raises(SimError, match="renoise"):

@@ -118,7 +118,7 @@ def test_runner_blank_dataset_klt_pnp():
 
 def synth_dataset(tmp_path):
     """External programs get a sensor-only view of a real dataset folder: a small synthetic EuRoC one."""
-    from sim.dataset import EurocWriter
+    from sim.writers import EurocWriter
     from test_dataset_synth import Synth
     s = Synth(n_frames=3)
     s.write(EurocWriter(tmp_path / "ds", s.rig, s.metadata))

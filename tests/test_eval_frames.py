@@ -11,7 +11,7 @@ import shutil
 import pytest
 
 from sim.app.cli import main
-from sim.dataset import EurocWriter
+from sim.writers import EurocWriter
 from test_dataset_synth import Synth
 from rigs.trajectory import Trajectory
 from rigs.trajfile import write_tum

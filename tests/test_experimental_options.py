@@ -6,8 +6,8 @@ import dataclasses
 import pytest
 
 from vo.errors import EstimatorError
-from vo.rop.config import EXPERIMENTAL as ROP_EXPERIMENTAL, RopConfig
-from vo.vins.config import EXPERIMENTAL as VINS_EXPERIMENTAL, PRESETS, VinsConfig
+from vo.rop.rop_config import EXPERIMENTAL as ROP_EXPERIMENTAL, RopConfig
+from vo.vins.vins_config import EXPERIMENTAL as VINS_EXPERIMENTAL, PRESETS, VinsConfig
 
 # one non-default value per experimental field
 ROP_VALUES = {"weights": "sampson", "klt_refine": "affine", "rop_loss": "tukey", "moving_prior": "velocity"}

@@ -16,8 +16,8 @@ from test_rosbag_export import read_bag
 from rigs.calib_io import read_kitti_calib
 from rigs.kalibr_io import read_kalibr
 from rigs.rectify import stereo_rectify
-from sim.dataset import EurocWriter, KittiWriter
-from sim.dataset.rosbag_writer import export_rosbag
+from sim.writers import EurocWriter, KittiWriter
+from sim.writers.rosbag_writer import export_rosbag
 from vo.dataset import open_dataset
 
 K4 = (-0.01, 0.04, -0.04, 0.008)

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.config import GenerateConfig
+from sim.generate_config import GenerateConfig
 from sim.frame_pipeline import FramePipeline
 from rigs.image_noise import _offset_table, add_quantized_noise, offset_probabilities
 
@@ -106,7 +106,7 @@ def test_auto_exposure_is_not_split_over_workers(tmp_path):
 
 CHILD = """
 import sys
-from sim.config import GenerateConfig
+from sim.generate_config import GenerateConfig
 from sim.generate import generate
 if __name__ == "__main__":
     generate(GenerateConfig(scene="indoor", rig="stereo27", duration_s=3.0, seed=3), sys.argv[1], progress=False,

@@ -3,7 +3,7 @@ import hashlib
 
 import pytest
 
-from sim.config import GenerateConfig
+from sim.generate_config import GenerateConfig
 from sim.generate import generate
 from vo.dataset import open_dataset
 from vo.errors import DatasetError
@@ -20,7 +20,7 @@ def test_interrupt_then_resume_is_byte_identical(tmp_path, monkeypatch):
     straight = tmp_path / "straight"
     generate(CFG, straight, progress=False)
 
-    import sim.dataset.fanout as fanout
+    import sim.writers.fanout as fanout
     original = fanout.DatasetWriters.add_frame
     calls = {"n": 0}
 

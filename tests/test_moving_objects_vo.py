@@ -129,7 +129,7 @@ def test_rop_track_filter_keeps_the_static_tracks():
 
 
 def test_rop_moving_objects_option():
-    from vo.rop.config import RopConfig
+    from vo.rop.rop_config import RopConfig
     assert RopConfig.from_options({"moving_objects": "none"}).moving_objects == "none"
     with pytest.raises(EstimatorError, match=r"rop\.moving_objects"):
         RopConfig.from_options({"moving_objects": "maybe"})

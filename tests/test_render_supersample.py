@@ -6,7 +6,7 @@ import pytest
 
 from test_render_intrinsics import P_C0, RADIUS, T_W_B, _centroid, _hi_res_spheres, _marker_world, _sphere_image_centre
 from test_render_support import RenderTestScene, stereo_rig, vehicle_pose
-from sim.config import GenerateConfig, check_supersample
+from sim.generate_config import GenerateConfig, check_supersample
 from sim.errors import SimError
 from sim.world import build_world
 from sim.render import StereoRenderer

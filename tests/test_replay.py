@@ -15,7 +15,7 @@ from rigs.geometry import R_from_opk_deg, make_T, quat_wxyz_from_R, so3_log
 from rigs.model import Imu
 from rigs.trajectory import Trajectory
 from rigs.trajfile import write_kitti, write_tum
-from sim.config import GenerateConfig, rig_of
+from sim.generate_config import GenerateConfig, rig_of
 from sim.errors import SimError
 from sim.replay import ReplayConfig, ReplayTrajectory
 from sim.replay_paths import hand_walk, helix

@@ -172,7 +172,7 @@ def test_kalibr_round_trip(tmp_path, name):
 def test_kalibr_rig_through_get_rig_and_cli_config(tmp_path):
     # --rig camchain-imucam.yaml [--imu imu.yaml]: get_rig recognises the camchain; the config takes
     # {kalibr: camchain, imu: imu.yaml}; camera_rate_hz comes with --set (Kalibr has no field for it).
-    from sim.config import GenerateConfig
+    from sim.generate_config import GenerateConfig
     rig = get_rig("stereo27")
     write_kalibr(rig, tmp_path / "camchain-imucam.yaml", tmp_path / "imu.yaml")
     alone = get_rig(str(tmp_path / "camchain-imucam.yaml"))

@@ -9,7 +9,7 @@ from rigs.records import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import STATUSES
 from rigs.geometry import make_T, rot_y, rotation_angle, skew
-from vo.rop.config import EXPERIMENTAL, RopConfig
+from vo.rop.rop_config import EXPERIMENTAL, RopConfig
 from vo.rop.estimator import RopEstimator
 from vo.rop.uncertainty import PropagatedCovariance, propagate_cov
 

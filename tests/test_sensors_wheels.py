@@ -3,7 +3,7 @@ returns it (ds.wheels), and a wheel override that disagrees with the vehicle is 
 import numpy as np
 import pytest
 
-from sim.config import GenerateConfig
+from sim.generate_config import GenerateConfig
 from sim.errors import SimError
 from sim.generate import generate
 from sim.vehicles import CART

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from scenes.spec_helpers import SceneBuilder
+from scenes.builder import SceneBuilder
 from scenes.texture_store import TextureStore
 from scenes.textures import make_texture, weather
 from sim.rng import scene_streams

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from sim.scenarios import get_scenario
-from sim.traverse import TraverseConfig, plan
+from sim.traverse_plan import TraverseConfig, plan
 
 
 @pytest.fixture(scope="module")

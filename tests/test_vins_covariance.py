@@ -68,7 +68,7 @@ def test_consistency_runs_redraw_imu_noise_per_seed():
     from types import SimpleNamespace
 
     from rigs.presets import get_rig
-    from sim.app.consistency.runs import NoisyDataset
+    from sim.app.nees.runs import NoisyDataset
     from rigs.records import ImuSamples
     imu = get_rig("cart27").imu
     n = 20000

@@ -18,7 +18,7 @@ def campus_ideal(tmp_path_factory):
     """11 s of the campus route (cart27), noise-free images and IMU, seed 0 (about 28 s to render): the cart
     starts at rest, then accelerates to walking speed (the excitation the scale needs); on the campus's own
     per-surface textures vins initialises late enough that 10 s left only 1.92 m after it."""
-    from sim.config import GenerateConfig
+    from sim.generate_config import GenerateConfig
     from sim.generate import generate
     out = tmp_path_factory.mktemp("vins_campus_ideal")
     generate(GenerateConfig(scene="campus", rig="cart27", duration_s=11.0, seed=0, ideal=True), out, progress=False)
@@ -103,7 +103,7 @@ def test_failed_initialisation_keeps_the_window_long_in_time():
     whose removal leaves the shortest merged interval goes, so the start of the motion stays in the window."""
     from rigs.geometry import make_T
     from rigs.model import Camera, Imu, Rig
-    from vo.vins.frontend import FeatureFrame
+    from vo.vins.feature_tracker import FeatureFrame
     cam = Camera("cam0", 64, 48, 50.0, 50.0, 32.0, 24.0, T_b_c=make_T(np.eye(3), [0, 0, 0]))
     est = VinsEstimator(Rig("mono-imu", (cam,), imu=Imu(T_b_i=make_T(np.eye(3), [0, 0, 0]))))
     t_s = [0.0, 3.0, 3.5, 3.7, 4.0, 4.5]
@@ -120,8 +120,8 @@ def test_window_starts_only_from_well_conditioned_sfm_points():
     """SfM points enter the window only when seen by two keyframes with >= 1 deg of parallax at a depth of
     0.1-1000 m: SfM scale 2, keyframes 1 m apart along x; a point 10 m ahead (5.7 deg) stays, one 4 km ahead
     (0.014 deg), one behind the cameras and one seen once are left out."""
-    from vo.vins.frontend import FeatureFrame
-    from vo.vins.initial import InitResult, usable_points
+    from vo.vins.feature_tracker import FeatureFrame
+    from vo.vins.vi_init import InitResult, usable_points
     pts = {1: np.array([0.5, 0.0, 5.0]), 2: np.array([0.5, 0.0, 2000.0]), 3: np.array([0.5, 0.0, -5.0]),
            4: np.array([0.0, 0.0, 5.0])}
     ids = [np.array([1, 2, 3, 4]), np.array([1, 2, 3])]
@@ -137,7 +137,7 @@ def test_frontend_is_injected_through_the_constructor():
     returns (a study's wrapper), without anything patched in afterwards."""
     from rigs.geometry import make_T
     from rigs.model import Camera, Imu, Rig
-    from vo.vins.frontend import KltFrontend
+    from vo.vins.feature_tracker import KltFrontend
     cam = Camera("cam0", 64, 48, 50.0, 50.0, 32.0, 24.0, T_b_c=make_T(np.eye(3), [0, 0, 0]))
     rig = Rig("mono-imu", (cam,), imu=Imu(T_b_i=make_T(np.eye(3), [0, 0, 0])))
     seen = []

@@ -9,8 +9,8 @@ from rigs.model import Camera, Imu, Rig
 from vo.errors import EstimatorError
 from vo.estimators.registry import make_estimator
 from vo.vins.adaptive import geometry_factor, huber_k, noise_model, visual_weight
-from vo.vins.config import VinsConfig
-from vo.vins.frontend import FeatureFrame
+from vo.vins.vins_config import VinsConfig
+from vo.vins.feature_tracker import FeatureFrame
 from vo.vins.window import Window
 
 CAM = Camera("cam0", 640, 480, 500.0, 500.0, 320.0, 240.0,

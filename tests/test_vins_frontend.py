@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rigs.model import Camera
-from vo.vins.frontend import KltFrontend
+from vo.vins.feature_tracker import KltFrontend
 
 W, H = 320, 240
 
@@ -82,7 +82,7 @@ def test_tracks_on_an_approaching_plane_follow_the_exact_zoom(refine):
 
 def test_refine_option_is_validated():
     from vo.errors import EstimatorError
-    from vo.vins.config import VinsConfig
+    from vo.vins.vins_config import VinsConfig
     assert VinsConfig(klt_refine="affine").klt_refine == "affine"
     with pytest.raises(EstimatorError, match="klt_refine"):
         VinsConfig(klt_refine="projective")

@@ -16,7 +16,7 @@ from sim.rng import stream
 from sim.sensors.imu import imu_pose_velocity, imu_times_ns, measure_states
 from rigs.records import ImuSamples
 from vo.errors import EstimatorError
-from vo.vins.config import VinsConfig
+from vo.vins.vins_config import VinsConfig
 from vo.vins.imu import ImuStream, imu_params, preintegrate
 
 ROUTE = Route(((0, 0), (6, -1), (10, 0), (11, 4), (6, 6), (0, 5), (-2, 2)), closed=True,

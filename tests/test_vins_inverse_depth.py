@@ -6,8 +6,8 @@ from gtsam.symbol_shorthand import L, X
 
 from rigs.geometry import R_from_opk_deg, inv_T, make_T
 from rigs.model import Camera, Imu
-from vo.vins.config import VinsConfig
-from vo.vins.frontend import FeatureFrame
+from vo.vins.vins_config import VinsConfig
+from vo.vins.feature_tracker import FeatureFrame
 from vo.vins.inverse_depth import inverse_depth_factor, inverse_depth_group, inverse_depth_of, point_of, tangent_basis
 from vo.vins.window import Window
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vo.errors import DatasetError, EstimatorError
-from vo.vins.oracle import FeatureLabels, rule_confusion
+from vo.vins.truth_segmentation import FeatureLabels, rule_confusion
 
 
 class _SegDataset:

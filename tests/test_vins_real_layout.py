@@ -47,7 +47,7 @@ def test_vins_on_real_euroc_layout_equals_own_layout(campus_short, tmp_path):
 def test_vins_on_real_euroc_layout_after_initialisation(tmp_path):
     """10 s of ideal campus (initialises near frame 75): the post-initialisation poses on the real layout equal
     those on our own layout to 1e-6 m (identical inputs up to the YAML round trip of the calibration)."""
-    from sim.config import GenerateConfig
+    from sim.generate_config import GenerateConfig
     from sim.generate import generate
     src = tmp_path / "own"
     generate(GenerateConfig(scene="campus", rig="cart27", duration_s=10.0, seed=0, ideal=True), src, progress=False)

@@ -164,10 +164,10 @@ def test_imu_excitation_is_zero_at_constant_velocity_and_sees_a_speed_change():
     sample standard deviation of the interval means (0 and 1 m/s^2 alternating over 10 intervals: 0.527)."""
     import gtsam
     from rigs.records import ImuSamples
-    from vo.vins.config import VinsConfig
-    from vo.vins.frontend import FeatureFrame
+    from vo.vins.vins_config import VinsConfig
+    from vo.vins.feature_tracker import FeatureFrame
     from vo.vins.imu import ImuStream, imu_params
-    from vo.vins.initial import imu_excitation
+    from vo.vins.vi_init import imu_excitation
     t = np.arange(0, 2001) * 5_000_000                          # 10 s at 200 Hz
     seg = (t // 1_000_000_000) % 2 == 1                         # accelerate in odd seconds
     acc = np.zeros((len(t), 3))

@@ -5,8 +5,8 @@ import pytest
 from gtsam.symbol_shorthand import X
 
 from rigs.records import ImuSamples
-from vo.vins.config import VinsConfig
-from vo.vins.frontend import FeatureFrame
+from vo.vins.vins_config import VinsConfig
+from vo.vins.feature_tracker import FeatureFrame
 from vo.vins.imu import GRAVITY, ImuStream, imu_params
 from vo.vins.window import Window
 from rigs.model import Camera

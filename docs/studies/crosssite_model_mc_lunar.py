@@ -3,7 +3,7 @@
 The pair is leg 0 -> 1 of the ``yutu-traverse`` scenario (``--traverse-seed``, default 0): lunar scene
 with its sun, ``rover`` with ``yutu-navcam`` on the pan-tilt mast (head 1.5 m above the body origin,
 20 deg down), 7 pointings per site 20 deg apart (-60..+60 deg), sites 0 and 1 at their true rest poses
-from :func:`sim.traverse.plan`. Both panoramas are rendered once, with depth, as the traverse writer
+from :func:`sim.traverse_plan.plan`. Both panoramas are rendered once, with depth, as the traverse writer
 renders them (grey from RGB, the scenario's supersampling, rover hidden); ``--cache`` keeps them in an
 ``.npz`` for later invocations.
 
@@ -72,7 +72,7 @@ def render_pair(traverse_seed: int) -> dict:
     """Leg 0 -> 1 of ``yutu-traverse``: poses, mast model, calibration and the rendered panoramas."""
     from sim.render import StereoRenderer
     from sim.scenarios import get_scenario, traverse_scenarios
-    from sim.traverse import plan
+    from sim.traverse_plan import plan
     from sim.vehicles.rover import MastHead
     from sim.world import build_world
     from rigs.image import to_gray

@@ -57,7 +57,7 @@ from sim.app.validation.exact_points import local_depth
 from vo.dataset import open_dataset
 from vo.frontend.klt import stereo_klt
 from vo.frontend.stereo import triangulate
-from vo.vins.oracle import FeatureLabels
+from vo.vins.truth_segmentation import FeatureLabels
 
 sys.path.insert(0, str(Path(__file__).parent))
 from urban_pnp_drift_ablation import Ablation, _Instrumented  # noqa: E402

@@ -5,7 +5,7 @@ Usage: MUJOCO_GL=egl .venv/bin/python docs/studies/effects_cost.py
 """
 import time
 import numpy as np
-from sim.config import CameraEffects
+from sim.generate_config import CameraEffects
 from sim.generate import resolve
 from sim.scenarios import get_scenario
 from sim.sensors.camera import FrameExposer, StereoCamera, add_noise

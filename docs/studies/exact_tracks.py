@@ -1,4 +1,4 @@
-"""Front-end vs back-end: ``rop`` on exact track positions (sim.app.validation.oracle_tracks), docs/studies/rop_consistency.md.
+"""Front-end vs back-end: ``rop`` on exact track positions (sim.app.validation.truth_tracks), docs/studies/rop_consistency.md.
 
 Usage: .venv/bin/python docs/studies/exact_tracks.py [--scenes N] [--exact p2,p3,p4] [--noise PX]
                                                       [--record OUT.pkl] [KEY=VALUE ...]
@@ -15,9 +15,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from sim.app.consistency import NoisyDataset, pose_errors
+from sim.app.nees import NoisyDataset, pose_errors
 from sim.scenarios import cached_dataset, get_scenario
-from sim.app.validation.oracle_tracks import VIEWS, run_oracle
+from sim.app.validation.truth_tracks import VIEWS, run_oracle
 from vo.dataset import open_dataset
 
 np.set_printoptions(precision=3, suppress=True, linewidth=200)

@@ -26,7 +26,7 @@ def ints(text: str) -> list:
 
 def study_one(scenario: str, win: int, supersample: int, runs: int, workers: int) -> dict:
     """End-point position error statistics (mm) of one setting."""
-    from sim.app.consistency import consistency, end_errors
+    from sim.app.nees import consistency, end_errors
     res = consistency(scenario, "rop", runs=runs, vary="scene", workers=workers, progress=True,
                       options={"klt_config": {"win": win}}, overrides=(f"render.supersample={supersample}",))
     _, pos = end_errors(res.runs_data)

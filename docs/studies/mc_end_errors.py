@@ -2,13 +2,13 @@
 
 Usage: .venv/bin/python docs/studies/mc_end_errors.py OUT_DIR [OUT_DIR ...]
 Reads OUT_DIR/runs.npz; per run, the error of the last pose (left perturbation, camera axes x right,
-y down, z forward) relative to the run's own first true pose (:func:`sim.app.consistency.end_errors`);
+y down, z forward) relative to the run's own first true pose (:func:`sim.app.nees.end_errors`);
 prints mean +- standard error and std over the runs, and the rms end-position error."""
 import sys
 
 import numpy as np
 
-from sim.app.consistency import end_errors
+from sim.app.nees import end_errors
 
 np.set_printoptions(precision=3, suppress=True, linewidth=200)
 for path in sys.argv[1:]:

@@ -1,7 +1,7 @@
 """What sets rop's run-to-run spread when only the image noise changes (docs/studies/rop_consistency.md, "The bistable inlier gate").
 
 Two measurements on campus-short (3x rendering, 11 px LK window), runs k = 0..N-1 re-noised with
-seed 1000 + k (sim.app.consistency.NoisyDataset, as `vo-testbed consistency`):
+seed 1000 + k (sim.app.nees.NoisyDataset, as `vo-testbed consistency`):
 
   sweep  - end-point position std over N runs for each image-noise sigma and rop_loss:
            python docs/studies/noise_flip_study.py sweep --sigmas 0.25,1 --losses gate,tukey --runs 16
@@ -34,7 +34,7 @@ def _base():
 def _end_error(args) -> np.ndarray:
     """End-point position error (mm) of one run."""
     k, sigma, loss = args
-    from sim.app.consistency import NoisyDataset, pose_errors
+    from sim.app.nees import NoisyDataset, pose_errors
     from vo.estimators.runner import run_estimator
     base = _base()
     T = run_estimator("rop", NoisyDataset(base, sigma, 1000 + k), {"klt_config": {"win": WIN}, "experimental.rop_loss": loss},
@@ -47,7 +47,7 @@ def _end_error(args) -> np.ndarray:
 def _step_inputs(args) -> list:
     """Per keyframe step of one run: the pairs, R_1_3 and ROP priors that rop solved it from."""
     k, sigma = args
-    from sim.app.consistency import NoisyDataset
+    from sim.app.nees import NoisyDataset
     from vo.estimators.runner import run_estimator
     seen, out = {}, []
 

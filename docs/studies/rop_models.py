@@ -40,7 +40,7 @@ from vo.frontend.lk_noise import lk_noise_cov
 from vo.frontend.noise_level import estimate_noise_sigma
 from vo.rop.bootstrap_cov import bootstrap_step_replicates, replicate_step
 from vo.rop.chain_bootstrap import ChainBootstrap, ReplicateChain
-from vo.rop.config import RopConfig
+from vo.rop.rop_config import RopConfig
 from vo.rop.estimator import RopEstimator
 from vo.rop.uncertainty import Step, propagate_cov
 
@@ -166,7 +166,7 @@ class NoiseChainModel(ChainBootstrap):
 
 
 class RopBootstrap(RopEstimator):
-    """``rop`` with :class:`IndependentBootstrap` (options: those of :class:`vo.rop.config.RopConfig`)."""
+    """``rop`` with :class:`IndependentBootstrap` (options: those of :class:`vo.rop.rop_config.RopConfig`)."""
 
     name = "rop-bootstrap"
 

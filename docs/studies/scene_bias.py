@@ -10,7 +10,7 @@ scenario overrides (rig, ``scene.*``, ``motion.*``)."""
 import numpy as np, sys
 from dataclasses import replace
 from sim.scenarios import cached_dataset, get_scenario
-from sim.app.consistency import NoisyDataset, pose_errors
+from sim.app.nees import NoisyDataset, pose_errors
 from vo.dataset import open_dataset
 from vo.estimators.runner import run_estimator
 np.set_printoptions(precision=3, suppress=True, linewidth=200)

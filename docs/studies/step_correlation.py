@@ -29,7 +29,7 @@ def one_run(k: int, options: dict):
     """-> (steps, 6) errors and (steps, 6, 6) bootstrap covariances of run k's keyframe steps."""
     import cv2
     cv2.setNumThreads(1)
-    from sim.app.consistency import NoisyDataset
+    from sim.app.nees import NoisyDataset
     from sim.scenarios import cached_dataset, get_scenario
     from vo.dataset import open_dataset
     from rigs.geometry import pose_error_left

@@ -2,7 +2,7 @@
 
 Runs an estimator frame by frame on a dataset written with ``--segmentation`` and, per frame, compares
 the estimated inter-frame motion with the true one (``groundtruth_cam0``) and labels the features the
-estimator used with the true segmentation (:class:`vo.vins.oracle.FeatureLabels`; the estimator never
+estimator used with the true segmentation (:class:`vo.vins.truth_segmentation.FeatureLabels`; the estimator never
 sees them):
 
 * ``klt-pnp``: the tracked landmarks and the PnP inliers (fraction on moving actors);
@@ -26,7 +26,7 @@ import yaml
 from rigs.geometry import inv_T, rotation_angle
 from vo.dataset import open_dataset
 from vo.estimators.runner import run_estimator
-from vo.vins.oracle import FeatureLabels
+from vo.vins.truth_segmentation import FeatureLabels
 
 PNP_ESTIMATORS = ("klt-pnp", "orb-pnp")     # estimators with the pnp_observer / pnp_select hooks
 

@@ -41,7 +41,7 @@ from vo.dataset import open_dataset
 from vo.estimators.pnp import KltPnpEstimator
 from vo.frontend.klt import stereo_klt
 from vo.frontend.stereo import triangulate
-from vo.vins.oracle import FeatureLabels
+from vo.vins.truth_segmentation import FeatureLabels
 
 
 @dataclass(frozen=True)

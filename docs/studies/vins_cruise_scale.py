@@ -54,7 +54,7 @@ from sim.app.validation.exact_points import backproject, local_depth, project
 from vo.dataset import open_dataset
 from vo.dataset.csvio import read_numeric_csv
 from vo.estimators.runner import run_estimator
-from vo.vins.frontend import KltFrontend
+from vo.vins.feature_tracker import KltFrontend
 from vo.vins.imu import GRAVITY
 
 CRUISE_MPS = 9.0

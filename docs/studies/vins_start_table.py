@@ -28,14 +28,14 @@ from vo.estimators.runner import run_estimator
 from vo.eval.rpe import rpe
 from rigs.trajectory import Trajectory
 from vo.vins.imu import GRAVITY
-from vo.vins.initial import initialize
+from vo.vins.vi_init import initialize
 
 COVERED = ("ok", "keyframe")
 RPE_M = 10.0
 
 
 class InitRecorder:
-    """An initializer (:func:`vo.vins.initial.initialize`'s signature) that records, for each successful
+    """An initializer (:func:`vo.vins.vi_init.initialize`'s signature) that records, for each successful
     start, the keyframe span and the errors against the dataset's truth ``gt`` (``T_w_c0`` Trajectory):
     scale error (least-squares scale of the SfM positions against the true ones, relative to the
     reference keyframe, minus 1) and the angle between the aligned and the true gravity (deg)."""

@@ -1,9 +1,9 @@
 """How long do the `vins` front-end's tracks live, and where do they end? Static and dynamic features apart.
 
-Runs :class:`vo.vins.frontend.KltFrontend` (the estimator's front-end, VINS-Mono's settings) over the first
+Runs :class:`vo.vins.feature_tracker.KltFrontend` (the estimator's front-end, VINS-Mono's settings) over the first
 FRAMES left images of a dataset written with ``--segmentation`` and, for every track that ends, records its
 age (N, the count eq. 26 uses) and whether its last position lies within ``--border`` px of the image edge
-(the forward flow carries it out). Labels from the true segmentation (:class:`vo.vins.oracle.FeatureLabels`)
+(the forward flow carries it out). Labels from the true segmentation (:class:`vo.vins.truth_segmentation.FeatureLabels`)
 at the track's last frame. Prints, per label: tracks ended, median / 90th percentile age, share ending at the
 border, and the share of feature-frames with N < 10 (the paper's outlier rule, as the tables count it)::
 
@@ -20,8 +20,8 @@ import argparse
 import numpy as np
 
 from vo.dataset import open_dataset
-from vo.vins.frontend import KltFrontend
-from vo.vins.oracle import FeatureLabels
+from vo.vins.feature_tracker import KltFrontend
+from vo.vins.truth_segmentation import FeatureLabels
 
 
 def track_life(path: str, frames: int, border: float) -> dict:

@@ -94,7 +94,7 @@ def render_only(setup, timer=None) -> tuple:
 def end_to_end(config, threads, workdir, workers: int = 1, scheduler=None) -> tuple:
     """``(pairs, seconds of the frame loop, its CPU seconds, StageTimer, renderers)`` of one
     :func:`sim.generate.generate` run; ``renderers``: its ``metadata.yaml``'s ``rendering`` list."""
-    from sim.dataset.common import METADATA
+    from sim.writers.common import METADATA
     from sim.generate import generate
     from sim.stage_timer import StageTimer
     timer = StageTimer()
@@ -153,8 +153,8 @@ def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -
     (``render.png_strategy``) and level 0-9 (``render.png_compression``) with all row filters, then every
     row filter (``render.png_filter``) at level 1, ``rle``, on ``frames`` frames of
     ``scenario`` spread over its route, noisy unless ``ideal``; encoding time is CPU time (one thread)."""
-    from sim.config import PNG_FILTERS, PNG_STRATEGIES
-    from sim.dataset.common import PngOptions, encode_png
+    from sim.generate_config import PNG_FILTERS, PNG_STRATEGIES
+    from sim.writers.common import PngOptions, encode_png
     from sim.generate import resolve
     from sim.rng import indexed_stream
     from sim.sensors.camera import StereoCamera, add_noise

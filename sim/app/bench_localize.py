@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vo.crosssite.config import CrossSiteConfig
+from vo.crosssite.localizer_config import CrossSiteConfig
 from vo.errors import DatasetError
 
 
@@ -35,7 +35,7 @@ def localize_pairs(path, cfg: CrossSiteConfig, pairs, poses_path=None) -> list:
     true_inliers, ba_err_m (position error against the truth), time_s, timings_s."""
     import cv2
     from vo.crosssite.localizer import localize_site, site_prior
-    from vo.crosssite.traverse import dataset_root
+    from vo.crosssite.traverse_eval import dataset_root
     from vo.crosssite.truth import tie_truth_stats
     from vo.dataset.traverse_reader import read_traverse
     cv2.setNumThreads(1)

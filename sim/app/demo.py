@@ -84,7 +84,7 @@ def run_demo(scenario: str = "campus", estimators=DEFAULT_ESTIMATORS, out_dir="o
 
 @dataclass
 class TraverseDemo:
-    """Summary of ``vo-testbed localize`` on a cached traverse (:func:`vo.crosssite.traverse.summary`)."""
+    """Summary of ``vo-testbed localize`` on a cached traverse (:func:`vo.crosssite.traverse_eval.summary`)."""
     summary: dict
     errors: dict = field(default_factory=dict)
 
@@ -92,7 +92,7 @@ class TraverseDemo:
         return self.summary
 
     def text(self) -> str:
-        from vo.crosssite.traverse import format_table
+        from vo.crosssite.traverse_eval import format_table
         s = self.summary
         return "\n".join([f"traverse {s['dataset']} (cross-site BA, {s['mode']})", format_table(s["sites"]),
                           f"mean per-site error: DR {s['dr_mean_err_pct']:.2f} %, BA {s['ba_mean_err_pct']:.2f} % "
@@ -103,7 +103,7 @@ def run_traverse_demo(scenario: str, out_dir, progress: bool = True) -> Traverse
     """Generate the traverse ``scenario`` into the scenario cache (once), then localize it."""
     from sim.generate_traverse import generate_traverse
     from sim.scenarios import cache_root, get_scenario, traverse_scenarios
-    from vo.crosssite.traverse import run_and_write
+    from vo.crosssite.traverse_eval import run_and_write
     config = get_scenario(scenario)
     path = cache_root() / f"traverse-{scenario}-{config.config_hash()}"
     if not (path / "metadata.yaml").is_file():             # written last: the traverse is complete

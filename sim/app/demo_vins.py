@@ -66,7 +66,7 @@ class VinsDemo:
 
 def start_of(options: dict) -> str:
     """The start ``vins`` uses with estimator ``options`` (its ``init`` option, default included)."""
-    from vo.vins.config import VinsConfig
+    from vo.vins.vins_config import VinsConfig
     return VinsConfig.from_options("base", options).init
 
 

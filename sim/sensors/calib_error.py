@@ -1,7 +1,7 @@
 """Imperfect calibration: the rig written for estimators differs from the one the images are rendered with.
 
 Per camera, in rig order, 13 standard normals are drawn from the ``calib_error`` stream (always all 13,
-so changing one magnitude never changes another's draw) and scaled by the :class:`sim.config.CalibError`
+so changing one magnitude never changes another's draw) and scaled by the :class:`sim.generate_config.CalibError`
 magnitudes: ``fx, fy`` times ``1 + focal_ppm 1e-6 z``; ``cx, cy`` plus ``principal_px z``; each of
 ``k1 k2 p1 p2 k3`` times ``1 + dist_rel z`` (zero coefficients stay zero); and ``T_b_c`` right-multiplied
 by ``[R(extrinsic_rot_deg z_3) | extrinsic_trans_mm 1e-3 z_3]`` (a rotation vector in degrees and a
@@ -27,7 +27,7 @@ def draw_errors(n_cameras: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def perturb_camera(cam, z: np.ndarray, err):
-    """``cam`` (rigs.model.Camera) with the errors ``z`` (15,) scaled by ``err`` (sim.config.CalibError)."""
+    """``cam`` (rigs.model.Camera) with the errors ``z`` (15,) scaled by ``err`` (sim.generate_config.CalibError)."""
     from scipy.spatial.transform import Rotation
     f = 1.0 + err.focal_ppm * 1e-6 * z[0:2]
     dist = np.asarray(cam.dist, float)            # radtan k1 k2 p1 p2 k3, or equidistant k1..k4 (first 4 draws)

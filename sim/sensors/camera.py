@@ -2,7 +2,7 @@
 pose (the world, the renderer and the exact lens distortion are :mod:`sim.world`, :mod:`sim.render`,
 :mod:`sim.distortion`); :func:`add_noise` is the separate noise step, drawing from the generator it is
 given (the simulator passes frame ``k``'s ``image_noise`` stream, ``sim.rng.indexed_stream``).
-:class:`FrameExposer` adds the sensor effects of :class:`sim.config.CameraEffects` (motion blur, rolling
+:class:`FrameExposer` adds the sensor effects of :class:`sim.generate_config.CameraEffects` (motion blur, rolling
 shutter, vignetting, auto exposure, shot + read noise; docs/sensor_effects.md).
 """
 from __future__ import annotations
@@ -67,7 +67,7 @@ def add_noise(images, sigma: float, rng: np.random.Generator) -> list:
 
 class FrameExposer:
     """Frame ``k`` of ``camera`` (a :class:`StereoCamera`) with the sensor effects of ``effects``
-    (:class:`sim.config.CameraEffects`): the renders of the exposure plan
+    (:class:`sim.generate_config.CameraEffects`): the renders of the exposure plan
     (:mod:`sim.sensors.effects_timing`) assembled row by row, then vignetting and the auto exposure gain
     (:mod:`sim.sensors.photometric`) in floating point, then the noise step: shot + read noise (stream
     ``sensor_noise``, index k) when set, else rounding and :func:`add_noise` with ``image_sigma``

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from sim.config import CalibError, CameraEffects, GenerateConfig, ImuClock
+from sim.generate_config import CalibError, CameraEffects, GenerateConfig, ImuClock
 
 REALISTIC_CAMERA = CameraEffects(exposure_ms=4.0, blur_subframes=5, line_delay_us=0.0, timestamp_jitter_us=20.0,
                                  vignetting=0.5, auto_exposure=True, ae_target=0.45, ae_time_constant_s=0.3,

@@ -4,5 +4,5 @@ adjustment. One module per stage (see ``docs/crosssite.md``); consumes plain rec
 (:mod:`vo.crosssite.types`), never sim, scenes or mujoco.
 """
 from vo.crosssite.types import SiteResult, Site, StereoCal, StereoPair  # noqa: F401
-from vo.crosssite.config import CrossSiteConfig  # noqa: F401
+from vo.crosssite.localizer_config import CrossSiteConfig  # noqa: F401
 from vo.crosssite.localizer import localize_site, localize_traverse  # noqa: F401

@@ -22,8 +22,8 @@ import numpy as np
 from rigs.geometry import inv_T
 from vo.crosssite.asift import DetectionCache
 from vo.crosssite.bundle import TieObservations, bundle_adjust
-from vo.crosssite.config import CrossSiteConfig
-from vo.crosssite.initial import resection
+from vo.crosssite.localizer_config import CrossSiteConfig
+from vo.crosssite.intersect_resect import resection
 from vo.crosssite.ties import TieSet, body_points, candidate_ties, refine_cross_site, stereo_and_consistency
 from vo.crosssite.types import Site, SiteResult
 

@@ -12,8 +12,8 @@ import cv2
 import numpy as np
 
 from vo.crosssite import asift, ortho, regions, wallis, zoom
-from vo.crosssite.consistency import distance_consistency, range_sigma
-from vo.crosssite.initial import intersect_rectified
+from vo.crosssite.distance_test import distance_consistency, range_sigma
+from vo.crosssite.intersect_resect import intersect_rectified
 from vo.crosssite.zncc import lsm_refine, match_stereo
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from vo.crosssite import regions
-from vo.crosssite.initial import intersect_rectified
+from vo.crosssite.intersect_resect import intersect_rectified
 
 
 def true_ties(prev, cur, ties, T_w_b_prev_true: np.ndarray, T_w_b_cur_true: np.ndarray,

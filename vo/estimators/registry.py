@@ -18,7 +18,7 @@ ESTIMATORS = {
     "vins": "vo.vins.estimator:VinsEstimator",
 }
 # names that are a registered estimator with fixed options: seed 002's VINS configurations are ``vins`` with its
-# ``preset`` option (vo.vins.config.PRESETS), registered under these names too
+# ``preset`` option (vo.vins.vins_config.PRESETS), registered under these names too
 FIXED_OPTIONS = {f"vins-{p}": ("vins", {"preset": p}) for p in ("ac-gf", "ac", "ac-me", "huber", "oracle")}
 ESTIMATORS.update({name: ESTIMATORS[base] for name, (base, _) in FIXED_OPTIONS.items()})
 FORMS = "a registered name, 'package.module:Class', or 'cmd:<command with {dataset} and {out}>'"

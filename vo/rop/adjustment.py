@@ -44,7 +44,7 @@ import numpy as np
 
 from vo.errors import EstimatorError
 from rigs.geometry import make_T, rotation_angle, skew
-from vo.rop.initial import InitialEops, initial_eops, project_to_so3
+from vo.rop.initial_eops import InitialEops, initial_eops, project_to_so3
 from vo.rop.propagation import propagated_cov
 from vo.rop.ropset import RopSet
 

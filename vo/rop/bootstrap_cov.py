@@ -25,7 +25,7 @@ import numpy as np
 
 from rigs.geometry import pose_error_cov
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
-from vo.rop.initial import initial_eops
+from vo.rop.initial_eops import initial_eops
 from vo.rop.relative import estimate_rop_normalized
 from vo.rop.ropset import RopSet
 

@@ -98,7 +98,7 @@ class ReplicateChain:
 class ChainBootstrap:
     """The :class:`~vo.rop.uncertainty.UncertaintyModel` of ``cov="chain_bootstrap"`` (module docstring).
 
-    ``config`` the estimator's :class:`~vo.rop.config.RopConfig` (RANSAC options, ``seed``,
+    ``config`` the estimator's :class:`~vo.rop.rop_config.RopConfig` (RANSAC options, ``seed``,
     ``bootstrap_replicates``), ``adjustment_config`` its :class:`~vo.rop.adjustment.AdjustmentConfig`,
     ``focal`` (px) to turn the pixel gate into normalized units. Every draw is seeded by ``seed`` (and
     the frame's ``t_ns`` for the RANSAC of the replicates), so a rerun gives the same bytes."""

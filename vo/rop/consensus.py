@@ -22,7 +22,7 @@ import dataclasses
 import numpy as np
 
 from rigs.geometry import make_T, rotation_angle
-from vo.rop.initial import rotation_candidates
+from vo.rop.initial_eops import rotation_candidates
 from vo.rop.relative import estimate_rop_normalized
 from vo.rop.ropset import RopSet, exact_ropset
 
@@ -39,7 +39,7 @@ def predicted_rops(R_1_3: np.ndarray, t_1_3: np.ndarray, T_c1_c2: np.ndarray) ->
 
 def solve_rops(pairs: dict, priors: dict, focal: float, T_c1_c2: np.ndarray, config) -> RopSet:
     """The epoch's ROPs from ``pairs`` (pair -> normalized matches) with the gates of
-    :class:`~vo.rop.config.RopConfig` ``config``; before the rotation consensus."""
+    :class:`~vo.rop.rop_config.RopConfig` ``config``; before the rotation consensus."""
     c, rops = config, {}
     for p, (x_i, x_j) in pairs.items():
         if len(x_i) < c.min_matches:

@@ -9,7 +9,7 @@ from vo.rop.uncertainty import PropagatedCovariance, UncertaintyModel
 
 
 def make_uncertainty(config, adjustment_config, focal: float) -> UncertaintyModel:
-    """The model named by ``config.cov`` (:class:`~vo.rop.config.RopConfig`)."""
+    """The model named by ``config.cov`` (:class:`~vo.rop.rop_config.RopConfig`)."""
     if config.cov == "chain_bootstrap":
         return ChainBootstrap(config, adjustment_config, focal)
     return PropagatedCovariance()

@@ -2,7 +2,7 @@
 
 Seed 000: images 1, 2 (left, right) of one epoch and 3, 4 of the next give four relative
 orientations (ROPs 1-3, 1-4, 2-3, 2-4, essential matrices; :mod:`vo.rop.relative`); with the
-calibrated stereo ROP they fix the initial EOPs of images 3, 4 (:mod:`vo.rop.initial`) and the two-step
+calibrated stereo ROP they fix the initial EOPs of images 3, 4 (:mod:`vo.rop.initial_eops`) and the two-step
 network adjustment (eqs. 1-3, :mod:`vo.rop.adjustment`) refines them; epochs are chained.
 
 Our extensions (each documented in its module, figures in docs/estimators.md):
@@ -50,11 +50,11 @@ from vo.estimators.pnp_core import PnpConfig
 from rigs.image import to_gray
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
-from vo.rop.config import RopConfig
+from vo.rop.rop_config import RopConfig
 from vo.rop.consensus import predicted_rops, rotation_consensus, solve_rops
 from vo.rop.cov_models import make_uncertainty
 from vo.rop.epochs import EpochRecord
-from vo.rop.initial import initial_eops
+from vo.rop.initial_eops import initial_eops
 from vo.rop.moving import TrackFilter, filter_tracks
 from vo.rop.ropset import PAIRS
 from vo.rop.rotation_only import rotation_only
@@ -68,7 +68,7 @@ STAGES = ("detect", "track", "stereo", "essential", "initial", "adjust")
 
 class RopEstimator(Estimator):
     """``RopEstimator(rig, config=None, uncertainty=None, tracker=None, **options)``: ``config`` a
-    :class:`~vo.rop.config.RopConfig`, or its fields as keyword options (``--opt``); ``uncertainty``
+    :class:`~vo.rop.rop_config.RopConfig`, or its fields as keyword options (``--opt``); ``uncertainty``
     an :class:`~vo.rop.uncertainty.UncertaintyModel` instead of the one ``config.cov`` names; ``tracker``
     the four-view tracker of the KLT front-end (``keyframe`` / ``track`` / ``normalize`` / ``view`` of
     :class:`~vo.rop.tracks.KltFourView`, the default built from ``klt_config`` and ``klt_refine``), e.g. a

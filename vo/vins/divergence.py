@@ -15,7 +15,7 @@ for the gross failures the issue names, both from the estimate alone (no truth):
   window (measured on healthy runs in ``docs/vins.md``).
 
 A failed optimisation (gtsam indeterminate system, cheirality) and a non-finite estimate are failures the
-estimator catches itself. The thresholds are :class:`vo.vins.config.VinsConfig` fields (``fail_*``).
+estimator catches itself. The thresholds are :class:`vo.vins.vins_config.VinsConfig` fields (``fail_*``).
 """
 from __future__ import annotations
 

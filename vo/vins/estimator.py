@@ -7,7 +7,7 @@ pre-integration (eq. 10-12) over the frames the initialisation did not use.
 Per-frame diagnostics for plots and tables: ``self.diagnostics`` (a list of dicts: ``t_ns``, ``g_f``,
 ``counts`` = N per feature, ``px`` their raw pixels, ``frac_n_lt_10`` = the paper's outlier rule, ``n_landmarks``,
 ``status``, ``message``;
-with a segmentation (``set_dataset``) also the true labels and the rule's confusion, :mod:`vo.vins.oracle`).
+with a segmentation (``set_dataset``) also the true labels and the rule's confusion, :mod:`vo.vins.truth_segmentation`).
 ``FrameResult.cov``: the covariance of ``[rotvec, position]`` of ``T_o_c0`` every frame (:mod:`vo.vins.covariance`).
 ``vins-oracle`` keeps features off moving objects (true segmentation): its front-end drops those tracked onto
 them and detects none there, so the feature budget goes to the static scene.
@@ -23,13 +23,13 @@ from gtsam.symbol_shorthand import B, V, X
 
 from vo.errors import EstimatorError
 from vo.estimators.base import Estimator, FrameResult
-from vo.vins.config import VinsConfig
+from vo.vins.vins_config import VinsConfig
 from vo.vins.covariance import INIT_COV, output_covariance
 from vo.vins.divergence import DivergenceCheck, Snapshot
-from vo.vins.frontend import KltFrontend, mask_at, parallax_px
+from vo.vins.feature_tracker import KltFrontend, mask_at, parallax_px
 from vo.vins.imu import GRAVITY, ImuStream, imu_params, preintegrate
-from vo.vins.initial import SFM_FAILED, initialize, usable_points
-from vo.vins.oracle import FeatureLabels, rule_confusion
+from vo.vins.vi_init import SFM_FAILED, initialize, usable_points
+from vo.vins.truth_segmentation import FeatureLabels, rule_confusion
 from vo.vins.truth_init import Truth, truth_init
 from vo.vins.window import Window
 
@@ -40,12 +40,12 @@ class VinsEstimator(Estimator):
     name = "vins"
 
     def __init__(self, rig, preset: str = "base", initializer=None, divergence=None, frontend=None, **options):
-        """``preset``: one of :data:`vo.vins.config.PRESETS` (seed 002's configurations), updated by ``options``;
+        """``preset``: one of :data:`vo.vins.vins_config.PRESETS` (seed 002's configurations), updated by ``options``;
         the estimator is named as registered, ``vins`` (``base``) or ``vins-<preset>``.
-        ``initializer``: the visual-inertial start, called as :func:`vo.vins.initial.initialize` (default);
+        ``initializer``: the visual-inertial start, called as :func:`vo.vins.vi_init.initialize` (default);
         ``divergence``: the failure test after each window optimisation, called as
         :class:`vo.vins.divergence.DivergenceCheck` (default: one with the ``fail_*`` options);
-        ``frontend``: called once with the configured :class:`vo.vins.frontend.KltFrontend`, returns the tracker
+        ``frontend``: called once with the configured :class:`vo.vins.feature_tracker.KltFrontend`, returns the tracker
         to use (its ``track`` / ``undistort`` / ``size``; default: that front-end itself), e.g. a study's wrapper."""
         super().__init__(rig, preset=preset, **options)
         self.config = cfg = VinsConfig.from_options(preset, options)
@@ -342,7 +342,7 @@ class VinsEstimator(Estimator):
 
     def _diagnose(self, feats, res, dynamic=None) -> None:
         """Per-frame record; with a segmentation also the true dynamic labels and the N < 10 rule's confusion
-        (:func:`vo.vins.oracle.rule_confusion`)."""
+        (:func:`vo.vins.truth_segmentation.rule_confusion`)."""
         g_f = self.window.states[-1].g_f if self.window is not None and self.window.states else float("nan")
         d = {"t_ns": int(feats.t_ns), "g_f": float(g_f), "counts": feats.count.copy(), "px": feats.px.copy(),
              "frac_n_lt_10": float(np.mean(feats.count < 10)) if len(feats.count) else 0.0,

@@ -12,7 +12,7 @@ import numpy as np
 
 from vo.errors import EstimatorError
 from vo.vins.imu import GRAVITY
-from vo.vins.initial import InitResult, _common, _triangulate
+from vo.vins.vi_init import InitResult, _common, _triangulate
 
 
 class Truth:

@@ -88,7 +88,7 @@ def real_cmd(datasets, estimators, out_dir, all_cores, max_frames, no_progress, 
 def localize_cmd(dataset, mode, max_sites, pairs, poses, items, as_json):
     """Stage timings (s) of the cross-site localizer per site pair (target: <= 120 s per pair)."""
     from sim.app.cli.cmd_localize import crosssite_config
-    from vo.crosssite.traverse import localize_dataset, site_table, timing_table
+    from vo.crosssite.traverse_eval import localize_dataset, site_table, timing_table
     cfg = crosssite_config(mode, items)
     if pairs:
         from sim.app.bench_localize import localize_pairs

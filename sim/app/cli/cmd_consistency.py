@@ -32,7 +32,7 @@ from sim.app.cli.options import echo_json, json_option, opt_option, parse_opts, 
 def consistency(scenario, estimator, runs, image_noise, max_frames, frontend, out_dir, vary, workers, oracle_px,
                 renoise, no_progress, overrides, estimator_opts, as_json):
     """Render SCENARIO once, re-noise it RUNS times, run ESTIMATOR, report NEES and predicted vs measured drift."""
-    from sim.app.consistency import consistency as run_mc, write_outputs
+    from sim.app.nees import consistency as run_mc, write_outputs
     res = run_mc(scenario, estimator, runs, image_noise, options=parse_opts(estimator_opts, frontend) or None,
                  progress=not (no_progress or as_json), max_frames=max_frames, workers=workers, vary=vary,
                  oracle_px=oracle_px, overrides=overrides, renoise=renoise)

@@ -89,7 +89,7 @@ def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, worker
     if as_json:
         echo_json(res.to_dict())
     else:
-        from sim.dataset.fanout import output_paths
+        from sim.writers.fanout import output_paths
         where = " and ".join(str(p) for p in output_paths(res.out_dir, cfg.format))
         click.echo(f"wrote {res.n_frames} stereo frames, {res.n_imu} IMU samples, {res.duration_s:.1f} s, "
                    f"{res.path_length_m:.1f} m to {where} ({', '.join(res.formats)}); top-down: {res.topdown_png}")
@@ -100,7 +100,7 @@ def build_config(ctx, scenario, config_file, flags: dict, overrides):
     plain flags are applied together, so a combination valid as a whole (``--format kitti --images``
     over a file with ``images: false``) is accepted."""
     import dataclasses
-    from sim.config import GenerateConfig, load_generate_config
+    from sim.generate_config import GenerateConfig, load_generate_config
     from sim.scenarios import get_scenario
 
     if config_file and scenario:

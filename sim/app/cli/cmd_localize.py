@@ -1,6 +1,6 @@
 """``vo-testbed localize``: localize a stop-and-go traverse site by site (seed 001 cross-site BA).
 
-Only parses arguments and calls :func:`vo.crosssite.traverse.run_and_write`; never imports mujoco.
+Only parses arguments and calls :func:`vo.crosssite.traverse_eval.run_and_write`; never imports mujoco.
 """
 from __future__ import annotations
 
@@ -53,7 +53,7 @@ def _strict(obj):
 def localize(dataset, method, mode, out, max_sites, items, as_json):
     """Localize each site against the previous one (site 0 known); print a per-site table; write
     site_poses_tum.txt, summary.json, traverse_map.png and matching.png to --out."""
-    from vo.crosssite.traverse import format_table, run_and_write
+    from vo.crosssite.traverse_eval import format_table, run_and_write
     from vo.errors import DatasetError
     if not Path(dataset).is_dir():
         raise DatasetError(f"--dataset {dataset}: no such folder")

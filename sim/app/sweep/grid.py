@@ -1,7 +1,7 @@
 """Sweep specification: a scenario, grid axes (any ``--set`` key), estimators and seeds -> cells.
 
 A cell is one grid point at one seed: one generated dataset, every estimator run on it. Its key is
-the hash of its resolved :class:`~sim.config.GenerateConfig` (:meth:`config_hash`), so the same
+the hash of its resolved :class:`~sim.generate_config.GenerateConfig` (:meth:`config_hash`), so the same
 configuration always lands in the same result file, whichever machine or worker runs it. Every
 grid value is applied through :meth:`GenerateConfig.with_overrides` when the cells are built, so a
 bad key or value is a one-line :class:`SweepError` before anything runs.
@@ -23,7 +23,7 @@ from typing import Optional
 
 from rigs.config_io import parse_yaml_text, read_yaml_file
 from rigs.errors import TestbedError
-from sim.config import GenerateConfig
+from sim.generate_config import GenerateConfig
 from sim.errors import SimError
 
 

@@ -1,6 +1,6 @@
 """Fraction of tracked features that lie on moving objects, measured from the true segmentation.
 
-The tracker is the VINS-Mono front-end of the ``vins`` estimator itself (:class:`vo.vins.frontend.KltFrontend`,
+The tracker is the VINS-Mono front-end of the ``vins`` estimator itself (:class:`vo.vins.feature_tracker.KltFrontend`,
 seed 002 builds on it) with its defaults: Shi-Tomasi corners (at most 150, 30 px apart, quality 0.01) tracked
 frame to frame by pyramidal KLT (21 x 21 window, 3 levels), lost tracks dropped, outliers of a
 fundamental-matrix RANSAC (1 px) on undistorted points removed, and new corners only away from the tracked
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vo.vins.frontend import KltFrontend, mask_at
+from vo.vins.feature_tracker import KltFrontend, mask_at
 
 
 @dataclass(frozen=True)

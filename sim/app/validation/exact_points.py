@@ -1,5 +1,5 @@
 """Exact image points from rendered depth and true poses (validation only: a real estimator never
-sees depth or truth). Used by :mod:`sim.app.validation.oracle_tracks`, :mod:`sim.app.validation.render_fidelity`
+sees depth or truth). Used by :mod:`sim.app.validation.truth_tracks`, :mod:`sim.app.validation.render_fidelity`
 and the diagnostic scripts of docs/consistency.md.
 
 Shapes: pixels ``p`` (N,2) (u, v), depths ``z`` (N,), points ``X`` (N,3), poses (4,4).

@@ -31,7 +31,7 @@ class DeadReckoningResult:
 def dead_reckoning(scene: str = "campus", rig: str = "cart27", duration_s: float = 60.0, seed: int = 0,
                    overrides=()) -> DeadReckoningResult:
     """Integrate the exact (``--ideal``) IMU from the true initial state; compare with the truth at the end."""
-    from sim.config import GenerateConfig
+    from sim.generate_config import GenerateConfig
     from sim.generate import resolve
     from sim.sensors.imu import imu_pose_velocity, integrate_imu, measure_imu
     from rigs.geometry import so3_log

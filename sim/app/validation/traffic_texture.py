@@ -165,7 +165,7 @@ class Block:
 
 def scenario_frames(config, n_blocks: int = 8, block_frames: int = 12, progress: bool = True):
     """``(blocks, actor_ids, moving_ids)``: :class:`Block` list rendered from ``config`` (a
-    :class:`sim.config.GenerateConfig`) and the segmentation ids of all / moving actors."""
+    :class:`sim.generate_config.GenerateConfig`) and the segmentation ids of all / moving actors."""
     from tqdm import tqdm
     from sim.generate import resolve
     from sim.rng import indexed_stream

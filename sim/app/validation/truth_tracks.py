@@ -21,7 +21,7 @@ from sim.app.validation.exact_points import backproject, local_depth, project
 from rigs.geometry import inv_T
 from vo.estimators.runner import run_estimator
 from vo.frontend.klt import KltConfig
-from vo.rop.config import RopConfig
+from vo.rop.rop_config import RopConfig
 from vo.rop.tracks import FourView, KltFourView
 
 VIEWS = ("p2", "p3", "p4")          # positions an oracle can replace (p1 is the detection itself)

@@ -1,6 +1,6 @@
 """``manifest.json``: what a complete dataset folder holds, to verify a cached entry before reusing it.
 
-Written by :func:`sim.dataset.common.commit_folder` as the last file of every dataset::
+Written by :func:`sim.writers.common.commit_folder` as the last file of every dataset::
 
     {"version": 1,
      "files": {"<relative path>": {"size": <bytes>, "sha256": "<hex>"}, ...},   # sha256: text files only

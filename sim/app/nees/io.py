@@ -1,13 +1,13 @@
 """The output folder of a consistency run: ``consistency.json`` (the summary), ``consistency.png``
-(:func:`sim.app.consistency.plots.plot_consistency`) and ``runs.npz`` (every run's poses and
+(:func:`sim.app.nees.plots.plot_consistency`) and ``runs.npz`` (every run's poses and
 covariances and the truth), each written atomically."""
 from __future__ import annotations
 
 from pathlib import Path
 
 from rigs.atomic_io import atomic_write_json, atomic_write_npz
-from sim.app.consistency.plots import plot_consistency
-from sim.app.consistency.scoring import ConsistencyResult
+from sim.app.nees.plots import plot_consistency
+from sim.app.nees.scoring import ConsistencyResult
 
 SUMMARY, PLOT, RUNS = "consistency.json", "consistency.png", "runs.npz"
 

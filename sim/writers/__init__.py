@@ -1,10 +1,10 @@
 """Dataset writers (EuRoC ASL, KITTI odometry, ROS bags); they take numpy arrays and never import mujoco."""
 from pathlib import Path
 
-from sim.dataset.euroc_writer import EurocWriter, euroc_resume_state  # noqa: F401
-from sim.dataset.fanout import DatasetWriters, write_tum_groundtruth  # noqa: F401
-from sim.dataset.kitti_writer import KittiWriter, kitti_resume_state  # noqa: F401
-from sim.dataset.rosbag_writer import export_rosbag  # noqa: F401
+from sim.writers.euroc_writer import EurocWriter, euroc_resume_state  # noqa: F401
+from sim.writers.fanout import DatasetWriters, write_tum_groundtruth  # noqa: F401
+from sim.writers.kitti_writer import KittiWriter, kitti_resume_state  # noqa: F401
+from sim.writers.rosbag_writer import export_rosbag  # noqa: F401
 
 
 def resume_state(out_dir) -> int:

@@ -1,4 +1,4 @@
-"""Oracle tracks (sim.app.validation.oracle_tracks): exact correspondences from rendered depth and truth.
+"""Oracle tracks (sim.app.validation.truth_tracks): exact correspondences from rendered depth and truth.
 
 With exact positions the whole rop chain (four ROPs, adjustment, chaining) must reproduce the ground
 truth to numerical precision on every frame it solves with translation: this checks together the
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from sim.errors import SimError
-from sim.app.consistency import pose_errors
-from sim.app.validation.oracle_tracks import OracleFourView, local_depth, run_oracle
+from sim.app.nees import pose_errors
+from sim.app.validation.truth_tracks import OracleFourView, local_depth, run_oracle
 from vo.dataset import open_dataset
 
 

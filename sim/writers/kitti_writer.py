@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from rigs.image import to_gray
-from sim.dataset.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
+from sim.writers.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
                                 prepare_folder, write_marker, write_png)
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
@@ -127,7 +127,7 @@ class KittiWriter:
     def finalize(self, commit: bool = True) -> Path:
         """Write times.txt, times_ns.txt, poses/NN.txt, gcps.csv; with ``commit`` also :meth:`commit`
         (metadata.yaml, manifest, INCOMPLETE removed)."""
-        from sim.dataset.euroc_writer import write_gcps_csv
+        from sim.writers.euroc_writer import write_gcps_csv
         from rigs.atomic_io import atomic_write_text
         self._frames.close()
         self._truth.close()

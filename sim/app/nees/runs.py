@@ -16,7 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from sim.app.consistency.scoring import ConsistencyResult, evaluate_runs
+from sim.app.nees.scoring import ConsistencyResult, evaluate_runs
 from sim.rng import stream
 from rigs.image_noise import ImageNoiseDataset
 
@@ -53,7 +53,7 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
              oracle_px=None, renoise: int = 0) -> tuple:
     """One Monte-Carlo run on the (cached) ideal dataset of ``config`` ->
     ((n,4,4) poses, (n,6,6) covariances, (N,4,4) truth in O, (N,) t_s); a module function for workers.
-    With ``oracle_px`` the run uses exact tracks + that iid pixel noise (:mod:`sim.app.validation.oracle_tracks`).
+    With ``oracle_px`` the run uses exact tracks + that iid pixel noise (:mod:`sim.app.validation.truth_tracks`).
     ``renoise`` > 0: the covariances are those of that many re-noised replicates of this run's images
     (:func:`vo.errorprop.renoise.renoise_covariance`, noise level estimated from the images) instead
     of the estimator's own."""
@@ -68,7 +68,7 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
     if oracle_px is None:
         frames = run_estimator(estimator, noisy, options=options, progress=False, max_frames=max_frames).frames
     else:
-        from sim.app.validation.oracle_tracks import run_oracle
+        from sim.app.validation.truth_tracks import run_oracle
         frames = run_oracle(base, options, oracle_px, seed, max_frames=max_frames)
     T_est = np.array([f.T_o_c0 for f in frames])
     if renoise:
@@ -126,7 +126,7 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
     rendered from scenario seed ``seed + 1 + k`` (module docstring). ``workers`` > 1 runs them in
     that many processes (spawned; same results: every run is seeded on its own). ``oracle_px``
     (``rop`` only): exact track positions from depth and truth plus that iid pixel noise instead of
-    the images' (:mod:`sim.app.validation.oracle_tracks`; the scenario is rendered with depth).
+    the images' (:mod:`sim.app.validation.truth_tracks`; the scenario is rendered with depth).
     ``overrides``: scenario ``key=value`` overrides (as ``--set``, e.g. ``render.supersample=3``).
     ``renoise`` > 0: score the covariance of that many re-noised replicates per run instead of the
     estimator's own (:mod:`vo.errorprop.renoise`; (1 + renoise) x the run time)."""

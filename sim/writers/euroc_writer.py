@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from rigs.atomic_io import atomic_write_npy
-from sim.dataset.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
+from sim.writers.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
                                 prepare_folder, write_marker, write_png)
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
@@ -112,7 +112,7 @@ class EurocWriter:
     """Stream a stereo-inertial sequence to disk in the EuRoC ASL layout (see module docstring).
 
     ``rig``: a stereo ``rigs.Rig``; ``metadata``: the fully resolved configuration (plain dict,
-    no wall-clock times); ``png``: how PNGs are written (:class:`sim.dataset.common.PngOptions`).
+    no wall-clock times); ``png``: how PNGs are written (:class:`sim.writers.common.PngOptions`).
     A folder with ``INCOMPLETE`` is resumed: ``self.resumed_frames`` frames are already on disk, and replayed samples at or before each stream's last row are skipped.
     """
 

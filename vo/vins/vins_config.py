@@ -71,7 +71,7 @@ class VinsConfig:
     and yaw (VINS-Mono's ``double2vector``; position and yaw are unobservable).
     Front-end: ``max_features``, ``min_distance_px``, ``f_threshold_px``, ``min_parallax_px`` (at F_c),
     ``min_tracked`` (fewer tracked features than this -> keyframe), ``klt_refine`` "none" (VINS-Mono's KLT) or
-    "affine" (each track refined against its first image, :mod:`vo.vins.frontend`). IMU: ``imu_noise`` "rig" (the rig's
+    "affine" (each track refined against its first image, :mod:`vo.vins.feature_tracker`). IMU: ``imu_noise`` "rig" (the rig's
     calibrated Kalibr densities, as a VINS-Mono user configures the IMU; Table 1's when the rig has none) or
     "table1" (seed 002 Table 1's estimator configuration ``acc_n``, ``gyr_n``, ``acc_w``, ``gyr_w``, not the
     sensor's noise: :mod:`rigs.imu_models`).
@@ -81,7 +81,7 @@ class VinsConfig:
     ``init_max_scale_std`` (largest accepted relative standard deviation of the aligned scale, and largest
     relative difference between the forward and reverse alignment regressions), ``init_min_excitation``
     (m/s^2: the standard deviation over the window's keyframe intervals of the mean specific force, below which
-    the window is not tried, :func:`vo.vins.initial.imu_excitation`; 0 = off, as in VINS-Mono, which logs its
+    the window is not tried, :func:`vo.vins.vi_init.imu_excitation`; 0 = off, as in VINS-Mono, which logs its
     0.25 test without acting on it: the scale's standard deviation already says whether the motion observes
     it, and the campus cart's start from rest, 0.16-0.20 m/s^2, observes it to 1.3 %),
     ``init_provisional_scale_std``: an alignment whose scale is known only to this (relative standard

@@ -1,7 +1,7 @@
 """Fan-out of writer calls to a EuRoC and/or a KITTI writer, and a TUM convenience.
 
 ``rosbag1``/``rosbag2`` write the EuRoC folder into ``out_dir`` and then convert it with
-:func:`sim.dataset.rosbag_writer.export_rosbag` into ``out_dir/dataset.bag`` (ROS 1) or
+:func:`sim.writers.rosbag_writer.export_rosbag` into ``out_dir/dataset.bag`` (ROS 1) or
 ``out_dir/rosbag2/`` (ROS 2, MCAP storage); the EuRoC folder stays, so every tool of ours reads it.
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.dataset.common import PngOptions
+from sim.writers.common import PngOptions
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
 
@@ -44,8 +44,8 @@ class DatasetWriters:
     def __init__(self, out_dir, rig, metadata: dict, fmt: str = "euroc", depth: bool = False,
                  segmentation: bool = False, overwrite: bool = False, depth_format: str = "npy",
                  png: PngOptions = PngOptions()):
-        from sim.dataset.euroc_writer import EurocWriter
-        from sim.dataset.kitti_writer import KittiWriter
+        from sim.writers.euroc_writer import EurocWriter
+        from sim.writers.kitti_writer import KittiWriter
         if fmt not in FORMATS:
             raise SimError(f"dataset format {fmt!r} unknown; valid: {', '.join(FORMATS)}")
         out_dir = Path(out_dir)
@@ -134,7 +134,7 @@ class DatasetWriters:
         folders = [w.finalize(commit=False) for w in self.writers]
         if self.fmt in BAG_NAMES:
             import shutil
-            from sim.dataset.rosbag_writer import export_rosbag
+            from sim.writers.rosbag_writer import export_rosbag
             bag = self.out_dir / BAG_NAMES[self.fmt]
             if bag.is_dir():
                 shutil.rmtree(bag)

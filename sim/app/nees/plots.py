@@ -2,7 +2,7 @@
 measured position-error spread against distance."""
 from __future__ import annotations
 
-from sim.app.consistency.scoring import ConsistencyResult
+from sim.app.nees.scoring import ConsistencyResult
 
 
 def plot_consistency(res: ConsistencyResult, path) -> None:

@@ -28,14 +28,14 @@ from rigs.atomic_io import atomic_write_text
 from rigs.geometry import quat_wxyz_from_R
 from rigs.trajectory import Trajectory
 from rigs.trajfile import write_tum
-from sim.dataset.common import CsvStream, _plain, write_png
-from sim.dataset.euroc_writer import GT_HEADER, IMU_HEADER
+from sim.writers.common import CsvStream, _plain, write_png
+from sim.writers.euroc_writer import GT_HEADER, IMU_HEADER
 
 WHEELS_HEADER = "#timestamp [ns],left_ticks,right_ticks"
 
 
 class TraverseWriter:
-    """The files of a traverse dataset in ``out`` (a claimed folder, :func:`sim.dataset.common.claim_folder`);
+    """The files of a traverse dataset in ``out`` (a claimed folder, :func:`sim.writers.common.claim_folder`);
     :meth:`finish` writes ``metadata.yaml`` last, atomically. :meth:`write_pair` may run on any thread."""
 
     def __init__(self, out: Path):
@@ -64,7 +64,7 @@ class TraverseWriter:
                                                                          sort_keys=False))
 
     def write_pair(self, capture, images) -> dict:
-        """``sites/site_NN/pair_K_{left,right}.png`` of ``capture`` (:class:`sim.traverse.Capture`) from the
+        """``sites/site_NN/pair_K_{left,right}.png`` of ``capture`` (:class:`sim.traverse_plan.Capture`) from the
         grey ``images`` (left, right); returns the pair's record of ``site.yaml``."""
         folder = self.out / "sites" / f"site_{capture.site:02d}"
         folder.mkdir(parents=True, exist_ok=True)

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from vo.errors import DatasetError, EstimatorError
-from vo.vins.frontend import mask_at
+from vo.vins.feature_tracker import mask_at
 
 
 class FeatureLabels:

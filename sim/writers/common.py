@@ -2,7 +2,7 @@
 
 Life cycle of an output folder ``out_dir``:
 
-0. :func:`claim_folder` (``generate``) - creates ``out_dir``, locks it (:mod:`sim.dataset.locking`: a
+0. :func:`claim_folder` (``generate``) - creates ``out_dir``, locks it (:mod:`sim.writers.locking`: a
    second writer gets an error naming the process that holds it), refuses a non-empty folder that does
    not carry our :data:`OWNER` marker, deletes the contents of ours on ``overwrite``, writes the marker.
 1. :func:`prepare_folder` - a missing or empty folder starts fresh; a folder holding an
@@ -11,7 +11,7 @@ Life cycle of an output folder ``out_dir``:
 2. Frames and samples stream to disk (PNG per image, CSV rows appended and flushed).
 3. :func:`final_metadata` makes the ``metadata.yaml`` content; every other file is written (bags
    included), then :func:`commit_folder` writes ``metadata.yaml`` (``status: complete``, atomically,
-   :mod:`rigs.atomic_io`) and ``manifest.json`` (:mod:`sim.dataset.manifest`) and removes
+   :mod:`rigs.atomic_io`) and ``manifest.json`` (:mod:`sim.writers.manifest`) and removes
    ``INCOMPLETE`` last, so a folder without the marker is always complete and an interrupted one
    always resumes.
 
@@ -29,8 +29,8 @@ import cv2
 import numpy as np
 
 from rigs.atomic_io import atomic_write, atomic_write_bytes, atomic_write_text
-from sim.config import PNG_COMPRESSION, PNG_FILTER, PNG_STRATEGY
-from sim.dataset.locking import LOCK_NAME, FolderLock
+from sim.generate_config import PNG_COMPRESSION, PNG_FILTER, PNG_STRATEGY
+from sim.writers.locking import LOCK_NAME, FolderLock
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
 
@@ -70,7 +70,7 @@ class ClaimedFolder:
 
 
 def claim_folder(out_dir, overwrite: bool) -> ClaimedFolder:
-    """Create ``out_dir`` and lock it for this process (:class:`sim.dataset.locking.FolderBusy`, naming the
+    """Create ``out_dir`` and lock it for this process (:class:`sim.writers.locking.FolderBusy`, naming the
     holder's pid, when another process writes it). A non-empty folder without our :data:`OWNER` marker is
     refused (never written into, never deleted); with ``overwrite`` the contents of ours are deleted.
     Every problem is a one-line SimError naming the folder."""
@@ -175,7 +175,7 @@ def commit_folder(out_dir: Path, meta: dict) -> None:
     """The last step of a dataset, after every other file: write ``metadata.yaml`` (``meta``), then
     ``manifest.json`` over the whole folder, then drop the ``INCOMPLETE`` marker."""
     from rigs.config_io import dump_yaml
-    from sim.dataset.manifest import write_manifest
+    from sim.writers.manifest import write_manifest
     atomic_write_text(out_dir / METADATA, dump_yaml(meta))
     write_manifest(out_dir)
     (out_dir / MARKER).unlink()
@@ -209,16 +209,16 @@ _FILTER = {"all": cv2.IMWRITE_PNG_ALL_FILTERS, "fast": cv2.IMWRITE_PNG_FAST_FILT
 
 @dataclass(frozen=True)
 class PngOptions:
-    """How PNGs are written (``render.png_*``, :class:`sim.config.RenderConfig`): zlib level
-    ``compression`` 0-9, zlib ``strategy`` and row ``filter`` (:data:`sim.config.PNG_STRATEGIES`,
-    :data:`sim.config.PNG_FILTERS`). The pixels are the same whatever the options."""
+    """How PNGs are written (``render.png_*``, :class:`sim.generate_config.RenderConfig`): zlib level
+    ``compression`` 0-9, zlib ``strategy`` and row ``filter`` (:data:`sim.generate_config.PNG_STRATEGIES`,
+    :data:`sim.generate_config.PNG_FILTERS`). The pixels are the same whatever the options."""
     compression: int = PNG_COMPRESSION
     strategy: str = PNG_STRATEGY
     filter: str = PNG_FILTER
 
     @classmethod
     def of(cls, render) -> "PngOptions":
-        """The options of a :class:`sim.config.RenderConfig`."""
+        """The options of a :class:`sim.generate_config.RenderConfig`."""
         return cls(render.png_compression, render.png_strategy, render.png_filter)
 
     def params(self) -> list:

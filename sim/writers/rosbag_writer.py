@@ -102,7 +102,7 @@ def _latched_qos():
 
 
 def _write(ds, out_path: Path, kind: str, storage: str, truth: bool = True) -> dict:
-    from sim.dataset.rosmsgs import RosMessages
+    from sim.writers.rosmsgs import RosMessages
     msgs = RosMessages(ros1=(kind == "rosbag1"))
     streams = dataset_streams(ds, msgs, truth)
     counts = {topic: 0 for topic in streams}

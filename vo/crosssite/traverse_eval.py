@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vo.crosssite.config import CrossSiteConfig
+from vo.crosssite.localizer_config import CrossSiteConfig
 from vo.crosssite.localizer import localize_traverse
 from vo.crosssite.types import SiteResult
 from vo.errors import DatasetError
