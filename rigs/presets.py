@@ -20,9 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from rigs.errors import RigError
-from rigs.imu_models import get_imu_model
-from rigs.model import Camera, Rig
 from rigs.geometry import R_from_opk_deg, make_T, rot_x
+from rigs.imu_models import get_imu_model
+from rigs.kalibr_io import is_kalibr_camchain, read_kalibr
+from rigs.model import Camera, Rig
+from rigs.overrides import apply_overrides
+from rigs.rig_yaml import load_rig, save_rig
 
 PRESET_DIR = Path(__file__).with_name("presets")
 R_B_C_FORWARD = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -188,13 +191,9 @@ def rig_names() -> list[str]:
 def get_rig(name: str, overrides=()) -> Rig:
     """Preset ``name`` (or a path to a rig ``.yaml`` file, ours or a Kalibr ``camchain-imucam.yaml``, see
     :func:`rigs.kalibr_io.read_kalibr`), with ``key=value`` overrides applied."""
-    from rigs.rig_yaml import load_rig
-    from rigs.overrides import apply_overrides
-
     if name in _BUILDERS:
         rig = _BUILDERS[name]()
     elif isinstance(name, (str, Path)) and str(name).endswith((".yaml", ".yml")):
-        from rigs.kalibr_io import is_kalibr_camchain, read_kalibr
         rig = read_kalibr(name, name=Path(name).stem) if is_kalibr_camchain(name) else load_rig(name)
     else:
         raise RigError(f"rig {name!r}: unknown preset; valid names: {', '.join(rig_names())} "
@@ -204,8 +203,6 @@ def get_rig(name: str, overrides=()) -> Rig:
 
 def write_preset_yamls(folder=PRESET_DIR) -> list[Path]:
     """Write every preset to ``folder/<name>.yaml``; returns the paths."""
-    from rigs.rig_yaml import save_rig
-
     paths = []
     for name in rig_names():
         path = Path(folder) / f"{name}.yaml"

@@ -12,12 +12,30 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.generate_config import GenerateConfig
-from sim.writers.common import PngOptions
+from rigs.records import Gcp
+from rigs.rig_yaml import rig_to_dict
+from rigs.typed_config import to_mapping
+from scenes.plot import plot_topdown
+from scenes.registry import make_scene
 from sim.errors import SimError
 from sim.frame_pipeline import FrameLoop
+from sim.generate_config import GenerateConfig
+from sim.motion import VehicleTrajectory
+from sim.render_workers import ChunkSource, check_splittable, device_label
+from sim.replay import ReplayTrajectory
 from sim.rng import indexed_stream, scene_streams, stream
+from sim.sensors.calib_error import perturb_rig
+from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
+from sim.sensors.effects_timing import frame_stamps_ns
+from sim.sensors.effects_truth import time_offset_ns, write_calibration_truth, write_frame_effects
+from sim.sensors.imu import imu_times_ns, measure
+from sim.sensors.imu_noise import add_imu_noise
+from sim.sensors.wheels import measure_wheels, with_vehicle_geometry
 from sim.stage_timer import NO_TIMER
+from sim.vehicles import vehicle_class
+from sim.version import __version__
+from sim.writers import DatasetWriters
+from sim.writers.common import PngOptions, claim_folder
 
 CLEARANCE_M = 0.5                  # margin around the vehicle's footprint that no actor may enter
 CLEARANCE_STEP_NS = 50_000_000     # the clearance check's time step (50 ms)
@@ -57,14 +75,9 @@ class Setup:
 
 def resolve(config: GenerateConfig) -> Setup:
     """Build scene and trajectory from the typed config; compute frame and IMU times."""
-    from scenes.registry import make_scene
-    from sim.sensors.imu import imu_times_ns
-    from sim.motion import VehicleTrajectory
-
     rig, scene_cfg = config.rig, config.scene_config
     scene = make_scene(scene_cfg, scene_streams(scene_cfg.seed), stream(config.seed, "dynamic"))
     if config.replay.file:                   # --motion FILE: the recorded poses through a spline (sim.replay)
-        from sim.replay import ReplayTrajectory
         traj = ReplayTrajectory.from_config(config.replay, rig, config.motion.start_time_ns, config.duration_s,
                                             scene)
     else:
@@ -75,7 +88,6 @@ def resolve(config: GenerateConfig) -> Setup:
     frame_t = np.arange(traj.t0_ns, traj.t1_ns + 1, period_ns, dtype=np.int64)
     imu_t = imu_times_ns(traj.t0_ns, traj.t1_ns, rig.imu.rate_hz)
     noise = 0.0 if config.ideal else config.noise.image_sigma
-    from sim.sensors.effects_timing import frame_stamps_ns
     stamps = frame_stamps_ns(frame_t, config.camera.timestamp_jitter_us, stream(config.seed, "timestamp_jitter"))
     return Setup(config, rig, scene, traj, frame_t, imu_t, noise, config.motion, config.render.supersample, stamps)
 
@@ -84,7 +96,6 @@ def check_clearance(scene, trajectory, config: GenerateConfig) -> None:
     """Raise a one-line SimError when the vehicle's footprint, grown by :data:`CLEARANCE_M`, touches one of
     the scene's actors at any :data:`CLEARANCE_STEP_NS` step of ``trajectory`` (e.g. a cruise speed that
     drives the car into the traffic ahead, which a scene places for its default motion)."""
-    from sim.vehicles import vehicle_class
     t = np.arange(trajectory.t0_ns, trajectory.t1_ns + 1, CLEARANCE_STEP_NS, dtype=np.int64)
     x_c, half_l, half_w = vehicle_class(config.vehicle)(config.rig).footprint()
     hit = scene.first_contact(t, trajectory.states(t).T_w_b, (x_c, half_l + CLEARANCE_M, half_w + CLEARANCE_M))
@@ -105,9 +116,6 @@ def imu_streams(setup: Setup):
 def measured_imu(states, imu, seed: int, ideal: bool = False):
     """The measured (noisy unless ``ideal``) IMU samples at the times of trajectory ``states`` and the true
     biases: the IMU sensor's clean measurement, then its noise step (streams ``imu_white``, ``imu_bias``)."""
-    from sim.sensors.imu import measure
-    from sim.sensors.imu_noise import add_imu_noise
-
     clean = measure(states, imu)
     if ideal:
         imu = dataclasses.replace(imu, accel_noise_density=0.0, gyro_noise_density=0.0,
@@ -117,8 +125,6 @@ def measured_imu(states, imu, seed: int, ideal: bool = False):
 
 def truth_records(setup: Setup, biases):
     """IMU-frame ground truth at IMU times, cam0 poses at frame times, and the GCPs."""
-    from rigs.records import Gcp
-
     rig, traj = setup.rig, setup.trajectory
     T_b_i = rig.imu.T_b_i_array
     s = traj.states(setup.imu_t_ns)
@@ -147,9 +153,6 @@ def metadata(setup: Setup) -> dict:
     """``metadata.yaml`` content: ``config`` is the resolved configuration (its hash is ``config_hash``);
     ``scene``, ``rig`` and ``image_noise_sigma`` are what the data were made with (scene seed resolved,
     the rig's wheels those of the vehicle, sigma 0 when ideal)."""
-    from rigs.rig_yaml import rig_to_dict
-    from rigs.typed_config import to_mapping
-    from sim.version import __version__
     import mujoco
     c = setup.config
     return {
@@ -205,8 +208,6 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     if workers > 1 or scheduler:
         return _render_frames_in_workers(setup, writers, progress, start, threads, timer, workers, scheduler,
                                          egl_devices)
-    from sim.render_workers import device_label
-    from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
 
     c = setup.config
     timer = timer or NO_TIMER
@@ -254,8 +255,6 @@ def _row_commit(writers, t_ns: int):
 def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, timer, workers, scheduler,
                               egl_devices) -> None:
     """:func:`render_frames` with the frames rendered by :class:`sim.render_workers.ChunkSource`."""
-    from sim.render_workers import ChunkSource
-
     c = setup.config
     timer = timer or NO_TIMER
     n = len(setup.frame_t_ns)
@@ -290,7 +289,6 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
 
 def wheel_odometry(setup: Setup, dims):
     """Encoder ticks of the rig's wheels on a vehicle with ``dims`` at ``rig.wheels.rate_hz`` (stream ``wheels``)."""
-    from sim.sensors.wheels import measure_wheels
     enc = setup.rig.wheels
     t_ns = np.arange(setup.trajectory.t0_ns, setup.trajectory.t1_ns + 1, int(round(1e9 / enc.rate_hz)), dtype=np.int64)
     return measure_wheels(setup.trajectory, dims, enc, t_ns, stream(setup.config.seed, "wheels"))
@@ -309,9 +307,7 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     ``threads``, ``timer``, ``workers``, ``scheduler`` and ``egl_devices``: as :func:`render_frames` (the
     bytes do not depend on them, but for ``metadata.yaml``'s ``rendering``, the renderer that drew the frames).
     """
-    from sim.writers.common import claim_folder
     if workers > 1 or scheduler:
-        from sim.render_workers import check_splittable
         check_splittable(config)                    # before anything is written
     with claim_folder(out_dir, overwrite):
         return _generate(config, Path(out_dir), progress, threads, timer, workers, scheduler, egl_devices)
@@ -320,13 +316,6 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
 def _generate(config: GenerateConfig, out_dir: Path, progress: bool, threads=None, timer=None, workers: int = 1,
               scheduler=None, egl_devices=()) -> GenerateResult:
     """:func:`generate` in a folder this process has claimed."""
-    from sim.writers import DatasetWriters
-    from sim.writers.common import PngOptions
-    from sim.sensors.calib_error import perturb_rig
-    from sim.sensors.effects_truth import time_offset_ns, write_calibration_truth, write_frame_effects
-    from sim.sensors.wheels import with_vehicle_geometry
-    from sim.vehicles import vehicle_class
-
     out_dir = Path(out_dir)
     setup = resolve(config)
     dims = vehicle_class(config.vehicle).dims
@@ -372,7 +361,6 @@ def write_topdown(setup: Setup, truth: dict, path: str) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from scenes.plot import plot_topdown
     from rigs.figures import save_figure
 
     fig, ax = plt.subplots(figsize=(8, 7))

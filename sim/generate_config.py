@@ -24,16 +24,22 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, Optional, get_args
 
+from rigs.kalibr_io import read_kalibr
 from rigs.model import Rig
 from rigs.overrides import RIG_KEYS
+from rigs.presets import get_rig
+from rigs.rig_yaml import rig_from_dict
 from rigs.typed_config import (apply_items, check_fields, from_mapping, knob, load_dataclass, replace_path,
                                settable_keys, to_mapping)
 from scenes.base import SceneConfig
 from scenes.errors import SceneError
+from scenes.registry import scene_class
 from sim.distortion import fisheye_needed_theta
 from sim.errors import SimError
 from sim.motion import MotionConfig
 from sim.replay import ReplayConfig
+from sim.vehicles import vehicle_class
+from sim.version import __version__
 
 MAX_SUPERSAMPLE = 7
 PNG_COMPRESSION = 1        # zlib level of the written PNGs, chosen by measurement (docs/simulator.md)
@@ -159,14 +165,11 @@ def rig_of(value) -> Rig:
     """The ``rig`` field from a preset name or ``.yaml`` path, a mapping of Rig field names (as
     ``metadata.yaml`` records it), ``{preset: NAME, set: [key=value, ...]}`` or Kalibr files
     ``{kalibr: camchain-imucam.yaml, imu: imu.yaml}`` (``imu`` optional)."""
-    from rigs.presets import get_rig
-    from rigs.rig_yaml import rig_from_dict
     if isinstance(value, str):
         return get_rig(value)
     if isinstance(value, Mapping) and "preset" in value and set(value) <= {"preset", "set"}:
         return get_rig(value["preset"], value.get("set") or ())
     if isinstance(value, Mapping) and "kalibr" in value and set(value) <= {"kalibr", "imu"}:
-        from rigs.kalibr_io import read_kalibr
         return read_kalibr(value["kalibr"], value.get("imu"), name=Path(str(value["kalibr"])).stem)
     if isinstance(value, Mapping):
         return rig_from_dict(dict(value), source="rig")
@@ -210,8 +213,6 @@ class GenerateConfig:
     replay: ReplayConfig = knob(default_factory=ReplayConfig)   # --motion FILE (sim.replay); off: file None
 
     def __post_init__(self):
-        from scenes.registry import scene_class
-        from sim.vehicles import vehicle_class
         check_fields(self, SimError)
         try:
             scene_class(self.scene.name)          # a registered name or a plug-in "package.module:SceneClass"
@@ -258,7 +259,6 @@ class GenerateConfig:
 
     def config_hash(self) -> str:
         """Stable hash of the configuration (for caching generated scenarios)."""
-        from sim.version import __version__
         blob = json.dumps({"config": self.to_dict(), "version": __version__}, sort_keys=True)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 

@@ -27,8 +27,11 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 
-from sim.writers.common import EncodedPng, encode_png
 from sim.errors import SimError
+from sim.rng import indexed_stream
+from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
+from sim.stage_timer import StageTimer
+from sim.writers.common import EncodedPng, encode_png
 
 CHUNK_FRAMES = 16           # frames per task: the unit of progress, of scheduling and of memory in flight
 
@@ -72,8 +75,6 @@ class _WorkerState:
     """A worker's scene, trajectory and camera for one config (built on first use, kept for the next chunk)."""
 
     def __init__(self, config, resolve):
-        from sim.sensors.camera import FrameExposer, StereoCamera
-        from sim.stage_timer import StageTimer
         t0 = time.perf_counter()
         self.timer = StageTimer()
         self.key = config.config_hash()
@@ -99,8 +100,6 @@ def render_chunk(config, a: int, b: int, resolve, png=None) -> RenderedChunk:
     (pickled by reference) so that this module does not import the generator that imports it. With ``png``
     (:class:`sim.writers.common.PngOptions`) the images come back PNG-encoded (:class:`EncodedPng`, as the
     EuRoC writer encodes them), so that encoding is spread over the processes too."""
-    from sim.rng import indexed_stream
-    from sim.sensors.camera import add_noise
     check_splittable(config)
     state, before = getattr(_LOCAL, "state", None), {}
     if state is None or state.key != config.config_hash():

@@ -13,9 +13,20 @@ import shutil
 import sys
 from pathlib import Path
 
+from scenes.base import SceneConfig
 from sim.cache_dir import cache_root
-from sim.generate_config import CalibError, GenerateConfig
 from sim.errors import SimError
+from sim.generate import generate
+from sim.generate_config import CalibError, GenerateConfig, rig_of
+from sim.motion import MotionConfig
+from sim.sensors.effects_presets import realistic
+from sim.traverse_plan import TraverseConfig
+from sim.vehicles.car import CAR
+from sim.vehicles.rover import ROVER
+from sim.version import __version__
+from sim.writers.common import MARKER, METADATA, OWNER
+from sim.writers.locking import FolderLock
+from sim.writers.manifest import verify_manifest
 
 URBAN_DYNAMIC_DENSITY = 1.0      # all actors move: 15-19 % of tracked features on them (vo-testbed validate traffic)
 
@@ -40,10 +51,6 @@ SCENARIOS = {
 def _urban(rig: str, density: float, time_of_day: str = "day", duration_s=None) -> GenerateConfig:
     """Seed 002's urban canyon driven by the ``car`` (its wheelbase and track in the motion model): the whole
     667 m route (99.9 s with the stop at the intersection) unless ``duration_s``."""
-    from scenes.base import SceneConfig
-    from sim.generate_config import rig_of
-    from sim.motion import MotionConfig
-    from sim.vehicles.car import CAR
     scene = SceneConfig(name="urban", seed=None, dynamic_density=density, time_of_day=time_of_day)
     return GenerateConfig(scene=scene, rig=rig_of(rig), duration_s=duration_s, seed=0, vehicle="car",
                           motion=MotionConfig(wheelbase_m=CAR.wheelbase_m, track_m=CAR.track_m))
@@ -69,9 +76,6 @@ SCENARIOS["urban-kitti-calib"] = dataclasses.replace(
 def _lunar(duration_s=None) -> GenerateConfig:
     """Seed 001's lunar field driven by the ``rover`` carrying ``yutu-navcam`` (its wheelbase and track
     in the motion model): the whole 17-site route unless ``duration_s``."""
-    from sim.generate_config import rig_of
-    from sim.motion import MotionConfig
-    from sim.vehicles.rover import ROVER
     return GenerateConfig(scene="lunar", rig=rig_of("yutu-navcam"), duration_s=duration_s, seed=0, vehicle="rover",
                           motion=MotionConfig(wheelbase_m=ROVER.wheelbase_m, track_m=ROVER.track_m))
 
@@ -84,7 +88,6 @@ SCENARIOS.update({
 
 def _realistic(name: str) -> GenerateConfig:
     """Scenario ``name`` with the ``realistic`` sensor effects (:mod:`sim.sensors.effects_presets`)."""
-    from sim.sensors.effects_presets import realistic
     return realistic(SCENARIOS[name])
 
 
@@ -93,7 +96,6 @@ SCENARIOS.update({f"{name}-realistic": _realistic(name) for name in ("campus", "
 
 def traverse_scenarios() -> dict:
     """Scenario name -> its :class:`sim.traverse_plan.TraverseConfig`: these generate a traverse dataset."""
-    from sim.traverse_plan import TraverseConfig
     return {"yutu-traverse": TraverseConfig()}
 
 
@@ -120,7 +122,6 @@ def renderer_versions() -> dict:
     the dataset version), MuJoCo's (rendering, physics) and OpenCV's (noise, rectification, PNG encoding)."""
     from importlib.metadata import PackageNotFoundError, version
     import cv2
-    from sim.version import __version__
     try:
         package = version("vo-testbed")
     except PackageNotFoundError:
@@ -151,11 +152,6 @@ def cached_dataset(config: GenerateConfig, progress: bool = True) -> Path:
     (a CI matrix sharing the cache) waits for the first and then reuses its result. A complete entry is
     verified against its manifest (:mod:`sim.writers.manifest`); a damaged one is regenerated with a
     warning on stderr."""
-    from sim.writers.common import MARKER, METADATA, OWNER
-    from sim.writers.locking import FolderLock
-    from sim.writers.manifest import verify_manifest
-    from sim.generate import generate
-
     root = cache_root()
     root.mkdir(parents=True, exist_ok=True)
     key = cache_key(config)

@@ -14,8 +14,13 @@ from typing import Iterator
 
 import numpy as np
 
-from sim.generate_config import GenerateConfig
 from sim.errors import SimError
+from sim.generate import imu_streams, resolve, truth_records
+from sim.generate_config import GenerateConfig
+from sim.rng import indexed_stream, stream as rng_stream
+from sim.sensors.calib_error import perturb_rig
+from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
+from sim.sensors.effects_truth import time_offset_ns
 
 
 @dataclass(frozen=True)
@@ -53,10 +58,6 @@ class FrameStream:
     iterating (one off-screen GL context, released when the iteration ends or the generator is closed)."""
 
     def __init__(self, config: GenerateConfig):
-        from sim.generate import imu_streams, resolve, truth_records
-        from sim.rng import stream as rng_stream
-        from sim.sensors.calib_error import perturb_rig
-        from sim.sensors.effects_truth import time_offset_ns
         if not config.images:
             raise SimError("images: false: sim.stream yields frames; use generate for IMU and ground truth only")
         self.config = config
@@ -71,8 +72,6 @@ class FrameStream:
         return int(len(self.setup.frame_t_ns))
 
     def __iter__(self) -> Iterator[StreamFrame]:
-        from sim.rng import indexed_stream
-        from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
         s, c, tr = self.setup, self.config, self.truth
         pose_at = lambda t_ns: s.trajectory.states(t_ns).T_w_b  # noqa: E731
         imu_t, prev = self.imu.t_ns, None

@@ -21,8 +21,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rigs.model import Wheels
 from rigs.typed_config import check_fields, knob
+from scenes.registry import make_scene
 from sim.errors import SimError
+from sim.motion import VehicleTrajectory
+from sim.planar_path import arc_length_table, chord_spline
+from sim.rng import scene_streams, stream
+from sim.sensors.wheels import add_slope_slip, encoder_ticks, measure, with_vehicle_geometry
+from sim.vehicles.rover import ROVER, MastHead
 
 
 @dataclass(frozen=True)
@@ -83,7 +90,6 @@ class TraversePlan:
 
 def site_arc_lengths(route) -> np.ndarray:
     """Arc length (m) of every waypoint along the smooth curve through them (sim.planar_path)."""
-    from sim.planar_path import arc_length_table, chord_spline
     c, u_knots = chord_spline(route, 0.0)
     if len(u_knots) != len(route.waypoints_xy):
         raise SimError(f"traverse route: need >= 6 distinct sites, got {len(route.waypoints_xy)}")
@@ -93,9 +99,6 @@ def site_arc_lengths(route) -> np.ndarray:
 
 def plan(config, tcfg: TraverseConfig) -> TraversePlan:
     """The traverse of ``config`` (a ``GenerateConfig``: scene, rig, motion, seed) under ``tcfg``."""
-    from scenes.registry import make_scene
-    from sim.motion import VehicleTrajectory
-    from sim.rng import scene_streams, stream
     scene = make_scene(config.scene_config, scene_streams(config.scene_config.seed))
     route = scene.route
     if tcfg.max_sites:
@@ -111,8 +114,6 @@ def plan(config, tcfg: TraverseConfig) -> TraversePlan:
 
 
 def _captures(scene, traj, s_sites, rest_start_s, tcfg: TraverseConfig, config) -> TraversePlan:
-    from sim.rng import stream
-    from sim.vehicles.rover import MastHead
     rng = stream(config.seed, "mast")
     bias = np.radians(tcfg.mast_bias_deg) * rng.standard_normal(2)
     tilt0 = MastHead.from_rig(config.rig).tilt0_rad
@@ -132,10 +133,6 @@ def _captures(scene, traj, s_sites, rest_start_s, tcfg: TraverseConfig, config) 
 def wheel_travel(tp: TraversePlan, tcfg: TraverseConfig, seed: int):
     """Encoder distances of the rover's left/right wheel sides (slope-dependent slip, stream ``wheels``)
     and the ticks of ``rigs.model.Wheels`` with the rover's geometry."""
-    from rigs.model import Wheels
-    from sim.rng import stream
-    from sim.sensors.wheels import add_slope_slip, encoder_ticks, measure, with_vehicle_geometry
-    from sim.vehicles.rover import ROVER
     traj = tp.trajectory
     t_ns = np.arange(traj.t0_ns, traj.t1_ns + 1, int(round(1e9 / tcfg.wheel_rate_hz)), dtype=np.int64)
     clean = measure(traj, ROVER, t_ns)

@@ -18,6 +18,7 @@ from typing import Callable, Optional
 import mujoco  # noqa: E402
 import numpy as np
 
+from rigs.geometry import quat_wxyz_from_R
 from rigs.model import Rig
 from scenes.base import Scene
 from sim import mjcam
@@ -107,7 +108,6 @@ class World:
     def _set_mocap_poses(self, poses: dict) -> None:
         """Set many mocap bodies ``{name: T_w_x}`` at once (one batched rotation conversion: scenes with
         hundreds of actors pose them every frame)."""
-        from rigs.geometry import quat_wxyz_from_R
         names = list(poses)
         mids = np.array([self._mocap_index(n) for n in names])
         T = np.asarray([poses[n] for n in names], dtype=float).reshape(-1, 4, 4)

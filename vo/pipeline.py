@@ -12,7 +12,16 @@ from pathlib import Path
 from typing import Optional
 
 from rigs.atomic_io import atomic_write_json
-from vo.errors import VoError
+from rigs.trajfile import detect_format, kitti_times_path, read_trajectory
+from vo.dataset import open_dataset
+from vo.dataset.base import read_gcps_csv
+from vo.dataset.fisheye_view import for_estimators
+from vo.errors import DatasetError, VoError
+from vo.estimators.base import FRAME_CLASSES
+from vo.estimators.framelog import LOG_NAME, classes_for
+from vo.estimators.registry import check_spec
+from vo.estimators.runner import run_estimator
+from vo.eval import evaluate
 
 
 @dataclass
@@ -63,12 +72,6 @@ def run_dataset(dataset_dir, estimator: str, out_dir, options: Optional[dict] = 
     """``vo-testbed run``: open ``dataset_dir`` once, run (OpenCV's RNG seeded with ``seed``), save to
     ``out_dir``, evaluate when the dataset has ground truth and the estimator produced at least two poses
     (classes ok, coasting) -> ``(RunResult, Evaluated or None)``."""
-    from vo.dataset import open_dataset
-    from vo.estimators.registry import check_spec
-    from vo.estimators.runner import run_estimator
-
-    from vo.dataset.fisheye_view import for_estimators
-
     check_spec(estimator)
     ds = open_dataset(dataset_dir)
     refuse_dataset_as_out(ds, dataset_dir, out_dir)
@@ -85,9 +88,6 @@ def run_and_evaluate(dataset, estimator: str, out_dir=None, options: Optional[di
                      progress: bool = True, align: str = "first", max_frames=None, seed: int = 0) -> Evaluated:
     """Run ``estimator`` on an opened dataset (OpenCV's RNG seeded with ``seed``), evaluate against
     ``dataset.groundtruth_cam0()``."""
-    from vo.dataset.fisheye_view import for_estimators
-    from vo.estimators.runner import run_estimator
-
     dataset = for_estimators(dataset)  # fisheye cameras: the cv2.fisheye-rectified view
     run = run_estimator(estimator, dataset, options=options or {}, progress=progress, max_frames=max_frames,
                         seed=seed)
@@ -109,8 +109,6 @@ def evaluate_run(dataset, run, estimator: str, out_dir=None, align: str = "first
                  save_run: bool = True) -> Evaluated:
     """Evaluate a finished run against the dataset's ground truth (its produced poses only: classes ok and
     coasting); save (into ``out_dir``) the run's files unless ``save_run`` is False, and the metrics and plots."""
-    from vo.eval import evaluate
-
     gt = reference_truth(dataset, run)
     ev = evaluate(gt, run.trajectory, gcps=dataset.gcps, align=align, pose_classes=run.pose_classes())
     label = estimator if not estimator.startswith("cmd:") else "external"
@@ -129,8 +127,6 @@ def evaluate_run(dataset, run, estimator: str, out_dir=None, align: str = "first
 
 def load_gcps(path) -> list:
     """A GCP csv (``#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z``) that must exist and hold rows."""
-    from vo.dataset.base import read_gcps_csv
-    from vo.errors import DatasetError
     if not Path(path).is_file():
         raise DatasetError(f"{path}: GCP file not found")
     gcps = read_gcps_csv(Path(path))
@@ -143,9 +139,7 @@ def load_groundtruth(path, fmt: str = "auto"):
     """Ground truth for ``eval``: a trajectory file, or a dataset folder (ours, real EuRoC or KITTI),
     whose left camera ``T_w_c0`` at the frame times is taken (the extrinsics applied to EuRoC's
     IMU/body truth) -> ``(Trajectory, gcps or [], note)``; ``note`` says what was read."""
-    from rigs.trajfile import read_trajectory
     if Path(path).is_dir():
-        from vo.dataset import open_dataset
         ds = open_dataset(path)
         gt = ds.groundtruth_cam0()
         return gt, list(ds.gcps), f"ground truth: left camera (c0) of the {ds.kind} dataset {ds.path}"
@@ -157,9 +151,6 @@ def load_estimate(path, fmt: str = "auto", times_path=None, frames_path=None):
     their times from ``times_path`` or the ``times.txt`` beside them (no rate assumed); the classes come
     from the run's frame log ``frames_path`` or the ``frames.csv`` beside ``path`` (None without one: every
     pose counts as ok). ``notes`` say in words what was read."""
-    from vo.estimators.base import FRAME_CLASSES
-    from vo.estimators.framelog import LOG_NAME, classes_for
-    from rigs.trajfile import detect_format, kitti_times_path, read_trajectory
     kind = detect_format(path) if fmt == "auto" else fmt
     est = read_trajectory(path, kind, times_path=times_path)
     when = (f", times from {kitti_times_path(path, times_path)}" if kind == "kitti" else "")

@@ -34,6 +34,17 @@ import cv2
 import numpy as np
 import yaml
 
+from rigs.image_noise import add_image_noise, add_quantized_noise
+from sim.frame_pipeline import default_threads
+from sim.generate import generate, resolve
+from sim.generate_config import PNG_FILTERS, PNG_STRATEGIES
+from sim.render_workers import device_label
+from sim.rng import indexed_stream
+from sim.scenarios import get_scenario
+from sim.sensors.camera import StereoCamera, add_noise
+from sim.stage_timer import StageTimer
+from sim.writers.common import METADATA, PngOptions, encode_png
+
 STAGES = ("render", "read-back", "noise/effects", "rectify", "encode", "write", "start-up")
 
 
@@ -67,7 +78,6 @@ class GenerateBench:
 
 def frames_config(scenario: str, frames: int | None, overrides=()):
     """The scenario's config cut to its first ``frames`` frames (None or 0: the whole route)."""
-    from sim.scenarios import get_scenario
     cfg = get_scenario(scenario, overrides)
     if frames:
         rate = cfg.rig.camera_rate_hz
@@ -78,8 +88,6 @@ def frames_config(scenario: str, frames: int | None, overrides=()):
 def render_only(setup, timer=None) -> tuple:
     """``(pairs, seconds, CPU seconds, device label)``: every frame of ``setup`` rendered by the camera
     sensor, nothing else; the label names the GL renderer and EGL device (:func:`sim.render_workers.device_label`)."""
-    from sim.render_workers import device_label
-    from sim.sensors.camera import StereoCamera
     c = setup.config
     T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
     with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
@@ -94,9 +102,6 @@ def render_only(setup, timer=None) -> tuple:
 def end_to_end(config, threads, workdir, workers: int = 1, scheduler=None) -> tuple:
     """``(pairs, seconds of the frame loop, its CPU seconds, StageTimer, renderers)`` of one
     :func:`sim.generate.generate` run; ``renderers``: its ``metadata.yaml``'s ``rendering`` list."""
-    from sim.writers.common import METADATA
-    from sim.generate import generate
-    from sim.stage_timer import StageTimer
     timer = StageTimer()
     out = tempfile.mkdtemp(prefix="bench-generate-", dir=workdir)
     try:
@@ -114,8 +119,6 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
                    scheduler=None) -> GenerateBench:
     """Render-only and end-to-end pairs per second of ``scenario``'s first ``frames`` frames (module
     docstring); ``threads``: the pipeline's workers (None: one per CPU), ``overrides``: ``--set`` items."""
-    from sim.frame_pipeline import default_threads
-    from sim.generate import resolve
     config = frames_config(scenario, frames, overrides)
     threads = default_threads() if threads is None else int(threads)
     load0 = os.getloadavg()[0]
@@ -153,11 +156,6 @@ def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -
     (``render.png_strategy``) and level 0-9 (``render.png_compression``) with all row filters, then every
     row filter (``render.png_filter``) at level 1, ``rle``, on ``frames`` frames of
     ``scenario`` spread over its route, noisy unless ``ideal``; encoding time is CPU time (one thread)."""
-    from sim.generate_config import PNG_FILTERS, PNG_STRATEGIES
-    from sim.writers.common import PngOptions, encode_png
-    from sim.generate import resolve
-    from sim.rng import indexed_stream
-    from sim.sensors.camera import StereoCamera, add_noise
     setup = resolve(frames_config(scenario, None, overrides))
     c = setup.config
     picks = np.linspace(0, len(setup.frame_t_ns) - 1, frames).astype(int)
@@ -185,8 +183,6 @@ def noise_cost(width: int = 752, height: int = 480, sigma: float = 1.0, pairs: i
     (:func:`rigs.image_noise.add_image_noise`), each frame from its own indexed stream (its creation
     included), one thread; after one warm-up pair, the least of ``rounds`` rounds of ``pairs`` pairs
     (process CPU time: other processes' load inflates it, never lowers it)."""
-    from sim.rng import indexed_stream
-    from rigs.image_noise import add_image_noise, add_quantized_noise
     img = np.random.default_rng(0).integers(0, 256, (height, width), dtype=np.uint8)
     draws = {"quantized offsets (camera)": add_quantized_noise,
              "gaussian sum, float32": lambda im, s, rng: add_image_noise(im, s, rng, np.float32),

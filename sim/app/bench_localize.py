@@ -11,14 +11,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from rigs.trajfile import read_tum
+from vo.crosssite.localizer import localize_site, site_prior
 from vo.crosssite.localizer_config import CrossSiteConfig
+from vo.crosssite.traverse_eval import dataset_root
+from vo.crosssite.truth import tie_truth_stats
+from vo.dataset.traverse_reader import read_traverse
 from vo.errors import DatasetError
 
 
 def previous_poses(poses_path, site_t_ns: np.ndarray) -> np.ndarray:
     """(S,4,4) T_w_b at each of the site times ``site_t_ns`` (S,) from a TUM file holding one pose
     per site time (within 1 ms)."""
-    from rigs.trajfile import read_tum
     traj = read_tum(poses_path)
     k = np.abs(traj.t_ns[None, :] - np.asarray(site_t_ns, np.int64)[:, None]).argmin(axis=1)
     off = np.abs(traj.t_ns[k] - site_t_ns)
@@ -34,10 +38,6 @@ def localize_pairs(path, cfg: CrossSiteConfig, pairs, poses_path=None) -> list:
     localizer's own ``cfg.workers`` threads). -> one dict per pair: site, status, tie_points,
     true_inliers, ba_err_m (position error against the truth), time_s, timings_s."""
     import cv2
-    from vo.crosssite.localizer import localize_site, site_prior
-    from vo.crosssite.traverse_eval import dataset_root
-    from vo.crosssite.truth import tie_truth_stats
-    from vo.dataset.traverse_reader import read_traverse
     cv2.setNumThreads(1)
     root = dataset_root(path)
     pairs = sorted(set(int(k) for k in pairs))

@@ -14,7 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
+from vo.dataset import open_dataset
+from vo.errors import DatasetError
+from vo.estimators.registry import check_spec
 from vo.eval.kitti_segments import KITTI_LENGTHS_M, kitti_errors
+from vo.pipeline import prepare_out_dir, run_and_evaluate
 
 DEFAULT_ESTIMATORS = ("rop", "klt-pnp")
 
@@ -111,10 +115,6 @@ def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: 
     ``<recording>_trajectory.png`` per recording there. A recording without ground truth is refused
     (:class:`vo.errors.DatasetError` naming it) before anything runs."""
     import cv2
-    from vo.dataset import open_dataset
-    from vo.errors import DatasetError
-    from vo.estimators.registry import check_spec
-    from vo.pipeline import prepare_out_dir, run_and_evaluate
 
     for name in estimators:
         check_spec(name)

@@ -12,10 +12,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from rigs.geometry import make_T, rot_z
 from rigs.model import Camera, Rig
 from scenes.base import Scene, SceneConfig
 from sim.errors import SimError
-from rigs.geometry import make_T, rot_z
+from sim.rng import scene_streams
 
 R_B_C_FORWARD = np.array([[0.0, 0, 1], [-1, 0, 0], [0, -1, 0]])
 
@@ -64,7 +65,6 @@ def _make_scene(name: str, shadows: bool) -> Scene:
     except ImportError as e:
         raise SimError(f"bench: scenes.registry.make_scene is not available yet ({e}); "
                        "pass Scene objects with scenes=...") from None
-    from sim.rng import scene_streams
     config = SceneConfig(name=name, shadows=shadows)
     return make_scene(config, scene_streams(config.seed))
 

@@ -5,6 +5,11 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from sim.scenarios import cached_dataset, get_scenario
+from vo.dataset import open_dataset
+from vo.estimators.runner import run_estimator
+from vo.pipeline import evaluate_run, reference_truth
+
 
 @dataclass
 class VoBenchRow:
@@ -29,10 +34,6 @@ def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp
     """Run every estimator on every scenario (datasets cached) -> list of :class:`VoBenchRow`;
     ``options`` (estimator options, as ``--opt``) go to every estimator."""
     import cv2
-    from sim.scenarios import cached_dataset, get_scenario
-    from vo.dataset import open_dataset
-    from vo.estimators.runner import run_estimator
-    from vo.pipeline import evaluate_run
 
     if one_core:
         cv2.setNumThreads(1)
@@ -60,7 +61,6 @@ def bench_row(scenario: str, name: str, res) -> VoBenchRow:
 def unevaluated_row(scenario: str, name: str, run, dataset) -> VoBenchRow:
     """The row of a run with fewer than two estimated poses (classes ok, coasting): figures NaN, the
     route's length from the ground truth, the frames counted."""
-    from vo.pipeline import reference_truth
     nan = float("nan")
     return VoBenchRow(scenario, name, float(reference_truth(dataset, run).path_length), nan, nan, (nan,) * 3, nan,
                       len(run.frames), int(run.n_lost), run.class_counts()["init"], dict(run.timings_ms))

@@ -7,6 +7,16 @@ from __future__ import annotations
 
 import dataclasses
 
+from rigs.imu_models import imu_model_names
+from rigs.presets import get_rig, rig_names
+from scenes.base import SceneConfig
+from scenes.registry import make_scene, scene_names
+from scenes.routes import polyline_length
+from sim.generate import resolve
+from sim.rng import scene_streams
+from sim.scenarios import get_scenario, scenario_names
+from vo.estimators.registry import describe, estimator_names
+
 PLUGINS = {
     "scene": "--scene package.module:SceneClass (a scenes.base.Scene subclass; see docs/extending.md)",
     "rig": "--rig path/to/rig.yaml (the format of rigs/presets/*.yaml; see docs/extending.md)",
@@ -17,10 +27,6 @@ PLUGINS = {
 
 def scene_details(name: str) -> dict:
     """Route length (m), closed or not, GCP names, cruise speed."""
-    from scenes.base import SceneConfig
-    from scenes.registry import make_scene
-    from scenes.routes import polyline_length
-    from sim.rng import scene_streams
     scene = make_scene(SceneConfig(name=name, seed=0), scene_streams(0))
     route = scene.route
     length = scene.route_length() if hasattr(scene, "route_length") else polyline_length(route.xy, route.closed)
@@ -30,13 +36,11 @@ def scene_details(name: str) -> dict:
 
 def scene_knobs() -> dict:
     """``scene.<field>`` -> {"default", "doc"} for every scene knob (SceneConfig fields but name/seed)."""
-    from scenes.base import SceneConfig
     return {f"scene.{f.name}": {"default": f.default, "doc": f.metadata.get("doc", "")}
             for f in dataclasses.fields(SceneConfig) if f.name not in ("name", "seed")}
 
 
 def rig_details(name: str) -> dict:
-    from rigs.presets import get_rig
     rig = get_rig(name)
     cam = rig.cameras[0]
     return {"resolution": [int(cam.width), int(cam.height)], "baseline_m": round(float(rig.baseline), 4),
@@ -46,8 +50,6 @@ def rig_details(name: str) -> dict:
 
 
 def scenario_details(name: str) -> dict:
-    from sim.generate import resolve
-    from sim.scenarios import get_scenario
     config = get_scenario(name)
     setup = resolve(config)
     t = setup.frame_t_ns
@@ -57,17 +59,11 @@ def scenario_details(name: str) -> dict:
 
 
 def estimator_details(name: str) -> str:
-    from vo.estimators.registry import describe
     return describe(name)
 
 
 def catalogue(details: bool = True) -> dict:
     """Everything ``list`` prints; with ``details=False`` only the names (fast)."""
-    from rigs.imu_models import imu_model_names
-    from rigs.presets import rig_names
-    from scenes.registry import scene_names
-    from sim.scenarios import scenario_names
-    from vo.estimators.registry import estimator_names
     if not details:
         return {"scenes": list(scene_names()), "rigs": list(rig_names()), "imu_models": list(imu_model_names()),
                 "scenarios": list(scenario_names()), "estimators": list(estimator_names()), "plugins": PLUGINS}

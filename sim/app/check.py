@@ -20,8 +20,17 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 from sim.errors import SimError
+from sim.scenarios import cache_root, cached_dataset, get_scenario
+from vo.dataset import open_dataset
+from vo.errors import VoError
 from vo.estimators.base import PRODUCED_CLASSES
+from vo.estimators.external import ExternalCommand
+from vo.estimators.isolation import Isolation
+from vo.estimators.registry import check_spec, is_external, is_oracle
+from vo.estimators.runner import run_estimator
+from vo.eval import associate, coverage
 from vo.eval.evaluate import status_text
+from vo.pipeline import evaluate_run, prepare_out_dir, reference_truth
 
 BOUND_KEYS = {
     "max_drift": ("drift ratio (%)", lambda ev: ev.drift.drift_ratio_pct),
@@ -101,7 +110,6 @@ def validate_bounds(bounds: dict, min_coverage: float) -> dict:
 def scenario_dataset(scenario: str, overrides=(), seed: Optional[int] = None, progress: bool = True):
     """The cached dataset folder of ``scenario`` (generated when missing); an unwritable cache
     (``VO_TESTBED_CACHE``) raises SimError naming it."""
-    from sim.scenarios import cache_root, cached_dataset, get_scenario
     config = get_scenario(scenario, overrides=overrides, seed=seed)
     try:
         return cached_dataset(config, progress=progress)
@@ -118,13 +126,6 @@ def check(estimator: str, scenario: str, bounds: dict, overrides=(), seed: Optio
     ``min_coverage`` of the frames matched by a produced pose, or no produced pose at all, is a failure.
     ``timeout_s`` (None: 20 x the sequence's duration + 60 s) and ``isolation`` ("auto", "required",
     "view-only") apply to a ``cmd:`` program; "required" refuses to run without namespace isolation."""
-    from vo.dataset import open_dataset
-    from vo.estimators.external import ExternalCommand
-    from vo.estimators.isolation import Isolation
-    from vo.estimators.registry import check_spec, is_external, is_oracle
-    from vo.estimators.runner import run_estimator
-    from vo.pipeline import prepare_out_dir, reference_truth
-
     bounds = validate_bounds(bounds, min_coverage)
     check_spec(estimator)
     if is_external(estimator):
@@ -174,9 +175,6 @@ def _failures(cov, figures, bounds: dict, min_coverage: float, counts: dict, nam
 def _evaluate(ds, run, estimator, gt, out_dir):
     """-> ``(Coverage, Evaluated or None)``; None when fewer than two poses match (nothing to measure)."""
     import numpy as np
-    from vo.errors import VoError
-    from vo.eval import associate, coverage
-    from vo.pipeline import evaluate_run
     est = run.estimated()                 # placeholders (init, lost) are not covered
     try:
         gt_m, _ = associate(gt, est) if len(est) else (None, None)

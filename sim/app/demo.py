@@ -4,6 +4,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from sim.app.check import scenario_dataset
+from sim.app.demo_vins import VINS_SCENARIOS, run_vins_demo
+from sim.generate_traverse import generate_traverse
+from sim.scenarios import cache_root, get_scenario, traverse_scenarios
+from vo.dataset import open_dataset
+from vo.errors import VoError
+from vo.estimators.registry import check_spec
+from vo.pipeline import prepare_out_dir, run_and_evaluate
+
 DEFAULT_ESTIMATORS = ("rop", "klt-pnp", "orb-pnp")
 
 
@@ -42,10 +51,7 @@ def run_demo(scenario: str = "campus", estimators=DEFAULT_ESTIMATORS, out_dir="o
     scenario (``yutu-traverse``) is localized site by site instead (:func:`run_traverse_demo`); ``urban-static``
     and ``urban-dynamic`` print seed 002's Tables 2/3 for the VINS configurations
     (:func:`sim.app.demo_vins.run_vins_demo`, with the estimator ``options``: VINS scenarios only)."""
-    from sim.app.demo_vins import VINS_SCENARIOS, run_vins_demo
-    from sim.scenarios import traverse_scenarios
     if options and scenario not in VINS_SCENARIOS:
-        from vo.errors import VoError
         raise VoError(f"--opt {', '.join(options)}: estimator options are for the VINS demos "
                       f"({', '.join(VINS_SCENARIOS)}) only, not {scenario}")
     if scenario in traverse_scenarios():
@@ -53,12 +59,7 @@ def run_demo(scenario: str = "campus", estimators=DEFAULT_ESTIMATORS, out_dir="o
     if scenario in VINS_SCENARIOS:       # the stereo default list means "the paper's configurations"
         configs = None if tuple(estimators) == DEFAULT_ESTIMATORS else estimators
         return run_vins_demo(scenario, configs, out_dir, progress, max_frames, options=options)
-    from sim.app.check import scenario_dataset
-    from vo.dataset import open_dataset
-    from vo.errors import VoError
-    from vo.estimators.registry import check_spec
     from vo.eval.plots import plot_error_vs_distance, plot_topdown
-    from vo.pipeline import prepare_out_dir, run_and_evaluate
 
     if not estimators:
         raise VoError("estimators: none given")
@@ -101,8 +102,6 @@ class TraverseDemo:
 
 def run_traverse_demo(scenario: str, out_dir, progress: bool = True) -> TraverseDemo:
     """Generate the traverse ``scenario`` into the scenario cache (once), then localize it."""
-    from sim.generate_traverse import generate_traverse
-    from sim.scenarios import cache_root, get_scenario, traverse_scenarios
     from vo.crosssite.traverse_eval import run_and_write
     config = get_scenario(scenario)
     path = cache_root() / f"traverse-{scenario}-{config.config_hash()}"

@@ -14,6 +14,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sim.app.check import scenario_dataset
+from vo.dataset import open_dataset
+from vo.errors import VoError
+from vo.pipeline import prepare_out_dir
+from vo.vins.tables import HEADERS, RPE_DELTA, TABLE_CONFIGS, format_table23, rpe_series, run_config, table23
+from vo.vins.vins_config import VinsConfig
+
 VINS_SCENARIOS = ("urban-static", "urban-dynamic")
 PROTOCOL = ("duration_s=25", "imu=euroc-adis16448", "segmentation=true")
 START_OPTIONS: dict = {}       # the estimator's defaults: init=vi, the monocular start (``--opt init=truth``: truth)
@@ -37,7 +44,6 @@ class VinsDemo:
     plots: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        from vo.vins.tables import RPE_DELTA, table23
         return {"scenario": self.scenario, "dataset": self.dataset, "out_dir": self.out_dir,
                 "start": start_of(self.options), "options": self.options, "rpe_delta_frames": RPE_DELTA,
                 "rpe_delta_s": self.rpe_delta_s, "rows": self.rows,
@@ -47,7 +53,6 @@ class VinsDemo:
                 "errors": self.errors, "plots": self.plots}
 
     def text(self) -> str:
-        from vo.vins.tables import HEADERS, RPE_DELTA, format_table23
         init = start_of(self.options)
         parts = [f"seed 002 Tables 2/3 on {self.scenario}: dataset {self.dataset}",
                  "start: " + START_NOTES.get(init, init).format(k=self.options.get("init_keyframes", 11)),
@@ -66,7 +71,6 @@ class VinsDemo:
 
 def start_of(options: dict) -> str:
     """The start ``vins`` uses with estimator ``options`` (its ``init`` option, default included)."""
-    from vo.vins.vins_config import VinsConfig
     return VinsConfig.from_options("base", options).init
 
 
@@ -100,8 +104,6 @@ def shown_rows(rows) -> list:
 
 def check_configs(configs) -> tuple:
     """The VINS configurations to run (VoError naming a name that is not one, before any work)."""
-    from vo.errors import VoError
-    from vo.vins.tables import HEADERS
     configs = tuple(configs)
     if not configs:
         raise VoError("estimators: none given")
@@ -116,10 +118,6 @@ def run_vins_demo(scenario: str, configs=None, out_dir="out/demo", progress: boo
                   overrides=(), options=None) -> VinsDemo:
     """Generate (cached) ``scenario`` with :data:`PROTOCOL` and ``overrides``, run ``configs`` (default: the
     paper's four and the oracle) with :data:`START_OPTIONS` updated by ``options``, tabulate and plot."""
-    from sim.app.check import scenario_dataset
-    from vo.pipeline import prepare_out_dir
-    from vo.vins.tables import TABLE_CONFIGS
-
     configs = check_configs(TABLE_CONFIGS if configs is None else configs)
     opts = {**START_OPTIONS, **(options or {})}
     start_of(opts)                              # a bad option raises here, before any work
@@ -132,11 +130,6 @@ def run_on_dataset(scenario: str, path, configs, out_dir, opts: dict, progress: 
                    max_frames=None) -> VinsDemo:
     """The table and figures of ``configs`` (checked names) with estimator options ``opts`` on the dataset
     folder ``path`` (generated from ``scenario``)."""
-    from vo.dataset import open_dataset
-    from vo.errors import VoError
-    from vo.pipeline import prepare_out_dir
-    from vo.vins.tables import RPE_DELTA, run_config
-
     out = prepare_out_dir(out_dir)
     ds = open_dataset(path)
     t_ns = np.asarray(ds.groundtruth_cam0().t_ns)
@@ -159,7 +152,6 @@ def run_on_dataset(scenario: str, path, configs, out_dir, opts: dict, progress: 
 def write_figures(ds, runs: dict, out) -> list:
     """Figs. 12-15 of the runs that exist (name -> :class:`vo.vins.tables.ConfigRun`) into ``out``."""
     from vo.vins import figures
-    from vo.vins.tables import HEADERS, rpe_series
     gt = ds.groundtruth_cam0()
     gt_T, t_ns = np.linalg.inv(gt.T[0]) @ gt.T, np.asarray(gt.t_ns)
     series = {name: rpe_series(r.frames, gt_T, t_ns) for name, r in runs.items()}

@@ -9,7 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from rigs.image import to_gray
 from rigs.image_noise import add_quantized_noise
+from sim.errors import SimError
+from sim.rng import indexed_stream
+from sim.sensors.effects_timing import assemble, exposure_plan
+from sim.sensors.photometric import AutoExposure, quantize, sensor_noise, vignetting_map
+from sim.stage_timer import NO_TIMER
 
 
 class StereoCamera:
@@ -21,7 +27,6 @@ class StereoCamera:
     def __init__(self, scene, rig, vehicle: str = "cart", depth: bool = False, segmentation: bool = False,
                  supersample: int = 1, rgb: bool = False, timer=None):
         from sim.render import StereoRenderer
-        from sim.stage_timer import NO_TIMER
         from sim.world import build_world
         self.world = build_world(scene, rig, vehicle=vehicle)
         self.rgb = bool(rgb)
@@ -32,7 +37,6 @@ class StereoCamera:
         """Clean stereo measurement at body pose ``T_w_b`` (4,4), the scene's actors at ``dynamic_state``
         (``{mocap body: T_w_x}``, :meth:`scenes.base.Scene.actor_states`): ``(images [left, right], depth,
         seg)``, lens distortion applied by the renderer (exact inverse map)."""
-        from rigs.image import to_gray
         fr = self._renderer.render(T_w_b, dynamic_state)
         images = [img if img.ndim == 2 or self.rgb else to_gray(img) for img in fr.images[:2]]
         return images, fr.depth, fr.seg
@@ -75,9 +79,6 @@ class FrameExposer:
     Auto exposure makes frame k depend on frames < k: expose frames in order from 0."""
 
     def __init__(self, camera, rig, effects, period_s: float, seed: int, image_sigma: float, noisy: bool = True):
-        from sim.errors import SimError
-        from sim.sensors.effects_timing import exposure_plan
-        from sim.sensors.photometric import AutoExposure, vignetting_map
         cams = rig.cameras[:2]
         if effects.line_delay_us > 0 and len({c.height for c in cams}) > 1:
             raise SimError(f"camera.line_delay_us: rig {rig.name!r} has cameras of different heights; "
@@ -101,7 +102,6 @@ class FrameExposer:
         """The in-order part of frame ``k`` (on the renderer's thread): ``(images [left, right] float,
         depth, seg, gain)``, the renders assembled and vignetted, the auto exposure stepped; the images
         are at unit gain."""
-        from sim.sensors.effects_timing import assemble
         plan = self.plan
         times = int(t_ns) + plan.offsets_ns
         T_w_b = pose_at(times)
@@ -119,8 +119,6 @@ class FrameExposer:
     def finish(self, k: int, images, gain: float) -> list:
         """The rest of frame ``k``, independent of other frames (any thread, any order): the gain, then
         the noise step; ``images`` from :meth:`render`. Returns [left, right] uint8."""
-        from sim.rng import indexed_stream
-        from sim.sensors.photometric import quantize, sensor_noise
         if self.ae is not None:
             images = [img * gain for img in images]
         e = self.effects

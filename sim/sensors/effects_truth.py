@@ -16,6 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs.atomic_io import atomic_write_text
+from rigs.rig_yaml import save_rig
+from sim.sensors.effects_timing import blur_lengths_px
+
 FRAME_HEADER = "#stamp [ns],t_true [ns],blur_5m [px],blur_inf [px],gain"
 
 
@@ -27,8 +31,6 @@ def time_offset_ns(config) -> int:
 def write_calibration_truth(out_dir, rig_true, draws: np.ndarray, config) -> None:
     """``rig_true.yaml`` and ``sensor_effects.yaml`` (module docstring), when any IMU-clock or calibration
     effect is set."""
-    from rigs.atomic_io import atomic_write_text
-    from rigs.rig_yaml import save_rig
     import yaml
     err, out = config.calib_error, Path(out_dir)
     if not err.active and time_offset_ns(config) == 0:
@@ -50,8 +52,6 @@ def write_calibration_truth(out_dir, rig_true, draws: np.ndarray, config) -> Non
 
 def write_frame_effects(out_dir, setup, gains) -> None:
     """``frame_effects.csv`` (module docstring) when any camera effect is set."""
-    from rigs.atomic_io import atomic_write_text
-    from sim.sensors.effects_timing import blur_lengths_px
     e, rig = setup.config.camera, setup.rig
     if e == type(e)():
         return

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rigs.model import Wheels
 from rigs.records import WheelSamples
 from sim.errors import SimError
 
@@ -74,7 +75,6 @@ def with_vehicle_geometry(encoder, dims):
     """``encoder`` (``rigs.Wheels``) with ``track_width`` and ``wheel_radius`` those of the vehicle
     (``dims``), the geometry :func:`measure_wheels` uses. A value that is neither the ``rigs.Wheels``
     default nor the vehicle's was set on purpose and is refused (the vehicle owns its dimensions)."""
-    from rigs.model import Wheels
     default = Wheels()
     for f, v in (("track_width", dims.track_m), ("wheel_radius", dims.wheel_radius_m)):
         got = getattr(encoder, f)

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rigs.model import Rig
+from sim import mjcam
 from sim.errors import SimError
 
 VEHICLE_GROUP = 4          # geom group of vehicle geoms (render option can hide it)
@@ -79,7 +80,6 @@ class Vehicle:
 
     def add_to(self, spec) -> VehicleHandles:
         """Add the mocap body ``<name>`` with this vehicle's geoms, the rig's cameras and IMU site."""
-        from sim import mjcam
         body = spec.worldbody.add_body(name=self.name, mocap=True)
         self._add_body_geoms(body)
         names = []

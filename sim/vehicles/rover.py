@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim import mjcam
 from sim.errors import SimError
 from sim.vehicles.base import DARK, GREY, Vehicle, VehicleDims
 
@@ -73,7 +74,6 @@ class MastHead:
     def set_pointing(self, world, pan_rad: float, tilt_rad: float) -> None:
         """Place the cameras of compiled ``world`` (built with this rig on a rover) at (pan, tilt);
         takes effect at the next ``world.set_vehicle_pose`` (every render calls it)."""
-        from sim import mjcam
         for k, cid in enumerate(world.camera_ids):
             pos, quat = mjcam.pos_quat_from_T(mjcam.T_b_mjcam(self.T_b_c(k, pan_rad, tilt_rad)))
             world.model.cam_pos[cid], world.model.cam_quat[cid] = pos, quat

@@ -29,10 +29,12 @@ import cv2
 import numpy as np
 
 from rigs.atomic_io import atomic_write, atomic_write_bytes, atomic_write_text
-from sim.generate_config import PNG_COMPRESSION, PNG_FILTER, PNG_STRATEGY
-from sim.writers.locking import LOCK_NAME, FolderLock
+from rigs.config_io import dump_yaml
+from rigs.rig_yaml import rig_to_dict
 from sim.errors import SimError
+from sim.generate_config import PNG_COMPRESSION, PNG_FILTER, PNG_STRATEGY
 from sim.stage_timer import NO_TIMER
+from sim.writers.locking import LOCK_NAME, FolderLock
 
 MARKER = "INCOMPLETE"
 METADATA = "metadata.yaml"
@@ -162,7 +164,6 @@ def prepare_folder(out_dir, metadata: dict, overwrite: bool) -> tuple[Path, bool
 def final_metadata(metadata: dict, counts: dict, rig) -> dict:
     """``metadata.yaml`` content: caller config + ``rig`` as rig_to_dict unless the caller gave one +
     counts + ``status: complete``."""
-    from rigs.rig_yaml import rig_to_dict
     meta = dict(_plain(metadata))
     if "rig" not in meta:
         meta["rig"] = rig_to_dict(rig)
@@ -174,7 +175,6 @@ def final_metadata(metadata: dict, counts: dict, rig) -> dict:
 def commit_folder(out_dir: Path, meta: dict) -> None:
     """The last step of a dataset, after every other file: write ``metadata.yaml`` (``meta``), then
     ``manifest.json`` over the whole folder, then drop the ``INCOMPLETE`` marker."""
-    from rigs.config_io import dump_yaml
     from sim.writers.manifest import write_manifest
     atomic_write_text(out_dir / METADATA, dump_yaml(meta))
     write_manifest(out_dir)

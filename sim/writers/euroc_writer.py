@@ -31,11 +31,17 @@ from pathlib import Path
 
 import numpy as np
 
-from rigs.atomic_io import atomic_write_npy
-from sim.writers.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
-                                prepare_folder, write_marker, write_png)
+import rigs.calib_io as m
+from rigs.atomic_io import atomic_write_npy, atomic_write_text
+from rigs.geometry import inv_T, quat_wxyz_from_R
+from rigs.kalibr_io import KALIBR_CAMCHAIN, KALIBR_IMU, write_kalibr
+from rigs.rig_yaml import save_rig
+from rigs.trajectory import Trajectory
+from rigs.trajfile import write_tum
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
+from sim.writers.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
+                                prepare_folder, write_marker, write_png)
 
 CAM_HEADER = "#timestamp [ns],filename"
 IMU_HEADER = ("#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
@@ -67,13 +73,11 @@ T_BS:
 
 def calib_io():
     """``rigs.calib_io`` (imported lazily)."""
-    import rigs.calib_io as m
     return m
 
 
 def T_i_c(rig, k: int) -> np.ndarray:
     """(4,4) pose of camera ``k`` in the IMU frame: ``inv(T_b_i) @ T_b_c``."""
-    from rigs.geometry import inv_T
     return inv_T(rig.imu.T_b_i_array) @ rig.cameras[k].T_b_c_array
 
 
@@ -142,8 +146,6 @@ class EurocWriter:
 
     # ------------------------------------------------------------------ static files
     def _write_static_files(self) -> None:
-        from rigs.atomic_io import atomic_write_text
-        from rigs.rig_yaml import save_rig
         cio = calib_io()
         for k in (0, 1):
             d = self.mav0 / f"cam{k}"
@@ -154,7 +156,6 @@ class EurocWriter:
                 (d / "segmentation").mkdir(exist_ok=True)
             cio.write_euroc_camera_yaml(d / "sensor.yaml", self.rig.cameras[k], T_i_c(self.rig, k),
                                         self.rig.camera_rate_hz, four=True)
-        from rigs.kalibr_io import KALIBR_CAMCHAIN, KALIBR_IMU, write_kalibr
         write_kalibr(self.rig, self.mav0 / KALIBR_CAMCHAIN, self.mav0 / KALIBR_IMU, timeshift_s=timeshift_s(self.metadata))
         (self.mav0 / "imu0").mkdir(parents=True, exist_ok=True)
         cio.write_euroc_imu_yaml(self.mav0 / "imu0" / "sensor.yaml", self.rig.imu, np.eye(4))
@@ -239,7 +240,6 @@ class EurocWriter:
     def add_groundtruth(self, t_ns, T_w_i, v_w, b_g=None, b_a=None) -> None:
         """Append ground-truth states of the IMU frame: ``T_w_i`` (N,4,4), ``v_w`` (N,3),
         biases ``b_g``/``b_a`` (N,3) (zeros when None). Quaternion written Hamilton w, x, y, z."""
-        from rigs.geometry import quat_wxyz_from_R
         t = np.atleast_1d(np.asarray(t_ns, dtype=np.int64))
         T = np.asarray(T_w_i, dtype=float).reshape(-1, 4, 4)
         n = len(t)
@@ -291,8 +291,6 @@ class EurocWriter:
 
     def _write_tum(self) -> None:
         """groundtruth_tum.txt from the streamed cam0 truth (T_w_c0), then drop the helper csv."""
-        from rigs.trajfile import write_tum
-        from rigs.trajectory import Trajectory
         rows = [ln.split(",") for ln in self._c0.path.read_text().splitlines()[1:] if ln.strip()]
         if rows:
             t = np.array([int(r[0]) for r in rows], dtype=np.int64)
@@ -328,7 +326,6 @@ def calibration_note(rig) -> str:
 def write_gcps_csv(path: Path, gcps) -> str:
     """``#name,t_ns,ground_x,ground_y,ground_z,c0_x,c0_y,c0_z`` sorted as given; no file without a GCP
     (``eval --gcps`` rejects an empty one). Returns the note metadata.yaml records under ``gcps``."""
-    from rigs.atomic_io import atomic_write_text
     if not gcps:
         if path.exists():
             path.unlink()

@@ -10,9 +10,12 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.writers.common import PngOptions
+from rigs.atomic_io import atomic_write_text
+from rigs.geometry import quat_wxyz_from_R
+from rigs.trajfile import write_tum
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
+from sim.writers.common import PngOptions
 
 FORMATS = ("euroc", "kitti", "both", "rosbag1", "rosbag2")
 BAG_NAMES = {"rosbag1": "dataset.bag", "rosbag2": "rosbag2"}
@@ -30,7 +33,6 @@ def output_paths(out_dir, fmt: str) -> list:
 
 def write_tum_groundtruth(path, traj) -> None:
     """Write a ``rigs.trajectory.Trajectory`` as a TUM file (seconds, x y z, qx qy qz qw)."""
-    from rigs.trajfile import write_tum
     write_tum(Path(path), traj)
 
 
@@ -99,7 +101,6 @@ class DatasetWriters:
 
     def add_wheels(self, samples) -> None:
         """Wheel-encoder ticks (``sim.sensors.wheels.WheelSamples``) as ``wheels.csv`` in every dataset root."""
-        from rigs.atomic_io import atomic_write_text
         rows = ["#timestamp [ns],left_ticks,right_ticks"]
         rows += [f"{t},{l},{r}" for t, l, r in zip(samples.t_ns, samples.left_ticks, samples.right_ticks)]
         for w in self.writers:
@@ -108,8 +109,6 @@ class DatasetWriters:
     def add_actors(self, t_ns, actors) -> None:
         """Ground truth of a scene's moving actors as ``actors.csv`` in every dataset root: one row per frame
         time and actor, ``actors`` a list of ``(actor_id, kind, moving, T_w_x (N,4,4))`` at ``t_ns`` (N,)."""
-        from rigs.atomic_io import atomic_write_text
-        from rigs.geometry import quat_wxyz_from_R
         rows = ["#timestamp [ns],actor_id,kind,moving,p_x [m],p_y [m],p_z [m],q_w,q_x,q_y,q_z"]
         per_actor = [(a_id, kind, int(moving), T[:, :3, 3], quat_wxyz_from_R(T[:, :3, :3]))
                      for a_id, kind, moving, T in actors]
@@ -122,7 +121,6 @@ class DatasetWriters:
     def add_segmentation_ids(self, rows) -> None:
         """``segmentation_ids.csv`` in every dataset root: ``(seg_id, geom_name, actor_id, kind, moving)`` per
         value the segmentation PNGs hold (``seg_id`` = geom id + 1; 0 is background)."""
-        from rigs.atomic_io import atomic_write_text
         lines = ["seg_id,geom_name,actor_id,kind,moving"] + [",".join(map(str, r)) for r in rows]
         for w in self.writers:
             atomic_write_text(w.out_dir / "segmentation_ids.csv", "\n".join(lines) + "\n")

@@ -21,11 +21,17 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from rigs.atomic_io import atomic_write_text
+from rigs.calib_io import write_kitti_calib
+from rigs.geometry import inv_T, make_T
 from rigs.image import to_gray
-from sim.writers.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
-                                prepare_folder, write_marker, write_png)
+from rigs.rectify import stereo_rectify
+from rigs.trajectory import Trajectory
+from rigs.trajfile import write_kitti
 from sim.errors import SimError
 from sim.stage_timer import NO_TIMER
+from sim.writers.common import (CsvStream, PngOptions, commit_folder, config_hash, final_metadata, fmt_float,
+                                prepare_folder, write_marker, write_png)
 
 FRAMES_HEADER = "#timestamp [ns],index"
 TRUTH_HEADER = "#timestamp [ns],T_w_c0 row-major 3x4 (12 numbers)"
@@ -58,7 +64,6 @@ class KittiWriter:
 
     def __init__(self, out_dir, rig, metadata: dict, sequence: str = "00", overwrite: bool = False,
                  png: PngOptions = PngOptions()):
-        from rigs.rectify import stereo_rectify
         if not (len(sequence) == 2 and sequence.isdigit()):
             raise SimError(f"KittiWriter: sequence must be two digits like '00', got {sequence!r}")
         self.rig, self.metadata, self.sequence = rig, dict(metadata), sequence
@@ -70,7 +75,6 @@ class KittiWriter:
             (self.seq_dir / f"image_{k}").mkdir(parents=True, exist_ok=True)
         self.rect = stereo_rectify(rig)
         self._maps = self.rect.maps()
-        from rigs.calib_io import write_kitti_calib
         write_kitti_calib(self.seq_dir / "calib.txt", self.rect.P0, self.rect.P1, Tr=self.T_r0_b())
         self.resumed_frames = kitti_resume_state(self.out_dir, sequence) if resuming else 0
         self._frames = CsvStream(self.out_dir / "kitti_frames.csv", FRAMES_HEADER, resuming,
@@ -82,7 +86,6 @@ class KittiWriter:
 
     def T_r0_b(self) -> np.ndarray:
         """(4,4) body -> rectified left camera: ``inv(T_b_c0 @ T_c0_r0)``, ``T_c0_r0 = [R0_rect^T | 0]``."""
-        from rigs.geometry import inv_T, make_T
         return inv_T(self.rig.cameras[0].T_b_c_array @ make_T(self.rect.R0_rect.T, np.zeros(3)))
 
     def add_frame(self, t_ns: int, images=None, depth=None, seg=None, files_written: bool = False) -> None:
@@ -128,7 +131,6 @@ class KittiWriter:
         """Write times.txt, times_ns.txt, poses/NN.txt, gcps.csv; with ``commit`` also :meth:`commit`
         (metadata.yaml, manifest, INCOMPLETE removed)."""
         from sim.writers.euroc_writer import write_gcps_csv
-        from rigs.atomic_io import atomic_write_text
         self._frames.close()
         self._truth.close()
         t_frames = _read_log_times(self._frames.path)
@@ -154,9 +156,6 @@ class KittiWriter:
 
     def _write_poses(self, t_frames: np.ndarray) -> int:
         """poses/NN.txt with one pose per frame (all frames need a cam0 truth at the same time)."""
-        from rigs.geometry import inv_T, make_T
-        from rigs.trajfile import write_kitti
-        from rigs.trajectory import Trajectory
         rows = [ln.split(",") for ln in self._truth.path.read_text().splitlines()[1:] if ln.strip()]
         if not rows:
             return 0

@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs.geometry import inv_T
 from sim.errors import SimError
+from vo.dataset import open_dataset
 
 KINDS = ("rosbag1", "rosbag2")
 STORAGES = ("sqlite3", "mcap")
@@ -62,7 +64,6 @@ def export_rosbag(dataset_dir, out_path, kind: str = "rosbag1", storage: str = "
     a new folder for rosbag2; ``storage`` applies to rosbag2 only). ``out_path`` must not exist.
     A failed export removes what it wrote. ``allow_incomplete``: the generator's own bag step, which
     converts its folder before marking it complete."""
-    from vo.dataset import open_dataset
     check_kind(kind, storage)
     out_path = Path(out_path)
     if out_path.exists():
@@ -185,7 +186,6 @@ def _first_time(ds) -> int:
 
 def projection(rig, k: int, rectified: bool) -> np.ndarray:
     """(3,4) ``P`` of camera ``k``: ``K [R_c_c0 | t_c_c0]`` for a rectified pair, else ``K [I | 0]``."""
-    from rigs.geometry import inv_T
     cam = rig.cameras[k]
     K = np.array([[cam.fx, 0.0, cam.cx], [0.0, cam.fy, cam.cy], [0.0, 0.0, 1.0]])
     T = inv_T(cam.T_b_c_array) @ rig.cameras[0].T_b_c_array if rectified else np.eye(4)

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rigs.geometry import quat_wxyz_from_R
+
 TF_MESSAGE_ROS1 = "geometry_msgs/TransformStamped[] transforms\n"
 
 
@@ -55,7 +57,6 @@ class RosMessages:
 
     def pose(self, T: np.ndarray):
         """(4,4) ``T_a_b`` -> geometry_msgs/Pose of b in a."""
-        from rigs.geometry import quat_wxyz_from_R
         t = self.types
         w, x, y, z = (float(v) for v in quat_wxyz_from_R(np.asarray(T)[:3, :3]))
         p = np.asarray(T, dtype=float)[:3, 3]

@@ -14,11 +14,14 @@ from __future__ import annotations
 import numpy as np
 
 from rigs.geometry import inv_T
+from vo.crosssite.regions import project
+from vo.crosssite.ties import body_points
+from vo.errorprop.crosssite import (CrossSiteConfig as ModelConfig, cross_site_accuracy, design_matrix,
+                                    tie_point_covariance)
 
 
 def pair_layout(prev, res, idx=None) -> np.ndarray:
     """(N,2) tie points (eq. 2 inliers, or the ties ``idx``) in the previous site's body frame, xy."""
-    from vo.crosssite.ties import body_points
     t = res.ties
     idx = np.flatnonzero(t.inlier) if idx is None else np.asarray(idx, int)
     P_b, _ = body_points(prev, t.pair_prev[idx], t.uv_prev[idx], t.ur_prev[idx], prev.cal.K, prev.cal.baseline)
@@ -30,7 +33,6 @@ def model_vs_ba(run, sites, sigma_p_px: float = 1.0 / 3.0, sigma_theta_px: float
     horizontal error of the step (m), step length (m). ``sites`` the read traverse's Site records. The
     layout is the ties that agree with the BA pose (:func:`ba_ties`, ``reproj_px`` the localizer's
     ``pnp_reproj_px``), not every eq. 2 inlier (see :func:`ba_ties`)."""
-    from vo.errorprop.crosssite import CrossSiteConfig as ModelConfig, cross_site_accuracy
     rows = []
     for r in run.results:
         if r.status != "ok" or r.ties is None:
@@ -79,7 +81,6 @@ def model_covariance(layout_xy: np.ndarray, cur_xy, f_px: float, baseline_m: flo
     ``scale = False``: a rigid transform (rotation angle, translation; the similarity linearized at
     ``a = 1, b = 0`` without the scale), as in the BA, where the fixed stereo baseline sets the scale."""
     from scipy.linalg import block_diag
-    from vo.errorprop.crosssite import CrossSiteConfig as ModelConfig, design_matrix, tie_point_covariance
     lm = np.asarray(layout_xy, float)
     cfg = ModelConfig(f_px=f_px, baseline_m=baseline_m, sigma_p_px=sigma_p_px, sigma_theta_px=sigma_theta_px,
                       previous_site=(0.0, 0.0), current_site=tuple(map(float, cur_xy)), landmarks=tuple(map(tuple, lm)))
@@ -103,8 +104,6 @@ def ba_ties(prev, cur, res, T_w_b_prev, reproj_px: float) -> np.ndarray:
     resection consensus, ``pnp_reproj_px``, evaluated at the final pose). The eq. 2 inliers alone still
     hold wrong ties in some runs (cross-site transfer errors of 10-150 px robust sigma) that the
     resection and the BA's residual test drop: a model fed with them mis-states the layout and sigmas."""
-    from vo.crosssite.regions import project
-    from vo.crosssite.ties import body_points
     t = res.ties
     idx = np.flatnonzero(t.inlier)
     P_b, _ = body_points(prev, t.pair_prev[idx], t.uv_prev[idx], t.ur_prev[idx], prev.cal.K, prev.cal.baseline)
@@ -139,7 +138,6 @@ def tie_errors_vs_depth(prev, cur, res, T_w_b_prev, T_w_b_cur, depths_prev, idx=
     poses, the same error in previous-image pixels (n,2): times ``z_cur / z_prev``, the lateral error
     of the tie seen from the previous site, i.e. its azimuth error there in pixels). NaN where the
     depth is not finite."""
-    from vo.crosssite.regions import project
     t, K, f, B = res.ties, prev.cal.K, prev.cal.f, prev.cal.baseline
     idx = np.flatnonzero(t.inlier) if idx is None else np.asarray(idx, int)
     n = len(idx)

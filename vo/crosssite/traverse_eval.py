@@ -15,9 +15,16 @@ from pathlib import Path
 
 import numpy as np
 
-from vo.crosssite.localizer_config import CrossSiteConfig
+from rigs.geometry import inv_T
+from rigs.trajectory import Trajectory
+from rigs.trajfile import write_tum
+from vo.crosssite.figures import matching_figure, traverse_map
 from vo.crosssite.localizer import localize_traverse
+from vo.crosssite.localizer_config import CrossSiteConfig
+from vo.crosssite.model_check import model_vs_ba
+from vo.crosssite.truth import tie_truth_stats
 from vo.crosssite.types import SiteResult
+from vo.dataset.traverse_reader import read_traverse
 from vo.errors import DatasetError
 
 
@@ -56,7 +63,6 @@ def localize_dataset(path, cfg: CrossSiteConfig = CrossSiteConfig(), max_sites: 
     """Read the traverse at ``path`` (first ``max_sites`` sites if > 0) and localize every site, with
     OpenCV on one thread (the stages are many small calls; threads only contend on a shared machine)."""
     import cv2
-    from vo.dataset.traverse_reader import read_traverse
     cv2.setNumThreads(1)
     root = dataset_root(path)
     tr = read_traverse(root, max_sites=max_sites)
@@ -99,7 +105,6 @@ def _leg_errors(run: TraverseRun, k: int) -> dict:
     for the dead reckoning and the BA."""
     if k == 0:
         return {"leg_m": 0.0, "dr_leg_err_pct": float("nan"), "ba_leg_err_pct": float("nan")}
-    from rigs.geometry import inv_T
     rel = lambda T: (inv_T(T[k - 1]) @ T[k])[:3, 3]  # noqa: E731
     t_true = rel(run.T_w_b_true)
     L = float(np.linalg.norm(t_true))
@@ -109,7 +114,6 @@ def _leg_errors(run: TraverseRun, k: int) -> dict:
 
 def _truth(run: TraverseRun, k: int, r) -> dict:
     """True-tie counts of site pair k-1 -> k (:mod:`vo.crosssite.truth`); {} without records."""
-    from vo.crosssite.truth import tie_truth_stats
     if r is None or r.ties is None or len(run.sites) <= k:
         return {}
     return tie_truth_stats(run.sites[k - 1], run.sites[k], r.ties, run.T_w_b_true[k - 1], run.T_w_b_true[k])
@@ -142,10 +146,6 @@ def format_table(rows: list) -> str:
 def write_outputs(run: TraverseRun, out) -> dict:
     """Write ``site_poses_tum.txt`` (T_w_b per site at the site times), ``summary.json``,
     ``traverse_map.png`` and ``matching.png``; -> the summary dict (with the file paths)."""
-    from vo.crosssite.figures import matching_figure, traverse_map
-    from vo.crosssite.model_check import model_vs_ba
-    from rigs.trajectory import Trajectory
-    from rigs.trajfile import write_tum
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     write_tum(out / "site_poses_tum.txt", Trajectory(np.asarray(run.site_t_ns, np.int64), run.T_w_b_est, ref="w", frame="b"))

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rigs.geometry import make_T, rot_y, rot_z
 from vo.errors import VoError
 
 
@@ -124,5 +125,4 @@ class SiteResult:
 def mast_T_b_c(T_b_mast: np.ndarray, pan_rad: float, tilt_rad: float, T_head_c: np.ndarray) -> np.ndarray:
     """CONVENTIONS.md "Rovers and mounts": ``T_b_c = T_b_mast @ R_z(pan) @ R_y(tilt) @ T_head_c``
     (pan positive to the left about body z, tilt positive nose-down about the head's y)."""
-    from rigs.geometry import make_T, rot_y, rot_z
     return np.asarray(T_b_mast, float) @ make_T(rot_z(pan_rad) @ rot_y(tilt_rad), np.zeros(3)) @ np.asarray(T_head_c, float)

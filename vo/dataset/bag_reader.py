@@ -23,10 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from vo.dataset.base import Dataset
+from rigs.geometry import R_from_quat_wxyz
+from rigs.model import Camera, Imu, Rig
 from rigs.records import ImuSamples, StereoFrame
-from vo.errors import DatasetError
 from rigs.trajectory import Trajectory
+from vo.dataset.base import Dataset, rig_or_error
+from vo.errors import DatasetError
 
 IMAGE_TOPICS = ("/cam0/image_raw", "/cam1/image_raw")
 INFO_TOPICS = ("/cam0/camera_info", "/cam1/camera_info")
@@ -57,7 +59,6 @@ def _field(msg, name):
 
 
 def _T(translation, q) -> np.ndarray:
-    from rigs.geometry import R_from_quat_wxyz
     T = np.eye(4)
     T[:3, :3] = R_from_quat_wxyz(np.array([q.w, q.x, q.y, q.z]))
     T[:3, 3] = [translation.x, translation.y, translation.z]
@@ -147,8 +148,6 @@ class BagDataset(Dataset):
                 for msg in self._messages("/tf_static") for tr in msg.transforms}
 
     def _rig(self, infos, frame_t):
-        from rigs.model import Camera, Imu, Rig
-        from vo.dataset.base import rig_or_error
         tf = self._tf()
         cams = []
         for k, info in enumerate(infos):

@@ -12,9 +12,11 @@ from typing import Iterator, Optional
 import cv2
 import numpy as np
 
+from rigs.config_io import read_yaml_file
+from rigs.errors import RigError
 from rigs.records import Gcp, ImuSamples, StereoFrame, WheelSamples
-from vo.errors import DatasetError
 from rigs.trajectory import Trajectory
+from vo.errors import DatasetError
 
 
 def load_gray(path: Path) -> np.ndarray:
@@ -34,7 +36,6 @@ def load_gray(path: Path) -> np.ndarray:
 
 def rig_or_error(fn, *args, **kwargs):
     """Call a ``rigs`` reader; a RigError becomes a DatasetError with the same one-line message."""
-    from rigs.errors import RigError
     try:
         return fn(*args, **kwargs)
     except RigError as exc:
@@ -164,7 +165,6 @@ def read_metadata(path: Path) -> dict:
     path = Path(path)
     if not path.is_file():
         return {}
-    from rigs.config_io import read_yaml_file
     d = rig_or_error(read_yaml_file, path)
     if not isinstance(d, dict):
         raise DatasetError(f"{path}: expected a mapping at the top level, got {type(d).__name__}")

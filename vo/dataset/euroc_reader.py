@@ -14,12 +14,18 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs.calib_io import read_euroc_camera_yaml, read_euroc_imu_yaml
+from rigs.geometry import R_from_quat_wxyz, inv_T
+from rigs.kalibr_io import read_kalibr
+from rigs.model import Rig
+from rigs.records import ImuSamples
+from rigs.rig_yaml import load_rig
+from rigs.trajectory import Trajectory
+from rigs.trajfile import read_tum
 from vo.dataset.base import Dataset, read_gcps_csv, read_metadata, rig_or_error
 from vo.dataset.csvio import data_lines, read_image_list, read_numeric_csv
 from vo.dataset.interp import interpolate_poses
-from rigs.records import ImuSamples
 from vo.errors import DatasetError
-from rigs.trajectory import Trajectory
 
 IMU_NAMES = ("w_x", "w_y", "w_z", "a_x", "a_y", "a_z")
 GT_NAMES = ("p_x", "p_y", "p_z", "q_w", "q_x", "q_y", "q_z")
@@ -45,8 +51,6 @@ def pair_cameras(mav0: Path) -> tuple[np.ndarray, list, list]:
 
 def real_euroc_rig(mav0: Path, name: str):
     """Rig from cam0/cam1/imu0 sensor.yaml (body = EuRoC body B, the IMU frame)."""
-    from rigs.calib_io import read_euroc_camera_yaml, read_euroc_imu_yaml
-    from rigs.model import Rig
     cams, rate = [], None
     exact = _camchain_distortion(mav0 / "camchain.yaml")
     for k in (0, 1):
@@ -64,7 +68,6 @@ def _camchain_distortion(path: Path):
     cv2.fisheye 4-tuples), or None without one."""
     if not path.is_file():
         return None
-    from rigs.kalibr_io import read_kalibr
     chain = rig_or_error(read_kalibr, path)
     if len(chain.cameras) < 2:
         raise DatasetError(f"{path}: expected cam0 and cam1, got {len(chain.cameras)} camera(s)")
@@ -80,7 +83,6 @@ class EurocDataset(Dataset):
         t, paths, warnings = pair_cameras(self.mav0)
         name = root.name
         if ours:
-            from rigs.rig_yaml import load_rig
             rig = rig_or_error(load_rig, root / "rig.yaml")
             name = str(self.metadata.get("name", name))
         else:
@@ -102,7 +104,6 @@ class EurocDataset(Dataset):
     @functools.cached_property
     def groundtruth(self):
         """``T_w_i`` (frame "i") from state_groundtruth_estimate0 (or None when absent)."""
-        from rigs.geometry import R_from_quat_wxyz
         path = self.mav0 / "state_groundtruth_estimate0" / "data.csv"
         if not path.is_file():
             return None
@@ -119,12 +120,10 @@ class EurocDataset(Dataset):
         IMU ground truth interpolated (linear position, SLERP) composed with ``T_i_c0``."""
         tum = self.root / "groundtruth_tum.txt"
         if self.ours and tum.is_file():
-            from rigs.trajfile import read_tum
             return read_tum(tum, ref="w", frame="c0")
         gt = self.groundtruth
         if gt is None:
             raise DatasetError(f"{self.mav0}: no state_groundtruth_estimate0/data.csv; no ground truth")
-        from rigs.geometry import inv_T
         T_i_c0 = inv_T(self.rig.imu.T_b_i_array) @ self.rig.cameras[0].T_b_c_array
         at_frames, _ = interpolate_poses(gt, self.frame_times_ns)
         return at_frames.transformed(np.eye(4), T_i_c0, ref="w", frame="c0")

@@ -13,10 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs.calib_io import read_kitti_calib
+from rigs.trajectory import Trajectory
+from rigs.trajfile import read_kitti
 from vo.dataset.base import Dataset, read_gcps_csv, read_metadata, rig_or_error
 from vo.dataset.csvio import read_column
 from vo.errors import DatasetError
-from rigs.trajectory import Trajectory
 
 
 def kitti_times_ns(seq: Path, t0_ns: int) -> np.ndarray:
@@ -57,7 +59,6 @@ class KittiDataset(Dataset):
 
     def __init__(self, seq: Path, root: Path, ours: bool):
         import cv2
-        from rigs.calib_io import read_kitti_calib
         self.seq, self.root, self.ours = Path(seq), Path(root), ours
         t_all = kitti_times_ns(self.seq, int(self.metadata.get("kitti", {}).get("t0_ns", 0)))
         if len(t_all) > 1 and np.any(np.diff(t_all) <= 0):
@@ -84,7 +85,6 @@ class KittiDataset(Dataset):
     @functools.cached_property
     def groundtruth(self):
         """``T_c0_0_c0`` (ref "c0_0", frame "c0") at frame times, or None without poses/NN.txt."""
-        from rigs.trajfile import read_kitti
         path = self.seq.parent.parent / "poses" / f"{self.seq.name}.txt"
         if not path.is_file():
             return None

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from vo.dataset.csvio import read_numeric_csv
 from vo.errors import DatasetError
 
 
@@ -139,7 +140,6 @@ def read_traverse(path, angles: str = "commanded", max_sites: int = 0) -> Traver
 def read_drive(path) -> dict:
     """The drive streams: ``imu`` (t_ns, (N,6) gyro+accel), ``wheels`` (t_ns, (N,2) ticks),
     ``groundtruth`` (t_ns, (N,16) EuRoC body truth)."""
-    from vo.dataset.csvio import read_numeric_csv
     root = Path(path) / "drive"
     return {"imu": read_numeric_csv(root / "imu0.csv", 6, "traverse IMU"),
             "wheels": read_numeric_csv(root / "wheels.csv", 2, "traverse wheels"),

@@ -7,12 +7,12 @@ from typing import Optional
 import numpy as np
 
 from rigs.records import WheelSamples
+from vo.dataset.csvio import data_rows
 from vo.errors import DatasetError
 
 
 def read_wheels_csv(path: Path) -> Optional[WheelSamples]:
     """Strictly parsed wheel ticks; None when the file does not exist (no wheels recorded)."""
-    from vo.dataset.csvio import data_rows
     path = Path(path)
     if not path.is_file():
         return None

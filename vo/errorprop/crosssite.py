@@ -21,8 +21,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import block_diag
 
-from vo.errors import VoError
+from rigs.config_io import read_yaml_file
+from rigs.typed_config import load_dataclass
 from vo.errorprop.range import planar_covariance, range_sigma
+from vo.errors import VoError
 
 
 @dataclass(frozen=True)
@@ -69,8 +71,6 @@ def load_cross_site_config(path) -> CrossSiteConfig:
     that left a field out would silently get the paper's value, so missing fields are an error
     naming them all (the paper's layouts are :data:`CROSS_SITE_PRESETS`)."""
     import dataclasses
-    from rigs.config_io import read_yaml_file
-    from rigs.typed_config import load_dataclass
     names = [f.name for f in dataclasses.fields(CrossSiteConfig)]
     data = read_yaml_file(path, VoError)
     if isinstance(data, dict) and set(data) <= set(names):

@@ -23,10 +23,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rigs.geometry import pose_error_cov
+from rigs.image import to_gray
 from rigs.image_noise import ImageNoiseDataset
 from vo.errors import VoError
-from rigs.image import to_gray
-from rigs.geometry import pose_error_cov
+from vo.estimators.registry import is_external
+from vo.estimators.runner import run_estimator
+from vo.frontend.noise_level import estimate_noise_sigma
 
 RENOISE_TAG = 0x5E1F              # separates the replicates' noise streams from the Monte-Carlo runs'
 MIN_REPLICATES = 3
@@ -94,9 +97,6 @@ def renoise_covariance(dataset, estimator: str, options: dict | None = None, rep
 
     ``seed`` names the replicates' noise streams (replicate ``r``: key ``(seed, r)``); ``T_hat``
     (N,4,4) the estimate from the recording if already computed (else it is run once more)."""
-    from vo.estimators.registry import is_external
-    from vo.estimators.runner import run_estimator
-    from vo.frontend.noise_level import estimate_noise_sigma
     if is_external(estimator):
         raise VoError(f"renoise estimator {estimator!r}: external commands read the dataset folder, not the "
                       f"re-noised images; use a registered name or 'package.module:Class'")

@@ -30,11 +30,12 @@ import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from rigs.trajectory import Trajectory
+from rigs.trajfile import read_tum
+from vo.dataset import open_dataset
 from vo.errors import EstimatorError, VoError
 from vo.estimators.isolation import Isolation, Plan, clean_env, hidden_within, own_paths
 from vo.estimators.sensor_view import SensorView
-from rigs.trajectory import Trajectory
-from rigs.trajfile import read_tum
 
 FIELDS = ("dataset", "out")
 TAIL_BYTES = 64 * 1024
@@ -247,7 +248,6 @@ def run_external(spec: str, dataset, timeout_s: float | None = None, isolation: 
     """Run ``cmd:...`` on a sensor-only view of ``dataset`` (an opened Dataset or a folder to open): the program
     never sees ground truth, cannot change the dataset, and is ended after ``timeout_s`` (None: the default
     of :func:`default_timeout_s` for this sequence)."""
-    from vo.dataset import open_dataset
     ds = open_dataset(dataset) if isinstance(dataset, (str, Path)) else dataset
     if getattr(ds, "path", None) is None:
         raise EstimatorError(f"{spec}: external commands need a dataset folder (dataset.path)")

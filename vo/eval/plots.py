@@ -9,10 +9,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rigs.figures import save_figure  # noqa: E402
-from rigs.trajectory import Trajectory  # noqa: E402
-from vo.eval.associate import associate  # noqa: E402
-from vo.eval.rpe import RpeResult  # noqa: E402
+from rigs.figures import save_figure
+from rigs.trajectory import Trajectory
+from vo.eval.align import alignment_header
+from vo.eval.associate import associate
+from vo.eval.rpe import RpeResult
 
 
 def plot_topdown(results: dict, gt: Trajectory, gcps=None, path="topdown.png") -> Path:
@@ -81,7 +82,6 @@ def plot_evaluation(result, gcps, out_dir) -> list:
 def plot_comparison(results: dict, gt: Trajectory, path="comparison.png") -> Path:
     """One figure comparing estimates (name -> :class:`vo.eval.EvalResult`): top-down view of the
     aligned estimates over ``gt``, position error against distance, and the ATE distribution per estimate."""
-    from vo.eval.align import alignment_header
     fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(16, 5))
     a1.plot(gt.positions[:, 0], gt.positions[:, 1], "k-", lw=1.5, label="ground truth")
     for name, r in results.items():

@@ -16,9 +16,18 @@ from dataclasses import replace
 
 import numpy as np
 
-from sim.app.nees.scoring import ConsistencyResult, evaluate_runs
-from sim.rng import stream
 from rigs.image_noise import ImageNoiseDataset
+from rigs.records import ImuSamples
+from sim.app.nees.scoring import ConsistencyResult, evaluate_runs
+from sim.app.validation.truth_tracks import run_oracle
+from sim.errors import SimError
+from sim.rng import stream
+from sim.scenarios import cached_dataset, get_scenario
+from sim.sensors.imu_noise import add_imu_noise
+from vo.dataset import open_dataset
+from vo.errorprop.renoise import MIN_REPLICATES, renoise_covariance
+from vo.errors import VoError
+from vo.estimators.runner import run_estimator
 
 
 class NoisyDataset(ImageNoiseDataset):
@@ -36,9 +45,6 @@ class NoisyDataset(ImageNoiseDataset):
         if self._imu_model is None or self._base.imu is None:
             return self._base.imu
         if self._imu is None:
-            from rigs.records import ImuSamples
-            from sim.sensors.imu_noise import add_imu_noise
-            from rigs.records import ImuSamples
             clean = self._base.imu
             noisy, _ = add_imu_noise(ImuSamples(clean.t_ns, clean.gyro, clean.accel), self._imu_model,
                                      stream(self._seed, "imu_white"), stream(self._seed, "imu_bias"))
@@ -57,10 +63,6 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
     ``renoise`` > 0: the covariances are those of that many re-noised replicates of this run's images
     (:func:`vo.errorprop.renoise.renoise_covariance`, noise level estimated from the images) instead
     of the estimator's own."""
-    from sim.scenarios import cached_dataset
-    from vo.dataset import open_dataset
-    from vo.estimators.runner import run_estimator
-    from vo.errors import VoError
     base = open_dataset(cached_dataset(config, progress=False))
     gt = base.groundtruth_cam0()
     truth = (np.linalg.inv(gt.T[0]) @ gt.T, gt.t_s)
@@ -68,11 +70,9 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
     if oracle_px is None:
         frames = run_estimator(estimator, noisy, options=options, progress=False, max_frames=max_frames).frames
     else:
-        from sim.app.validation.truth_tracks import run_oracle
         frames = run_oracle(base, options, oracle_px, seed, max_frames=max_frames)
     T_est = np.array([f.T_o_c0 for f in frames])
     if renoise:
-        from vo.errorprop.renoise import renoise_covariance
         rn = renoise_covariance(noisy, estimator, options, renoise, seed=seed, T_hat=T_est, max_frames=max_frames)
         return (T_est[:len(rn.cov)], rn.cov) + truth
     if any(f.cov is None for f in frames[1:]):
@@ -83,8 +83,6 @@ def _one_run(config, estimator: str, image_sigma: float, seed: int, options: dic
 
 def _check(runs, vary, renoise, oracle_px, estimator) -> None:
     """One-line :class:`~sim.errors.SimError` for arguments :func:`consistency` cannot run with."""
-    from sim.errors import SimError
-    from vo.errorprop.renoise import MIN_REPLICATES
     if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 2:
         raise SimError(f"consistency runs: {runs!r}; must be an integer >= 2")
     if vary not in VARY:
@@ -130,7 +128,6 @@ def consistency(scenario: str, estimator: str, runs: int = 30, image_sigma: floa
     ``overrides``: scenario ``key=value`` overrides (as ``--set``, e.g. ``render.supersample=3``).
     ``renoise`` > 0: score the covariance of that many re-noised replicates per run instead of the
     estimator's own (:mod:`vo.errorprop.renoise`; (1 + renoise) x the run time)."""
-    from sim.scenarios import cached_dataset, get_scenario
     _check(runs, vary, renoise, oracle_px, estimator)
     ideal = replace(get_scenario(scenario, overrides=tuple(overrides)), ideal=True, depth=oracle_px is not None)
     configs = [ideal if vary == "noise" else replace(ideal, seed=ideal.seed + 1 + k) for k in range(runs)]

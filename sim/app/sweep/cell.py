@@ -23,6 +23,9 @@ from pathlib import Path
 
 from rigs.atomic_io import atomic_write_json
 from sim.app.sweep.fingerprint import code_fingerprint
+from sim.generate import generate
+from vo.dataset import open_dataset
+from vo.pipeline import run_and_evaluate
 
 RECORD_VERSION = 1
 
@@ -89,8 +92,6 @@ def run_cell(cell, estimators, out_dir, keep_datasets: bool = False) -> dict:
 
 
 def _generate(config, data_dir: Path):
-    from sim.generate import generate
-    from vo.dataset import open_dataset
     if not ((data_dir / "metadata.yaml").exists() and not (data_dir / "INCOMPLETE").exists()):
         generate(config, data_dir, progress=False, overwrite=False)
     return open_dataset(data_dir)
@@ -98,7 +99,6 @@ def _generate(config, data_dir: Path):
 
 def _run_one(dataset, name: str, seed: int) -> dict:
     """Run and evaluate one estimator -> its metrics, or ``{"error": ...}``."""
-    from vo.pipeline import run_and_evaluate
     t0 = time.perf_counter()
     try:
         res = run_and_evaluate(dataset, name, progress=False, seed=seed)      # seeds OpenCV's RNG

@@ -23,9 +23,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rigs.atomic_io import atomic_write_json
-from sim.app.sweep.cell import is_done, is_stale, read_record, record_path, run_cell
+from sim.app.sweep.cell import RECORD_VERSION, is_done, is_stale, read_record, record_path, run_cell
 from sim.app.sweep.fingerprint import code_fingerprint
-from sim.app.sweep.grid import SweepError, SweepSpec
+from sim.app.sweep.grid import SweepError, SweepSpec, parse_seeds
+from sim.app.sweep.plots import plot_all
+from sim.app.sweep.table import aggregate, tidy_rows, write_tables
 
 INSTALL_HINT = "the sweep needs Dask distributed: pip install 'vo-testbed[sweep]'"
 # Dask's statistical profiler samples each worker's task thread every 10 ms and keeps a call tree per
@@ -178,7 +180,6 @@ def _record_crash(out_dir, cell, future) -> None:
         message = f"{type(future.exception()).__name__}: {future.exception()}"
     except Exception as exc:       # noqa: BLE001 - cancelled futures have no exception to fetch
         message = f"{type(exc).__name__}: {exc}"
-    from sim.app.sweep.cell import RECORD_VERSION
     atomic_write_json(record_path(out_dir, cell.key),
                       {"version": RECORD_VERSION, "key": cell.key, "code": code_fingerprint(), "seed": cell.seed,
                        "values": dict(cell.values),
@@ -196,15 +197,12 @@ def load_sweep(out_dir) -> SweepSpec:
         data = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
         raise SweepError(f"{path}: not a sweep output folder ({exc})") from None
-    from sim.app.sweep.grid import parse_seeds
     return SweepSpec(data["scenario"], tuple((k, tuple(v)) for k, v in data["grid"].items()),
                      tuple(data["estimators"]), parse_seeds(data["seeds"]), tuple(data.get("set", ())))
 
 
 def write_report(out_dir, spec: SweepSpec, cells=None) -> Report:
     """Tables and plots from the records in ``out_dir`` -> their paths, failed cells, cells per fingerprint."""
-    from sim.app.sweep.plots import plot_all
-    from sim.app.sweep.table import aggregate, tidy_rows, write_tables
     cells = spec.cells() if cells is None else cells
     records = [r for r in (read_record(out_dir, c.key) for c in cells) if r is not None]
     rows = tidy_rows(records, spec.axis_keys, spec.estimators)

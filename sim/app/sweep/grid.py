@@ -23,8 +23,10 @@ from typing import Optional
 
 from rigs.config_io import parse_yaml_text, read_yaml_file
 from rigs.errors import TestbedError
-from sim.generate_config import GenerateConfig
 from sim.errors import SimError
+from sim.generate_config import GenerateConfig
+from sim.scenarios import SCENARIOS, get_scenario, scenario_names
+from vo.estimators.registry import check_spec
 
 
 class SweepError(SimError):
@@ -69,7 +71,6 @@ class SweepSpec:
             raise SweepError("--estimator: give at least one estimator")
         if not self.seeds or any(s < 0 for s in self.seeds) or len(set(self.seeds)) != len(self.seeds):
             raise SweepError(f"--seeds: expected distinct non-negative seeds, got {list(self.seeds)!r}")
-        from vo.estimators.registry import check_spec
         for name in self.estimators:
             try:
                 check_spec(name)
@@ -97,7 +98,6 @@ class SweepSpec:
         return out
 
     def base_config(self) -> GenerateConfig:
-        from sim.scenarios import SCENARIOS, get_scenario, scenario_names
         if self.scenario not in SCENARIOS:
             raise SweepError(f"--scenario {self.scenario!r}: unknown scenario; valid: {', '.join(scenario_names())}")
         try:

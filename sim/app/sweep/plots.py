@@ -14,6 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.app.sweep.table import sort_key
+from vo.errorprop.range import range_sigma
+
 BASELINE_KEYS = ("baseline", "rig.baseline")
 
 
@@ -30,7 +33,6 @@ def _save(fig, path) -> Path:
 
 
 def _values(rows, key) -> list:
-    from sim.app.sweep.table import sort_key
     return sorted({r[key] for r in rows}, key=sort_key)
 
 
@@ -103,7 +105,6 @@ def predicted_drift(baselines, b_ref: float, drift_ref: float, fx_px: float, ran
                     sigma_p_px: float = 1.0 / 3.0) -> np.ndarray:
     """Seed 001 eq. 7 range error at ``baselines`` relative to ``b_ref``, times the measured ``drift_ref``:
     ``drift_ref * sigma_r(b) / sigma_r(b_ref)`` (= ``drift_ref * b_ref / b``; range, f and sigma_p cancel)."""
-    from vo.errorprop.range import range_sigma
     b = np.asarray(baselines, float)
     sig = np.array([range_sigma(range_m, bi, fx_px, sigma_p_px) for bi in b])
     return drift_ref * sig / range_sigma(range_m, b_ref, fx_px, sigma_p_px)

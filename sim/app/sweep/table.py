@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigs.atomic_io import atomic_write_json, atomic_write_text
+from rigs.atomic_io import atomic_write, atomic_write_json, atomic_write_text
 
 METRICS = ("drift_pct", "ate_rmse_m", "rpe_trans_rmse_m", "rpe_rot_rmse_deg", "n_lost", "n_frames", "ms_per_frame",
            "end_diff_m", "path_length_m")
@@ -128,7 +128,6 @@ def _write_parquet(path: Path, table):
         import pyarrow.parquet as pq
     except ImportError:
         return None
-    from rigs.atomic_io import atomic_write
     columns = {k: [r[k] for r in table] for k in (table[0] if table else {})}
     return atomic_write(path, lambda tmp: pq.write_table(pa.table(columns), tmp))
 

@@ -5,7 +5,15 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from rigs.geometry import so3_log
+from rigs.imu_models import get_imu_model
+from rigs.records import ImuSamples
+from sim.allan import allan_deviation, density_at_1s, fit_white_and_walk, loglog_slope
+from sim.generate import resolve
+from sim.generate_config import GenerateConfig
 from sim.rng import stream
+from sim.sensors.imu import imu_pose_velocity, integrate_imu, measure_imu
+from sim.sensors.imu_noise import add_imu_noise
 
 
 @dataclass(frozen=True)
@@ -31,11 +39,6 @@ class DeadReckoningResult:
 def dead_reckoning(scene: str = "campus", rig: str = "cart27", duration_s: float = 60.0, seed: int = 0,
                    overrides=()) -> DeadReckoningResult:
     """Integrate the exact (``--ideal``) IMU from the true initial state; compare with the truth at the end."""
-    from sim.generate_config import GenerateConfig
-    from sim.generate import resolve
-    from sim.sensors.imu import imu_pose_velocity, integrate_imu, measure_imu
-    from rigs.geometry import so3_log
-
     setup = resolve(GenerateConfig(scene=scene, rig=rig, duration_s=duration_s, seed=seed, ideal=True,
                                    images=False).with_overrides(tuple(overrides)))
     T_b_i = setup.rig.imu.T_b_i_array
@@ -80,10 +83,6 @@ def allan_check(imu_name: str = "euroc-adis16448", hours: float = 2.0, seed: int
     """Allan deviation of a static noisy IMU. The random-walk slope is read with the gyro random walk
     scaled by ``rw_scale`` so the +1/2 region appears within ``hours`` (documented in the output)."""
     import dataclasses
-    from rigs.imu_models import get_imu_model
-    from sim.allan import allan_deviation, density_at_1s, fit_white_and_walk, loglog_slope
-    from rigs.records import ImuSamples
-    from sim.sensors.imu_noise import add_imu_noise
 
     imu = get_imu_model(imu_name)
     n = int(hours * 3600 * imu.rate_hz)

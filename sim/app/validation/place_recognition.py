@@ -27,7 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs.geometry import make_T, rot_z
 from sim.errors import SimError
+from sim.generate import resolve
+from sim.sensors.camera import StereoCamera
 
 LOOP_ACCEPT_INLIERS = 40
 
@@ -65,7 +68,6 @@ class View:
 def route_place_poses(scene, spacing_m: float) -> tuple:
     """``(T_w_b (N,4,4), arc (N,))``: body poses every ``spacing_m`` along the route polyline (the scene's
     ``path_xy``, or its route's waypoints where it has none: the lunar traverse's legs), yaw along it."""
-    from rigs.geometry import make_T, rot_z
     xy = np.asarray(scene.path_xy if hasattr(scene, "path_xy") else scene.route.waypoints_xy, float)
     if scene.route.closed:
         xy = np.vstack([xy, xy[:1]])
@@ -83,7 +85,6 @@ def route_place_poses(scene, spacing_m: float) -> tuple:
 
 def revisit_pose(T_w_b: np.ndarray, config: PlaceConfig) -> np.ndarray:
     """The second pass through a place: forward, sideways and turned (body frame x forward, y left)."""
-    from rigs.geometry import make_T, rot_z
     d = make_T(rot_z(np.radians(config.revisit_yaw_deg)), [config.revisit_forward_m, config.revisit_side_m, 0.0])
     return T_w_b @ d
 
@@ -92,8 +93,6 @@ def render_views(config, place: PlaceConfig = PlaceConfig(), progress: bool = Tr
     """``(places, revisits)``: lists of :class:`View` of the scenario ``config`` (a GenerateConfig); actors at
     the scenario's start time."""
     from tqdm import tqdm
-    from sim.generate import resolve
-    from sim.sensors.camera import StereoCamera
 
     setup = resolve(config.with_value("duration_s", 1.0) if config.duration_s is None else config)
     scene, rig = setup.scene, setup.rig

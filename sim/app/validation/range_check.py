@@ -37,7 +37,12 @@ from dataclasses import asdict, dataclass
 import cv2
 import numpy as np
 
+from rigs.image_noise import add_image_noise
+from rigs.overrides import apply_overrides
+from rigs.presets import get_rig
+from scenes.base import SceneConfig
 from sim.errors import SimError
+from sim.rng import stream
 from vo.errorprop.range import range_sigma
 
 MATCHERS = ("klt", "sgbm")
@@ -215,7 +220,6 @@ def sgbm_disparities(left, right, mask, max_disparity_px: float, block: int = 5,
 # ----------------------------------------------------------------------------- rendering
 def render_board_frames(rig, ranges_m, seed: int = 0, half_angles_deg=(10.0, 7.0)) -> list:
     """Render one stereo frame per range -> ``[(left grey uint8, right grey uint8, depth_c0 float32 m)]``."""
-    from scenes.base import SceneConfig
     from sim.world import build_world
     from sim.render import StereoRenderer
     from sim.app.validation.targets import TargetScene, board_layout
@@ -230,7 +234,6 @@ def render_board_frames(rig, ranges_m, seed: int = 0, half_angles_deg=(10.0, 7.0
 
 
 def _add_noise(img: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
-    from rigs.image_noise import add_image_noise
     return add_image_noise(img, sigma, rng)
 
 
@@ -307,9 +310,6 @@ def measure_range_errors(baselines=(0.063, 0.12, 0.27, 0.5), ranges=(2, 3, 5, 7,
     matcher would); the extra ``j / (16 phases)`` interleaves SGBM's 1/16 px output lattices so the
     median-based scales are not stuck on one lattice value.
     """
-    from rigs.overrides import apply_overrides
-    from rigs.presets import get_rig
-    from sim.rng import stream
     matchers = tuple(matchers)
     _validate_args(baselines, ranges, matchers, float(image_noise), int(min_samples), float(tolerance), outlier_px)
     if int(phases) < 1:

@@ -25,10 +25,11 @@ import cv2  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np
 
+from rigs.geometry import quat_wxyz_from_R
 from scenes.base import Route, Scene, SceneConfig
 from scenes.errors import SceneError
 from scenes.textures import make_texture
-from rigs.geometry import quat_wxyz_from_R
+from sim.rng import scene_streams
 
 BOARD_PREFIX = "static/board/"
 
@@ -153,7 +154,6 @@ class TargetScene(Scene):
             self._add_board(spec, b)
 
     def _add_ground(self, spec) -> None:
-        from sim.rng import scene_streams
         rng = scene_streams(self.config.seed)("texture/grass/0")
         img = make_texture("grass", rng, self.config.texture_richness, 256)
         self._texture(spec, "tex/ground", img)

@@ -28,6 +28,9 @@ import numpy as np
 from rigs.rig_yaml import load_rig
 from sim.app.validation.dynamic_fraction import dynamic_fraction, track_features
 from sim.errors import SimError
+from sim.generate import resolve
+from sim.rng import indexed_stream
+from sim.sensors.camera import StereoCamera, add_noise
 
 DENSITY_RATIO_TARGET = 1.5
 DYNAMIC_FRACTION_TARGET = 0.15
@@ -167,9 +170,6 @@ def scenario_frames(config, n_blocks: int = 8, block_frames: int = 12, progress:
     """``(blocks, actor_ids, moving_ids)``: :class:`Block` list rendered from ``config`` (a
     :class:`sim.generate_config.GenerateConfig`) and the segmentation ids of all / moving actors."""
     from tqdm import tqdm
-    from sim.generate import resolve
-    from sim.rng import indexed_stream
-    from sim.sensors.camera import StereoCamera, add_noise
 
     if n_blocks < 1 or block_frames < 2:
         raise SimError(f"traffic check: need at least 1 block of 2 frames, got {n_blocks} x {block_frames}")
