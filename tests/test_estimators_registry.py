@@ -159,8 +159,8 @@ def test_cli_run_external_and_registered(tmp_path, monkeypatch):
     assert summary["n_frames"] == 2 and summary["path_length_m"] == 3.0
     assert (out / "trajectory_tum.txt").is_file() and (out / "trajectory_kitti.txt").is_file()
 
-    import vo.dataset
-    monkeypatch.setattr(vo.dataset, "open_dataset", lambda p: FakeDataset(make_rig(), 6, p), raising=False)
+    import vo.pipeline      # `run` opens the dataset through vo.pipeline's open_dataset
+    monkeypatch.setattr(vo.pipeline, "open_dataset", lambda p: FakeDataset(make_rig(), 6, p))
     r = CliRunner().invoke(run, ["--dataset", str(tmp_path), "--estimator", "test_estimators_registry:StepEstimator",
                                  "--max-frames", "3", "--out", str(out)])
     assert r.exit_code == 0, r.output
