@@ -75,9 +75,8 @@ class SceneBuilder:
 
     ``streams`` is the scene's random-stream factory (key -> ``np.random.Generator``, the simulator's
     ``scene`` stream); texture ``(kind, variant)`` draws from key ``texture/<kind>/<variant>``, is made
-    once and shared. ``richness`` comes from the ``SceneConfig``. ``footprints`` collects the top-down
-    outline of every geom.
-    """
+    once and shared (through ``textures``, a :class:`scenes.texture_store.TextureStore`). ``richness`` comes
+    from the ``SceneConfig``. ``footprints`` collects the top-down outline of every geom."""
 
     def __init__(self, spec, streams, richness: float, lighting: float = 1.0,
                  shadows: bool = False, tex_size: int = 256, textures: TextureStore | None = None):
