@@ -34,6 +34,21 @@ from vo.vins.truth_init import Truth, truth_init
 from vo.vins.window import Window
 
 
+def drop_init_keyframe(keyframes: list, sfm_failed: bool) -> None:
+    """Make room in ``keyframes`` (the start's keyframes, oldest first; changed in place) for the next one after a
+    failed initialisation. When the SfM failed, the oldest keyframe goes (VINS-Mono's sliding window). When the
+    SfM worked but the scale was not observable, the inner keyframe whose removal leaves the shortest merged
+    interval goes instead, so the window grows in time and keeps the start of the motion: the scale is carried
+    by changes of the acceleration, which a longer window sees more of (constant acceleration alone cannot
+    separate scale and gravity)."""
+    kf = keyframes
+    if sfm_failed or len(kf) < 3:
+        kf.pop(0)
+        return
+    gaps = [kf[k + 1].t_ns - kf[k - 1].t_ns for k in range(1, len(kf) - 1)]
+    kf.pop(1 + int(np.argmin(gaps)))
+
+
 class VinsEstimator(Estimator):
     """Seed 002's monocular VINS-Mono baseline: fixed visual information (1.5 px at F_c 460), Cauchy loss."""
 
@@ -185,21 +200,8 @@ class VinsEstimator(Estimator):
             if result is not None:
                 return self._initialised(frame, result)
             if len(self.init_frames) >= cfg.init_keyframes:
-                self._drop_init_keyframe(msg == SFM_FAILED)
+                drop_init_keyframe(self.init_frames, msg == SFM_FAILED)
         return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(), message=msg)
-
-    def _drop_init_keyframe(self, sfm_failed: bool) -> None:
-        """Make room for the next keyframe after a failed initialisation. When the SfM failed, the oldest
-        keyframe goes (VINS-Mono's sliding window). When the SfM worked but the scale was not observable, the
-        inner keyframe whose removal leaves the shortest merged interval goes instead, so the window grows
-        in time and keeps the start of the motion: the scale is carried by changes of the acceleration,
-        which a longer window sees more of (constant acceleration alone cannot separate scale and gravity)."""
-        kf = self.init_frames
-        if sfm_failed or len(kf) < 3:
-            kf.pop(0)
-            return
-        gaps = [kf[k + 1].t_ns - kf[k - 1].t_ns for k in range(1, len(kf) - 1)]
-        kf.pop(1 + int(np.argmin(gaps)))
 
     def _initialised(self, frame, result) -> FrameResult:
         self._start_window(result)

@@ -17,7 +17,7 @@
    scale agrees within the same fraction with the reverse regression (:func:`_reverse_scale`): noise in the
    SfM positions pulls the linear alignment's scale towards zero without raising its residual-based
    standard deviation much. After a failure the estimator keeps the window long in time
-   (``VinsEstimator._drop_init_keyframe``).
+   (:func:`vo.vins.estimator.drop_init_keyframe`).
 """
 from __future__ import annotations
 
