@@ -164,7 +164,8 @@ class RopEstimator(Estimator):
         fit the same motion and no moving object can pull them apart; they then differ only where the
         stereo depth and the four-view geometry disagree in scale (a calibration error: on the real KITTI
         turn the PnP steps ran 8-16 % long against ROP steps within 3 % of the truth), and the ROP step
-        stands (docs/estimators.md, "Real recordings")."""
+        stands (docs/estimators.md, "Real recordings") unless it is off by more than half the step
+        (:data:`vo.rop.moving.GROSS_STEP_FRACTION`): a gross ROP solution."""
         if self.config.moving_objects == "none":
             return ""
         return self._filter.step_miss(T_kf_c, self._pnp_pose(), self.config.moving_step_gate_m)

@@ -25,6 +25,8 @@ from rigs.geometry import inv_T
 from vo.estimators.pnp_core import PnpConfig, choose_motion
 from vo.frontend.stereo import triangulate, undistort_px
 
+GROSS_STEP_FRACTION = 0.5     # one rigid motion: ROP and PnP steps of the same tracks differ by less than this
+
 
 @dataclass(frozen=True)
 class TrackFilter:
@@ -47,12 +49,17 @@ class TrackFilter:
         return None if trusted_prior and self.prior_offset_m > prior_gate_m else self.T_kf_c
 
     def step_miss(self, T_kf_c: np.ndarray, T_pnp: np.ndarray | None, step_gate_m: float) -> str:
-        """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): competing rigid motions were seen
-        (``keep`` set) and the step lies farther than ``step_gate_m`` from ``T_pnp`` (:meth:`frame_pose`)."""
-        if T_pnp is None or self.keep is None:
+        """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): the step lies farther from ``T_pnp``
+        (:meth:`frame_pose`) than ``step_gate_m`` when competing rigid motions were seen (``keep`` set), or,
+        with one rigid motion, farther than ``step_gate_m`` and :data:`GROSS_STEP_FRACTION` of the PnP step:
+        both then fit the same tracks, so they differ by a scale error (8-16 % on a miscalibrated rig), never by
+        the whole step (a gross ROP solution: 7.7 m against a 0.1 m motion before a blank wall indoors)."""
+        if T_pnp is None:
             return ""
         d = float(np.linalg.norm(np.asarray(T_kf_c)[:3, 3] - T_pnp[:3, 3]))
-        return f"ROP step {d:.2f} m > {step_gate_m} m from the track filter's PnP pose" if d > step_gate_m else ""
+        gate = step_gate_m if self.keep is not None else \
+            max(step_gate_m, GROSS_STEP_FRACTION * float(np.linalg.norm(T_pnp[:3, 3])))
+        return f"ROP step {d:.2f} m > {gate:.2f} m from the track filter's PnP pose" if d > gate else ""
 
 
 def filter_tracks(view, rig, T_kf_c_prior: np.ndarray, config: PnpConfig) -> TrackFilter:
