@@ -42,8 +42,8 @@ class KltConfig:
     ``edge_win``, ``edge_win_h``, ``edge_threshold_px`` the depth-edge test of new stereo landmarks
     (:mod:`vo.frontend.depth_edge`; not in seed 003): LK window (width x height, px) of its disparity samples
     and the largest one-sided second difference of the disparity (px) a landmark may show; 0 (the default)
-    turns it off: at 2 px it removes most big-step edge landmarks but did not lower the drift
-    (docs/estimators.md, "Depth-edge test").
+    turns it off (experimental: at 2 px it removes most big-step edge landmarks but did not lower the drift
+    (docs/estimators.md, "Depth-edge test")).
     """
 
     cell: int = 32
