@@ -129,3 +129,37 @@ def test_rop_takes_its_tracker_through_the_constructor():
     assert isinstance(RopEstimator(rig).klt, KltFourView) and RopEstimator(rig).klt is not tracker
     with pytest.raises(EstimatorError, match=r"rop: a tracker is the KLT front-end's; frontend is 'orb'"):
         RopEstimator(rig, tracker=tracker, frontend="orb")
+
+
+def test_klt_pnp_takes_its_tracker_and_landmark_source_through_the_constructor(campus_short):
+    """A study's landmark source and tracker, given to ``klt-pnp`` through its constructor: one that passes the
+    product's own landmarks on (stereo KLT + triangulation) changes nothing; one that pushes every new landmark
+    5 % farther makes the steps long (the source is what the map is built from); an injected tracker is the one
+    used."""
+    from vo.dataset import open_dataset
+    from vo.estimators.pnp import KltPnpEstimator
+    from vo.frontend.klt import KltConfig, KltTracker, stereo_klt
+    from vo.frontend.stereo import triangulate
+    ds = open_dataset(campus_short)
+    cam = ds.rig.cameras[0]
+    calls = []
+
+    def source(scale):
+        def landmarks(left, right, ids, p_l):
+            cfg = est.pnp_config
+            p_r, ok = stereo_klt(left, right, p_l, ds.rig, est.klt_config, est.tracker.pyramid)
+            p_c0, ok_t = triangulate(ds.rig, p_l, p_r, cfg.max_depth, cfg.max_triangulation_px)
+            calls.append(len(ids))
+            return p_c0 * scale, ok & ok_t
+        return landmarks
+
+    plain = run_estimator("klt-pnp", ds, progress=False, max_frames=20)
+    tracker = KltTracker(cam.width, cam.height, KltConfig())
+    est = KltPnpEstimator(ds.rig, tracker=tracker, landmark_source=source(1.0))
+    same = [est.process(f).T_o_c0 for f in ds.frames(stop=20)]
+    assert est.tracker is tracker and calls and sum(calls) > 100
+    np.testing.assert_allclose(np.array(same), plain.trajectory.T, atol=1e-9)
+    est = KltPnpEstimator(ds.rig, landmark_source=source(1.05))
+    far = [est.process(f).T_o_c0 for f in ds.frames(stop=20)]
+    path = lambda T: np.sum(np.linalg.norm(np.diff(np.array(T)[:, :3, 3], axis=0), axis=1))  # noqa: E731
+    assert path(far) / path(same) == pytest.approx(1.05, abs=0.02)

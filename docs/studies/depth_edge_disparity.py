@@ -60,7 +60,7 @@ from vo.frontend.stereo import triangulate
 from vo.vins.truth_segmentation import FeatureLabels
 
 sys.path.insert(0, str(Path(__file__).parent))
-from urban_pnp_drift_ablation import Ablation, _Instrumented  # noqa: E402
+from urban_pnp_drift_ablation import Ablation, instrumented  # noqa: E402
 
 WINDOWS = (7, 9, 11)
 THRESHOLDS_PX = (0.1, 0.2, 0.5, 1.0, 2.0, 3.0)
@@ -103,28 +103,28 @@ def disagreement(left, right, p_l: np.ndarray, p_r21: np.ndarray, win: int) -> d
             (("plain", np.abs(d0 - d21)), ("2nd diff", second), ("one-sided", one_sided))}
 
 
-class _Recorder(_Instrumented):
-    """klt-pnp (oracle segmentation) that records, per new static stereo landmark, the edge label and the
-    window disagreements."""
+class Recorder:
+    """A landmark source for ``klt-pnp`` (oracle segmentation) that records, per new static stereo landmark,
+    the edge label and the window disagreements, then hands the landmarks of :class:`TruthInputs` on."""
 
-    def __init__(self, ds, labels, **options):
-        super().__init__(ds, Ablation("product", depth_ok="all"), {}, 0, labels=labels, **options)
-        self.labels, self.rows = labels, []
+    def __init__(self, labels):
+        self.labels, self.rows, self.truth = labels, [], None
 
-    def _add_landmarks(self, left, right, new_ids, timings) -> int:
-        c = self.pnp_config
-        p_l = self.tracker.pts[np.isin(self.tracker.ids, new_ids)]
-        p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config)
-        ok &= triangulate(self.rig, p_l, p_r, c.max_depth, c.max_triangulation_px)[1]
+    def landmarks(self, left, right, ids, p_l):
+        t = self.truth
+        c = t.pnp_config
+        p_r, ok = stereo_klt(left, right, p_l, t.rig, t.klt_config)
+        ok &= triangulate(t.rig, p_l, p_r, c.max_depth, c.max_triangulation_px)[1]
         if self.labels is not None:
-            ok &= ~self.labels.dynamic(self.k, p_l)
+            ok &= ~self.labels.dynamic(t.k, p_l)
         if ok.any():
             self.rows.append(self._row(left, right, p_l[ok], p_r[ok]))
-        return super()._add_landmarks(left, right, new_ids, timings)
+        return t.landmarks(left, right, ids, p_l)
 
     def _row(self, left, right, p_l, p_r) -> dict:
-        depth, cam = self.ds.depth(self.k, 0), self.rig.cameras[0]
-        fb = cam.K[0, 0] * np.linalg.norm(self.rig.T_c0_c1[:3, 3])
+        t = self.truth
+        depth, cam = t.ds.depth(t.k, 0), t.rig.cameras[0]
+        fb = cam.K[0, 0] * np.linalg.norm(t.rig.T_c0_c1[:3, 3])
         z, plane = local_depth(depth, p_l)
         d_win = fb / side_depths(depth, p_l)       # (N, 25) true disparities of the 5x5 window, 0 for sky
         row = {"edge": ~plane, "d_true": np.where(plane, fb / z, np.nan), "d_near": d_win.max(1),
@@ -147,10 +147,13 @@ def side_depths(depth: np.ndarray, p: np.ndarray) -> np.ndarray:
 def collect(dataset: str, max_frames: int) -> dict:
     ds = open_dataset(dataset)
     labels = FeatureLabels.of(ds)
-    est = _Recorder(ds, labels)
+    rec = Recorder(labels)
+    est, rec.truth = instrumented(ds, Ablation("product", depth_ok="all"), {}, 0, labels=labels,
+                                  landmark_source=rec.landmarks)
     for frame in ds.frames(stop=min(max_frames, len(ds))):
+        rec.truth.k = frame.index
         est.process(frame)
-    return {key: np.concatenate([r[key] for r in est.rows]) for key in est.rows[0]}
+    return {key: np.concatenate([r[key] for r in rec.rows]) for key in rec.rows[0]}
 
 
 def roc_area(score: np.ndarray, edge: np.ndarray) -> float:

@@ -1,6 +1,7 @@
 """Where ``klt-pnp``'s rotation drift on ``urban-dynamic`` comes from: replace one input at a time by the truth.
 
-Runs ``klt-pnp`` (oracle segmentation: the PnP sees only features the true segmentation calls static, so
+Runs ``klt-pnp`` with the truth's inputs given through its constructor (``tracker``, ``landmark_source``;
+oracle segmentation: the PnP sees only features the true segmentation calls static, so
 moving objects are out) on a dataset written with ``--segmentation --depth`` and, per ablation, replaces:
 
 * ``depth``: ``stereo`` (the product: left/right KLT + triangulation), ``exact`` (the depth map at the left
@@ -8,8 +9,6 @@ moving objects are out) on a dataset written with ``--segmentation --depth`` and
   disparity error drawn like the measured stereo-KLT one: ``z = f b / (f b / z_true + e)``, e ~ N(0, sigma_d));
 * ``tracks``: ``klt`` (the product) or ``exact`` (each frame, the projection of the landmark's true surface
   point, from its birth pixel and exact depth, into the true camera; ``exact+px`` adds N(0, sigma_px) per axis);
-* ``refresh``: re-triangulate every tracked landmark from the current stereo pair after each frame
-  (frame-to-frame landmarks: no landmark error is re-used over several steps);
 * ``depth_ok``: ``valid`` keeps only landmarks whose exact depth is valid (no depth edge in the 5x5 window
   around the left pixel), also for the product's stereo depth: the same landmark set as the exact-depth
   ablations; ``finite`` drops only those with sky (no depth) in that window; ``all`` keeps every one.
@@ -39,7 +38,7 @@ from rigs.geometry import inv_T, transform_points
 from sim.app.validation.exact_points import backproject, local_depth, project
 from vo.dataset import open_dataset
 from vo.estimators.pnp import KltPnpEstimator
-from vo.frontend.klt import stereo_klt
+from vo.frontend.klt import KltConfig, KltTracker, stereo_klt
 from vo.frontend.stereo import triangulate
 from vo.vins.truth_segmentation import FeatureLabels
 
@@ -49,7 +48,6 @@ class Ablation:
     name: str
     depth: str = "stereo"          # stereo | exact | exact+disp
     tracks: str = "klt"            # klt | exact | exact+px
-    refresh: bool = False
     depth_ok: str = "valid"        # all | valid | finite
 
 
@@ -63,26 +61,21 @@ ABLATIONS = (
     Ablation("(c) exact + measured noise", depth="exact+disp", tracks="exact+px"),
     Ablation("(c') exact depth + measured px noise", depth="exact", tracks="exact+px"),
     Ablation("(c'') measured disparity noise + exact tracks", depth="exact+disp", tracks="exact"),
-    Ablation("(d) landmarks re-triangulated each frame", refresh=True),
 )
 
 
-class _Instrumented(KltPnpEstimator):
-    """klt-pnp with the ablation's inputs replaced by the truth (the current frame's index in ``self.k``);
-    with ``labels`` (:class:`FeatureLabels`) its PnP sees only the truly static features (``pnp_select``)."""
+class TruthInputs:
+    """The ablation's inputs from the truth, handed to ``klt-pnp`` through its constructor: :meth:`landmarks` is
+    its ``landmark_source`` (the depth of new landmarks), :class:`ExactTracker` its ``tracker`` (exact tracks);
+    ``k`` is the current frame's index (set before each frame), ``klt_config`` / ``pnp_config`` the estimator's."""
 
-    def __init__(self, ds, abl: Ablation, noise: dict, seed: int, labels=None, **options):
-        select = (lambda px: ~labels.dynamic(self.k, px)) if labels is not None else None
-        super().__init__(ds.rig, pnp_select=select, **options)
-        self.ds, self.abl, self.noise, self.k = ds, abl, noise, 0
+    def __init__(self, ds, abl: Ablation, noise: dict, seed: int):
+        self.ds, self.rig, self.abl, self.noise, self.k = ds, ds.rig, abl, noise, 0
+        self.klt_config = self.pnp_config = None
         self.rng = np.random.default_rng(seed)
         self.T_w_c = ds.groundtruth_cam0().T
         self.X_w: dict = {}        # track id -> true surface point (world)
         self.stats = {"disp": [], "track": []}
-
-    def process(self, frame):
-        self.k = frame.index
-        return super().process(frame)
 
     def _depth(self, p_l):
         """-> (true p_c0, exact depth valid, which landmarks the ablation keeps)."""
@@ -94,10 +87,10 @@ class _Instrumented(KltPnpEstimator):
             keep = np.all([np.isfinite(depth[ij[:, 1] + j, ij[:, 0] + i]) for i in range(-2, 3) for j in range(-2, 3)], 0)
         return backproject(cam, p_l, z), ok, keep
 
-    def _stereo(self, left, right, p_l):
+    def _stereo(self, left, right, p_l, pyramid=None):
         """-> (p_c0 used as landmark, p_c0 true, ok)."""
         c, cam = self.pnp_config, self.rig.cameras[0]
-        p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config)
+        p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, pyramid)
         p_c_tri, ok_t = triangulate(self.rig, p_l, p_r, c.max_depth, c.max_triangulation_px)
         ok &= ok_t
         p_c_true, ok_z, keep = self._depth(p_l)
@@ -114,18 +107,19 @@ class _Instrumented(KltPnpEstimator):
             z = fb / np.where(d > 0, d, np.inf)
         return p_c_true * (z / p_c_true[:, 2])[:, None], p_c_true, ok
 
-    def _add_landmarks(self, left, right, new_ids, timings) -> int:
-        sel = np.isin(self.tracker.ids, new_ids)
-        p_c, p_c_true, ok = self._stereo(left, right, self.tracker.pts[sel])
-        p_o = transform_points(self.T_o_c0, p_c)
+    def landmarks(self, left, right, ids, p_l):
+        """``klt-pnp``'s landmark source: ``(p_c0 (N,3), ok (N,))`` of the new tracks ``ids`` at ``p_l``; records
+        each kept track's true surface point."""
+        p_c, p_c_true, ok = self._stereo(left, right, p_l)
         X_w = transform_points(self.T_w_c[self.k], p_c_true)
-        for i, p, x in zip(self.tracker.ids[sel][ok], p_o[ok], X_w[ok]):
-            self.landmarks[int(i)], self.X_w[int(i)] = p, x
-        self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
-        return int(ok.sum())
+        for i, x in zip(ids[ok], X_w[ok]):
+            self.X_w[int(i)] = x
+        return p_c, ok
 
-    def _exact_tracks(self) -> None:
-        tr, cam = self.tracker, self.rig.cameras[0]
+    def exact_tracks(self, tr) -> None:
+        """Record the tracker ``tr``'s errors against the truth and, unless ``tracks`` is ``klt``, replace its
+        points by the projections of their true surface points (``exact+px``: plus pixel noise)."""
+        cam = self.rig.cameras[0]
         have = np.array([int(i) in self.X_w for i in tr.ids], bool)
         X = np.array([self.X_w[int(i)] for i in tr.ids[have]]).reshape(-1, 3)
         uv, front = project(cam, self.T_w_c[self.k], X)
@@ -143,24 +137,32 @@ class _Instrumented(KltPnpEstimator):
         tr.pts = pts
         tr.keep(keep)
 
-    def _step(self, t_ns, left, right, timings):
-        inner = self.tracker.track
 
-        def track(img):
-            ok = inner(img)
-            self._exact_tracks()
-            return ok
-        self.tracker.track = track
-        try:
-            res = super()._step(t_ns, left, right, timings)
-        finally:
-            del self.tracker.track
-        if self.abl.refresh and res.status in ("ok", "keyframe") and len(self.tracker.ids):
-            p_c, p_c_true, ok = self._stereo(left, right, self.tracker.pts)
-            p_o = transform_points(self.T_o_c0, p_c)
-            for i, p in zip(self.tracker.ids[ok], p_o[ok]):
-                self.landmarks[int(i)] = p
-        return res
+class ExactTracker(KltTracker):
+    """The product's KLT tracker whose every :meth:`track` is followed by :meth:`TruthInputs.exact_tracks`."""
+
+    def __init__(self, truth: TruthInputs, width: int, height: int, config: KltConfig):
+        super().__init__(width, height, config)
+        self.truth = truth
+
+    def track(self, img):
+        ok = super().track(img)
+        self.truth.exact_tracks(self)
+        return ok
+
+
+def instrumented(ds, abl: Ablation, noise: dict, seed: int, labels=None, landmark_source=None, **options):
+    """``(klt-pnp, TruthInputs)``: the estimator built with the ablation's truth inputs; with ``labels``
+    (:class:`FeatureLabels`) its PnP sees only the truly static features (``pnp_select``); ``landmark_source``
+    (default: :meth:`TruthInputs.landmarks`) wraps the truth's for a study that records more."""
+    truth = TruthInputs(ds, abl, noise, seed)
+    cam = ds.rig.cameras[0]
+    tracker = ExactTracker(truth, cam.width, cam.height, KltConfig.from_option(options.get("klt_config")))
+    select = (lambda px: ~labels.dynamic(truth.k, px)) if labels is not None else None
+    est = KltPnpEstimator(ds.rig, pnp_select=select, tracker=tracker,
+                          landmark_source=landmark_source or truth.landmarks, **options)
+    truth.klt_config, truth.pnp_config = est.klt_config, est.pnp_config
+    return est, truth
 
 
 def rotvec_deg(R: np.ndarray) -> np.ndarray:
@@ -169,11 +171,12 @@ def rotvec_deg(R: np.ndarray) -> np.ndarray:
 
 def run(ds, abl: Ablation, max_frames: int, noise: dict, options: dict, seed: int = 0) -> dict:
     labels = FeatureLabels.of(ds)
-    est = _Instrumented(ds, abl, noise, seed, labels=labels, **options)
-    T_w_c = est.T_w_c
+    est, truth = instrumented(ds, abl, noise, seed, labels=labels, **options)
+    T_w_c = truth.T_w_c
     n = min(max_frames, len(ds))
     T_est, steps = [], []
     for k, frame in enumerate(ds.frames(stop=n)):
+        truth.k = frame.index
         T_est.append(est.process(frame).T_o_c0.copy())
         if k:
             T_true_step = inv_T(T_w_c[k - 1]) @ T_w_c[k]
@@ -183,8 +186,8 @@ def run(ds, abl: Ablation, max_frames: int, noise: dict, options: dict, seed: in
     path = float(np.sum(np.linalg.norm(np.diff(T_w_c[:n, :3, 3], axis=0), axis=1)))
     e_o = T_est[-1][:3, 3] - T_true[:3, 3]
     e_w = T_w_c[0][:3, :3] @ e_o
-    disp = np.concatenate(est.stats["disp"]) if est.stats["disp"] else np.zeros(0)
-    track = np.concatenate(est.stats["track"]) if est.stats["track"] else np.zeros((0, 2))
+    disp = np.concatenate(truth.stats["disp"]) if truth.stats["disp"] else np.zeros(0)
+    track = np.concatenate(truth.stats["track"]) if truth.stats["track"] else np.zeros((0, 2))
     return {"rot": rotvec_deg(T_true[:3, :3].T @ T_est[-1][:3, :3]), "step": np.mean(steps, 0) * 1e3,
             "drift": 100 * np.linalg.norm(e_o) / path, "vert": float(e_w[2]), "n": n,
             "disp": robust(disp), "track": robust(track)}

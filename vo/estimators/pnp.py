@@ -152,17 +152,22 @@ class _StereoPnpEstimator(Estimator):
 
 
 class KltPnpEstimator(_StereoPnpEstimator):
-    """Seed 003's optical-flow stereo VO. Options: ``klt_config`` (:class:`KltConfig`), ``pnp_config``."""
+    """Seed 003's optical-flow stereo VO. Options: ``klt_config`` (:class:`KltConfig`), ``pnp_config``.
+    Collaborators (default: the product's): ``tracker``, a :class:`KltTracker` (or one that behaves as it);
+    ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks
+    in the current left camera (default: stereo KLT, the depth-edge test, triangulation)."""
 
     name = "klt-pnp"
 
-    def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", **options):
+    def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", tracker=None,
+                 landmark_source=None, **options):
         if frontend != "klt":
             raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
         super().__init__(rig, **options)
         self.klt_config = KltConfig.from_option(klt_config, f"{self.name}.klt_config")
         cam = rig.cameras[0]
-        self.tracker = KltTracker(cam.width, cam.height, self.klt_config)
+        self.tracker = tracker if tracker is not None else KltTracker(cam.width, cam.height, self.klt_config)
+        self.landmark_source = landmark_source if landmark_source is not None else self._stereo_landmarks
         self.landmarks: dict = {}        # track id -> p_o (3,)
         self.near: dict = {}             # track id -> (near at birth, birth c_o (3,), birth bearing_o (3,))
         self._next_keyframe = False
@@ -183,11 +188,8 @@ class KltPnpEstimator(_StereoPnpEstimator):
         with _timer(timings, "stereo"):
             sel = np.isin(self.tracker.ids, new_ids)
             p_l = self.tracker.pts[sel]
-            p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid)
-            if ok.any():
-                ok[ok] &= off_edge(left, right, p_l[ok], p_r[ok], self.klt_config)
-            p_o, ok_t = self._triangulate_o(p_l, p_r)
-            ok &= ok_t
+            p_c0, ok = self.landmark_source(left, right, self.tracker.ids[sel], p_l)
+            p_o = transform_points(self.T_o_c0, p_c0)
             z_c0 = transform_points(inv_T(self.T_o_c0), p_o)[:, 2]
             near = z_c0 < self.pnp_config.near_baselines * self.rig.baseline
             cam = self.rig.cameras[0]
@@ -198,6 +200,14 @@ class KltPnpEstimator(_StereoPnpEstimator):
                 self.near[int(i)] = (bool(c), self.T_o_c0[:3, 3].copy(), d)
             self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
         return int(ok.sum())
+
+    def _stereo_landmarks(self, left, right, ids, p_l) -> tuple:
+        """The product's landmark source: stereo KLT, the depth-edge test, triangulation in the left camera."""
+        p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid)
+        if ok.any():
+            ok[ok] &= off_edge(left, right, p_l[ok], p_r[ok], self.klt_config)
+        p_c0, ok_t = triangulate(self.rig, p_l, p_r, self.pnp_config.max_depth, self.pnp_config.max_triangulation_px)
+        return p_c0, ok & ok_t
 
     def _step(self, t_ns, left, right, timings) -> FrameResult:
         with _timer(timings, "track"):
