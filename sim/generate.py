@@ -35,6 +35,7 @@ from sim.stage_timer import NO_TIMER
 from sim.vehicles import vehicle_class
 from sim.version import __version__
 from sim.writers import DatasetWriters
+from sim.writers.fanout import check_bag_export
 from sim.writers.common import PngOptions, claim_folder
 
 CLEARANCE_M = 0.5                  # margin around the vehicle's footprint that no actor may enter
@@ -296,7 +297,7 @@ def wheel_odometry(setup: Setup, dims):
 
 def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: bool = False,
              threads: int | None = None, timer=None, workers: int = 1, scheduler: str | None = None,
-             egl_devices=()) -> GenerateResult:
+             egl_devices=(), bag_export=None) -> GenerateResult:
     """Generate the dataset described by ``config`` into ``out_dir``.
 
     The folder is locked for the whole run (:func:`sim.writers.common.claim_folder`): a second writer gets
@@ -306,15 +307,19 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     ``overwrite`` deletes a dataset of ours (marked :data:`sim.writers.common.OWNER`), never anything else.
     ``threads``, ``timer``, ``workers``, ``scheduler`` and ``egl_devices``: as :func:`render_frames` (the
     bytes do not depend on them, but for ``metadata.yaml``'s ``rendering``, the renderer that drew the frames).
+    ``bag_export``: the converter of a ``rosbag1``/``rosbag2`` format (:func:`sim.app.rosbag_export.export_rosbag`:
+    it lives in the app layer, because it reads the finished folder through the reader API).
     """
+    check_bag_export(config.format, bag_export)     # before anything is written
     if workers > 1 or scheduler:
-        check_splittable(config)                    # before anything is written
+        check_splittable(config)
     with claim_folder(out_dir, overwrite):
-        return _generate(config, Path(out_dir), progress, threads, timer, workers, scheduler, egl_devices)
+        return _generate(config, Path(out_dir), progress, threads, timer, workers, scheduler, egl_devices,
+                         bag_export)
 
 
 def _generate(config: GenerateConfig, out_dir: Path, progress: bool, threads=None, timer=None, workers: int = 1,
-              scheduler=None, egl_devices=()) -> GenerateResult:
+              scheduler=None, egl_devices=(), bag_export=None) -> GenerateResult:
     """:func:`generate` in a folder this process has claimed."""
     out_dir = Path(out_dir)
     setup = resolve(config)
@@ -328,7 +333,7 @@ def _generate(config: GenerateConfig, out_dir: Path, progress: bool, threads=Non
     written_rig, calib_draws = perturb_rig(setup.rig, config.calib_error, stream(config.seed, "calib_error"))
     writers = DatasetWriters(out_dir, written_rig, metadata(setup), fmt=config.format, depth=config.depth,
                              segmentation=config.segmentation, depth_format=config.depth_format,
-                             png=PngOptions.of(config.render))
+                             png=PngOptions.of(config.render), bag_export=bag_export)
     start = writers.resumed_frames      # > 0 when resuming an interrupted run of the same config
     # IMU and ground truth are replayed in full; the writers skip rows already on disk
     writers.add_imu(noisy.t_ns + time_offset_ns(config), noisy.gyro, noisy.accel)   # t_imu = t_cam + td

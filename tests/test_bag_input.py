@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from sim.writers import EurocWriter
-from sim.writers.rosbag_writer import export_rosbag
+from sim.app.rosbag_export import export_rosbag
 from test_dataset_synth import Synth
 from vo.dataset import open_dataset
 from vo.errors import DatasetError

@@ -75,3 +75,17 @@ def test_generate_both_names_both_folders_and_run_accepts_the_root(tmp_path, cap
     run_text = cli_ok(["run", "--dataset", str(root), "--estimator", "rop", "--out", str(tmp_path / "run"),
                        "--no-progress"], capsys)
     assert "11 frames" in run_text and (tmp_path / "run" / "trajectory_tum.txt").is_file()
+
+
+def test_a_bag_format_without_its_exporter_is_refused_before_writing(tmp_path):
+    """The bag export lives in the app layer (it reads the folder through the reader API); the library's generate
+    takes it as a collaborator and refuses a bag format without it, in one line, before the folder exists."""
+    from sim.errors import SimError
+    from sim.generate import generate
+    from sim.generate_config import GenerateConfig
+    out = tmp_path / "bag"
+    with pytest.raises(SimError) as e:
+        generate(GenerateConfig(scene="campus", rig="cart27", duration_s=1.0, format="rosbag2", images=False), out,
+                 progress=False)
+    assert "bag_export" in str(e.value) and "\n" not in str(e.value)
+    assert not out.exists()

@@ -17,7 +17,7 @@ from rigs.calib_io import read_kitti_calib
 from rigs.kalibr_io import read_kalibr
 from rigs.rectify import stereo_rectify
 from sim.writers import EurocWriter, KittiWriter
-from sim.writers.rosbag_writer import export_rosbag
+from sim.app.rosbag_export import export_rosbag
 from vo.dataset import open_dataset
 
 K4 = (-0.01, 0.04, -0.04, 0.008)

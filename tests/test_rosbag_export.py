@@ -1,4 +1,4 @@
-"""ROS bag export (sim.writers.rosbag_writer): every kind read back with rosbags' AnyReader must give
+"""ROS bag export (sim.app.rosbag_export): every kind read back with rosbags' AnyReader must give
 the dataset's own counts, timestamps, image bytes, IMU values, calibration and ground truth, exactly."""
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from test_dataset_synth import Synth
 
 from sim.writers import EurocWriter, KittiWriter
-from sim.writers.rosbag_writer import export_rosbag
+from sim.app.rosbag_export import export_rosbag
 from sim.errors import SimError
 from vo.dataset import open_dataset
 

@@ -4,7 +4,6 @@ from pathlib import Path
 from sim.writers.euroc_writer import EurocWriter, euroc_resume_state  # noqa: F401
 from sim.writers.fanout import DatasetWriters, write_tum_groundtruth  # noqa: F401
 from sim.writers.kitti_writer import KittiWriter, kitti_resume_state  # noqa: F401
-from sim.writers.rosbag_writer import export_rosbag  # noqa: F401
 
 
 def resume_state(out_dir) -> int:
@@ -18,4 +17,4 @@ def resume_state(out_dir) -> int:
 
 
 __all__ = ["EurocWriter", "KittiWriter", "DatasetWriters", "write_tum_groundtruth", "resume_state",
-           "euroc_resume_state", "kitti_resume_state", "export_rosbag"]
+           "euroc_resume_state", "kitti_resume_state"]

@@ -1,7 +1,8 @@
 """Fan-out of writer calls to a EuRoC and/or a KITTI writer, and a TUM convenience.
 
-``rosbag1``/``rosbag2`` write the EuRoC folder into ``out_dir`` and then convert it with
-:func:`sim.writers.rosbag_writer.export_rosbag` into ``out_dir/dataset.bag`` (ROS 1) or
+``rosbag1``/``rosbag2`` write the EuRoC folder into ``out_dir`` and then convert it with the ``bag_export``
+the caller hands in (the app layer's :func:`sim.app.rosbag_export.export_rosbag`, which reads the folder
+through the reader API) into ``out_dir/dataset.bag`` (ROS 1) or
 ``out_dir/rosbag2/`` (ROS 2, MCAP storage); the EuRoC folder stays, so every tool of ours reads it.
 """
 from __future__ import annotations
@@ -19,6 +20,13 @@ from sim.writers.common import PngOptions
 
 FORMATS = ("euroc", "kitti", "both", "rosbag1", "rosbag2")
 BAG_NAMES = {"rosbag1": "dataset.bag", "rosbag2": "rosbag2"}
+
+
+def check_bag_export(fmt: str, bag_export) -> None:
+    """SimError (one line) when a bag format ``fmt`` comes without its ``bag_export`` converter."""
+    if fmt in BAG_NAMES and bag_export is None:
+        raise SimError(f"format {fmt}: the bag is converted by the app layer's exporter; pass "
+                       f"bag_export=sim.app.rosbag_export.export_rosbag (the CLI does)")
 
 
 def output_paths(out_dir, fmt: str) -> list:
@@ -45,11 +53,13 @@ class DatasetWriters:
 
     def __init__(self, out_dir, rig, metadata: dict, fmt: str = "euroc", depth: bool = False,
                  segmentation: bool = False, overwrite: bool = False, depth_format: str = "npy",
-                 png: PngOptions = PngOptions()):
+                 png: PngOptions = PngOptions(), bag_export=None):
         from sim.writers.euroc_writer import EurocWriter
         from sim.writers.kitti_writer import KittiWriter
         if fmt not in FORMATS:
             raise SimError(f"dataset format {fmt!r} unknown; valid: {', '.join(FORMATS)}")
+        check_bag_export(fmt, bag_export)
+        self.bag_export = bag_export
         out_dir = Path(out_dir)
         self.fmt, self.out_dir = fmt, out_dir
         self.writers = []
@@ -132,13 +142,12 @@ class DatasetWriters:
         folders = [w.finalize(commit=False) for w in self.writers]
         if self.fmt in BAG_NAMES:
             import shutil
-            from sim.writers.rosbag_writer import export_rosbag
             bag = self.out_dir / BAG_NAMES[self.fmt]
             if bag.is_dir():
                 shutil.rmtree(bag)
             elif bag.exists():
                 bag.unlink()
-            export_rosbag(self.out_dir, bag, kind=self.fmt, storage="mcap", allow_incomplete=True)
+            self.bag_export(self.out_dir, bag, kind=self.fmt, storage="mcap", allow_incomplete=True)
             folders.append(bag)
         for w in self.writers:
             w.commit()

@@ -23,7 +23,7 @@ def export(ctx, dataset_dir, kind, storage, out_path, truth, as_json):
     """Export DATASET as a bag: /cam0/image_raw, /cam1/image_raw, /camK/camera_info, /imu0, /tf_static,
     /groundtruth/pose, /groundtruth/cam0 (and /wheels); timestamps are the dataset's own."""
     from click.core import ParameterSource
-    from sim.writers.rosbag_writer import export_rosbag
+    from sim.app.rosbag_export import export_rosbag
     if kind == "rosbag1" and ctx.get_parameter_source("storage") == ParameterSource.COMMANDLINE:
         raise click.UsageError(f"--storage {storage}: applies to --to rosbag2 only (a rosbag1 bag is one .bag "
                                f"file in bag format 2.0, with no storage plugin); leave it out")

@@ -72,6 +72,7 @@ FLAG_FIELDS = {"scene": "scene.name", "rig": "rig", "duration": "duration_s", "s
 def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, workers, scheduler, egl_devices, threads,
              overrides, as_json, **flags):
     """Generate a dataset (EuRoC, KITTI or both) with exact ground truth, GCPs and a top-down PNG."""
+    from sim.app.rosbag_export import export_rosbag
     from sim.generate import generate as run
 
     from sim.scenarios import traverse_scenarios
@@ -80,7 +81,7 @@ def generate(ctx, scenario, config_file, out_dir, overwrite, no_progress, worker
     cfg = build_config(ctx, scenario, config_file, flags, overrides)
     devices = tuple(d.strip() for d in egl_devices.split(",") if d.strip()) if egl_devices else ()
     res = run(cfg, out_dir, progress=not no_progress and not as_json, overwrite=overwrite, threads=threads,
-              workers=workers, scheduler=scheduler, egl_devices=devices)
+              workers=workers, scheduler=scheduler, egl_devices=devices, bag_export=export_rosbag)
     for note in res.notes:
         click.echo(f"warning: {note}", err=True)
     if res.replay_departure and not as_json:
