@@ -8,7 +8,7 @@ import numpy as np
 
 from rigs.geometry import make_T, rot_z
 from vo.crosssite.localizer_config import CrossSiteConfig
-from vo.crosssite.localizer import _resection_inliers, initial_pose, second_motion
+from vo.crosssite.localizer import resection_inliers, initial_pose, second_motion
 from vo.crosssite.regions import project
 from vo.crosssite.ties import TieSet
 from vo.crosssite.types import Site, StereoCal, StereoPair
@@ -52,7 +52,7 @@ def _check(ties, T_prior):
     cfg = CrossSiteConfig()
     idx = np.arange(len(ties.pair_prev))
     T_init, P_w = initial_pose(cur, T0, prev, ties, idx, cfg)
-    keep = _resection_inliers(cur, T_init, P_w, ties, idx, cfg)
+    keep = resection_inliers(cur, T_init, P_w, ties, idx, cfg)
     return T_init, keep, second_motion(cur, ties, idx, P_w, keep, T_init, cfg)
 
 
@@ -82,5 +82,5 @@ def test_check_is_off_at_zero():
     cfg = dataclasses.replace(CrossSiteConfig(), ambiguity_px=0.0)
     idx = np.arange(len(ties.pair_prev))
     T_init, P_w = initial_pose(cur, T0, prev, ties, idx, cfg)
-    keep = _resection_inliers(cur, T_init, P_w, ties, idx, cfg)
+    keep = resection_inliers(cur, T_init, P_w, ties, idx, cfg)
     assert second_motion(cur, ties, idx, P_w, keep, T_init, cfg) is None

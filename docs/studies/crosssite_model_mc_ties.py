@@ -35,11 +35,11 @@ XSITE_PX = (1.0, 1.5, 2.0, 3.0)   # cross-site matching sigmas of the weighted r
 def ba_tie_set(prev, T0, cur, res, cfg) -> tuple:
     """(indices into ``res.ties`` of the ties the BA was given, their points intersected at the
     previous site (n,3) in w, the resected initial pose): the localizer's stage 6, deterministic."""
-    from vo.crosssite.localizer import _resection_inliers, _subsample, initial_pose
+    from vo.crosssite.localizer import resection_inliers, subsample_ties, initial_pose
     t = res.ties
-    idx = _subsample(np.flatnonzero(t.inlier), cfg.max_ba_points)
+    idx = subsample_ties(np.flatnonzero(t.inlier), cfg.max_ba_points)
     T_init, P_w = initial_pose(cur, T0, prev, t, idx, cfg)
-    keep = _resection_inliers(cur, T_init, P_w, t, idx, cfg)
+    keep = resection_inliers(cur, T_init, P_w, t, idx, cfg)
     return idx[keep], P_w[keep], T_init
 
 
@@ -101,7 +101,7 @@ def tie_errors(ties, idx, truth) -> dict:
 def compose(ties, idx, truth, keep_actual: tuple):
     """Observations of ties ``idx`` with the error components in ``keep_actual`` actual and the
     others exact (ties without truth stay actual). -> TieObservations."""
-    from vo.crosssite.localizer import _observations
+    from vo.crosssite.localizer import tie_observations
     from vo.crosssite.ties import TieSet
     ok = np.isfinite(truth["ur_prev"]) & np.all(np.isfinite(truth["uv_cur"]), axis=1)
     uv_cur = ties.uv_cur[idx].copy()
@@ -116,7 +116,7 @@ def compose(ties, idx, truth, keep_actual: tuple):
     n = len(idx)
     t = TieSet(ties.pair_prev[idx], ties.uv_prev[idx], ties.pair_cur[idx], uv_cur, ur_prev=ur_prev,
                ur_cur=uv_cur[:, 0] - disp_cur)
-    return _observations(t, np.arange(n))
+    return tie_observations(t, np.arange(n))
 
 
 def replay(prev, cur, T0, T_init, P_w, obs, cfg, xsite_sigma_px: float = 0.0):
@@ -151,8 +151,8 @@ def diagnose(row: dict, prev, cur, res, T0, T1, depths0, cfg, T_b_c0_true, axes_
     ex = np.linalg.norm(e["xsite"], axis=1)
     good = has & (ex <= 1) & (np.abs(e["dprev"]) <= 1) & (np.abs(e["dcur"]) <= 1)
     if good.sum() >= cfg.min_tie_points:   # drop1: without the ties > 1 px from truth
-        from vo.crosssite.localizer import _observations
-        r = replay(prev, cur, T0, res.T_w_b, P_w[good], _observations(t, idx[good]), cfg)
+        from vo.crosssite.localizer import tie_observations
+        r = replay(prev, cur, T0, res.T_w_b, P_w[good], tie_observations(t, idx[good]), cfg)
         if r is not None:
             row["drop1_n"] = int(good.sum())
             pose_nees(row, "drop1_", r, axes_err, T1)
@@ -186,7 +186,7 @@ def replays(row: dict, prev, cur, res, T0, T1, cfg, idx, P_w, T_init, truth, axe
     """``row`` gets: the rebuild check and the BA's a-posteriori sigma0 (redundancy 3N - 6 for N points
     with 2 stereo observations each), the pose error with one error component actual (``rp_*``), and
     the pose, covariance and NEES with the cross-site error in the weights (``xs<s>_*``)."""
-    from vo.crosssite.localizer import _observations
+    from vo.crosssite.localizer import tie_observations
     t = res.ties
     base = replay(prev, cur, T0, T_init, P_w, compose(t, idx, truth, COMPONENTS), cfg)
     if base is not None:
@@ -198,7 +198,7 @@ def replays(row: dict, prev, cur, res, T0, T1, cfg, idx, P_w, T_init, truth, axe
         for k, ax in enumerate(("along", "cross", "vertical")):
             row[f"rp_{name}_{ax}"] = float(axes_err(r.T_w_b)[0][k]) if r is not None else float("nan")
     for xs in XSITE_PX:
-        r = replay(prev, cur, T0, T_init, P_w, _observations(t, idx), cfg, xs)
+        r = replay(prev, cur, T0, T_init, P_w, tie_observations(t, idx), cfg, xs)
         if r is not None:
             pose_nees(row, f"xs{xs:g}_", r, axes_err, T1)
 
@@ -299,7 +299,7 @@ def rebuild_result(prev, T0, cur, path, cfg):
     """The SiteResult of a run from its saved tie set (``ties_<run>.npz``): the localizer's stage 6, its
     ``min_ba_ties`` rule and BA on those ties (deterministic: the same pose and covariance)."""
     from vo.crosssite.bundle import bundle_adjust
-    from vo.crosssite.localizer import _observations
+    from vo.crosssite.localizer import tie_observations
     from vo.crosssite.ties import TieSet
     from vo.crosssite.types import SiteResult
     with np.load(path) as z:
@@ -308,7 +308,7 @@ def rebuild_result(prev, T0, cur, path, cfg):
     idx, P_w, T_init = ba_tie_set(prev, T0, cur, res, cfg)
     if len(idx) < cfg.min_ba_ties:   # the localizer's minimum tie count
         return SiteResult(cur.index, "few_tie_points", cur.T_w_b_prior, cur.cov_prior, int(t.inlier.sum()), ties=t)
-    b = bundle_adjust(T0, T_init, [[p.T_b_c0 for p in prev.pairs], [p.T_b_c0 for p in cur.pairs]], _observations(t, idx),
+    b = bundle_adjust(T0, T_init, [[p.T_b_c0 for p in prev.pairs], [p.T_b_c0 for p in cur.pairs]], tie_observations(t, idx),
                       P_w, cur.cal.K, cur.cal.baseline, cfg.ba_sigma_px, cfg.ba_huber_k, cfg.mast_sigma_rad,
                       cfg.mast_sigma_m)
     return SiteResult(cur.index, "ok", b.T_w_b, b.cov, int(t.inlier.sum()),

@@ -60,7 +60,7 @@ def best_resection(cur: Site, P_w, ties: TieSet, idx, cfg) -> np.ndarray:
     return T_best if T_best is not None else cur.T_w_b_prior
 
 
-def _resection_inliers(cur: Site, T_w_b, P_w, ties: TieSet, idx, cfg) -> np.ndarray:
+def resection_inliers(cur: Site, T_w_b, P_w, ties: TieSet, idx, cfg) -> np.ndarray:
     """(n,) bool: tie points whose reprojection into their current left image under the resected
     pose is within ``pnp_reproj_px`` (the resection's RANSAC consensus, extended to all pairs)."""
     return _reprojection_px(cur, T_w_b, P_w, ties, idx) <= cfg.pnp_reproj_px
@@ -75,7 +75,7 @@ def prior_chi2(T_w_b_prior: np.ndarray, cov_prior: np.ndarray, T_w_b: np.ndarray
     return float(xi @ np.linalg.solve(cov_prior, xi))
 
 
-def _observations(ties: TieSet, idx) -> TieObservations:
+def tie_observations(ties: TieSet, idx) -> TieObservations:
     n = len(idx)
     return TieObservations(np.r_[np.zeros(n, int), np.ones(n, int)], np.r_[ties.pair_prev[idx], ties.pair_cur[idx]],
                            np.r_[np.arange(n), np.arange(n)], np.vstack([ties.uv_prev[idx], ties.uv_cur[idx]]),
@@ -105,7 +105,7 @@ def second_motion(cur: Site, ties: TieSet, idx, P_w, keep, T_first, cfg) -> Opti
     if cfg.ambiguity_px <= 0 or rest.sum() < cfg.min_tie_points:
         return None
     T2 = best_resection(cur, P_w[rest], ties, idx[rest], cfg)
-    keep2 = _resection_inliers(cur, T2, P_w[rest], ties, idx[rest], cfg)
+    keep2 = resection_inliers(cur, T2, P_w[rest], ties, idx[rest], cfg)
     if keep2.sum() < cfg.min_tie_points:
         return None
     d = float(np.median(_reprojection_px(cur, T_first, P_w[rest][keep2], ties, idx[rest][keep2])))
@@ -116,7 +116,7 @@ def second_motion(cur: Site, ties: TieSet, idx, P_w, keep, T_first, cfg) -> Opti
             f"(median {d:.0f} px > {cfg.ambiguity_px})")
 
 
-def _subsample(idx: np.ndarray, n_max: int) -> np.ndarray:
+def subsample_ties(idx: np.ndarray, n_max: int) -> np.ndarray:
     if len(idx) <= n_max:
         return idx
     return idx[np.linspace(0, len(idx) - 1, n_max).round().astype(int)]
@@ -168,14 +168,14 @@ def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSite
     if len(ties.pair_prev) == 0:
         timings["total"] = time.perf_counter() - t0
         return _fallback(cur, "no_tie_points", cfg, ties, "no ASIFT matches in the predicted regions", timings)
-    idx = _subsample(np.flatnonzero(ties.inlier), cfg.max_ba_points)
+    idx = subsample_ties(np.flatnonzero(ties.inlier), cfg.max_ba_points)
     if len(idx) < cfg.min_tie_points:
         timings["total"] = time.perf_counter() - t0
         status = "no_tie_points" if ties.stereo_ok.sum() == 0 else "few_tie_points"
         return _fallback(cur, status, cfg, ties, f"{len(idx)} tie points after the outlier test", timings)
     t1 = time.perf_counter()
     T_init, P_w = initial_pose(cur, T_w_b_prev, prev, ties, idx, cfg)
-    keep = _resection_inliers(cur, T_init, P_w, ties, idx, cfg)
+    keep = resection_inliers(cur, T_init, P_w, ties, idx, cfg)
     if keep.sum() < cfg.min_tie_points:
         timings.update(initial=time.perf_counter() - t1, total=time.perf_counter() - t0)
         return _fallback(cur, "few_tie_points", cfg, ties, f"{int(keep.sum())} tie points agree with the resection",
@@ -192,7 +192,7 @@ def _localize_site(prev: Site, T_w_b_prev: np.ndarray, cur: Site, cfg: CrossSite
     t2 = time.perf_counter()
     try:
         res = bundle_adjust(T_w_b_prev, T_init, [[p.T_b_c0 for p in prev.pairs], [p.T_b_c0 for p in cur.pairs]],
-                            _observations(ties, idx), P_w, cur.cal.K, cur.cal.baseline, cfg.ba_sigma_px,
+                            tie_observations(ties, idx), P_w, cur.cal.K, cur.cal.baseline, cfg.ba_sigma_px,
                             cfg.ba_huber_k, cfg.mast_sigma_rad, cfg.mast_sigma_m,
                             xsite_sigma_px=cfg.ba_xsite_sigma_px)
     except RuntimeError as e:  # gtsam: indeterminant system, cheirality
