@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 from sim.errors import SimError
-from sim.scenarios import cache_root, cached_dataset, get_scenario
+from sim.cache_dir import cache_root
+from sim.scenarios import cached_dataset, get_scenario
 from vo.dataset import open_dataset
 from vo.errors import VoError
 from vo.estimators.base import PRODUCED_CLASSES

@@ -7,7 +7,8 @@ from pathlib import Path
 from sim.app.check import scenario_dataset
 from sim.app.demo_vins import VINS_SCENARIOS, run_vins_demo
 from sim.generate_traverse import generate_traverse
-from sim.scenarios import cache_root, get_scenario, traverse_scenarios
+from sim.cache_dir import cache_root
+from sim.scenarios import get_scenario, traverse_scenarios
 from vo.dataset import open_dataset
 from vo.errors import VoError
 from vo.estimators.registry import check_spec
