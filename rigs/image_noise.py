@@ -63,37 +63,56 @@ def add_quantized_noise(img: np.ndarray, sigma: float, rng: np.random.Generator)
     if sigma == 0:
         return img.copy()
     table, values, residual_cdf = _offset_table(sigma)
+    codes, special = _entry_codes(sigma)
     src = np.ascontiguousarray(img).reshape(img.shape[0], -1)                # (H, W*C)
     high = _uniform_bytes(rng, img.size).reshape(src.shape)
-    code, is_mixed = _scratch(src.shape)
+    code, is_mixed, mask_words = _scratch(src.shape)
     cv2.LUT(high, _bucket_lut(sigma), dst=code)                              # d + 128, or 0: mixed bucket
-    mixed = np.flatnonzero(np.equal(code, 0, out=is_mixed))
+    mixed = _zero_positions(code, is_mixed, mask_words)
     wide = None
     if mixed.size:
         index = np.left_shift(high.reshape(-1)[mixed], 8, dtype=np.uint16)
         index |= _uniform_bytes(rng, mixed.size)
-        offsets = np.take(table, index)
-        escaped = np.flatnonzero(offsets == _ESCAPE)
-        if escaped.size:
-            u = rng.random(escaped.size) * residual_cdf[-1]
-            pick = np.minimum(np.searchsorted(residual_cdf, u, side="right"), len(values) - 1)
-            offsets[escaped] = values[pick]
-        wide = np.flatnonzero(np.abs(offsets) > _BIAS - 1)                   # beyond a byte's code
-        code.reshape(-1)[mixed] = np.clip(offsets, -_BIAS, _BIAS - 1) + _BIAS
+        code.reshape(-1)[mixed] = np.take(codes, index)
+        exact = np.flatnonzero(np.take(special, index))                     # residual or beyond +-127
+        if exact.size:
+            offsets = table[index[exact]]
+            escaped = np.flatnonzero(offsets == _ESCAPE)
+            if escaped.size:
+                u = rng.random(escaped.size) * residual_cdf[-1]
+                pick = np.minimum(np.searchsorted(residual_cdf, u, side="right"), len(values) - 1)
+                offsets[escaped] = values[pick]
+            code.reshape(-1)[mixed[exact]] = np.clip(offsets, -_BIAS, _BIAS - 1) + _BIAS
+            wide = np.flatnonzero(np.abs(offsets) > _BIAS - 1)
+            wide_at, wide_offsets = mixed[exact[wide]], offsets[wide]
     out = cv2.addWeighted(src, 1.0, code, 1.0, -float(_BIAS), dtype=cv2.CV_8U)   # saturating
     if wide is not None and wide.size:
-        at = mixed[wide]
-        out.reshape(-1)[at] = np.clip(src.reshape(-1)[at] + offsets[wide], 0, 255)
+        out.reshape(-1)[wide_at] = np.clip(src.reshape(-1)[wide_at] + wide_offsets, 0, 255)
     return out.reshape(img.shape)
+
+
+def _zero_positions(code: np.ndarray, is_mixed: np.ndarray, flat: np.ndarray) -> np.ndarray:
+    """Flat indices of the zero bytes of ``code`` (H, W*C); ``is_mixed`` (H, W*C) bool is a view of the
+    head of ``flat``, whose tail (up to a multiple of 8) holds False: the mask's 8-byte words are scanned first
+    and only the words with a zero byte are expanded (twice as fast as ``flatnonzero`` on the whole mask
+    when about 3 % of the bytes are zero)."""
+    np.equal(code, 0, out=is_mixed)
+    words = flat.view(np.uint64)
+    hit = np.flatnonzero(words != 0)
+    z = np.flatnonzero(words[hit].view(bool))
+    return hit[z >> 3] * 8 + (z & 7)
 
 
 def _scratch(shape: tuple) -> tuple:
     """This thread's reused work arrays for an image of ``shape`` (H, W*C): bucket codes (uint8) and the
-    mixed-bucket mask (bool). Reusing them spares the page faults of fresh large allocations, which cost
-    as much as the arithmetic; one set per thread, as frames are noised in worker threads concurrently."""
+    mixed-bucket mask (bool) as a view of a flat array padded with False to a multiple of 8 bytes, and that array. Reusing
+    them spares the page faults of fresh large allocations, which cost as much as the arithmetic; one set
+    per thread, as frames are noised in worker threads concurrently."""
     arrays = getattr(_SCRATCH, "arrays", None)
     if arrays is None or arrays[0].shape != shape:
-        arrays = _SCRATCH.arrays = (np.empty(shape, np.uint8), np.empty(shape, bool))
+        n = shape[0] * shape[1]
+        flat = np.zeros(-(-n // 8) * 8, bool)
+        arrays = _SCRATCH.arrays = (np.empty(shape, np.uint8), flat[:n].reshape(shape), flat)
     return arrays
 
 
@@ -130,6 +149,15 @@ def _offset_table(sigma: float) -> tuple:
     table[:counts.sum()] = np.repeat(d, counts)
     residual = np.clip(p * n - counts, 0.0, None)
     return table, d.astype(np.int16), np.cumsum(residual)
+
+
+@functools.lru_cache(maxsize=16)
+def _entry_codes(sigma: float) -> tuple:
+    """``(codes (65536,) uint8, special (65536,) bool)``: each table entry's byte code ``d + 128`` and
+    whether it needs the exact path (a residual entry, or ``|d| > 127``, which a byte code cannot hold)."""
+    table = _offset_table(sigma)[0].astype(np.int32)
+    special = (table == _ESCAPE) | (np.abs(table) > _BIAS - 1)
+    return (np.clip(table, -_BIAS, _BIAS - 1) + _BIAS).astype(np.uint8), special
 
 
 @functools.lru_cache(maxsize=16)
