@@ -264,7 +264,9 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
     png = PngOptions.of(c.render) if c.format == "euroc" else None    # EuRoC images: encoded by the workers
     with ChunkSource(c, workers, resolve, scheduler, egl_devices, png) as source, \
             FrameLoop(n, "render", threads, progress, start, timer) as loop:
-        timer.add("world build", source.build_s)       # the world built once here for the worker processes
+        for name, seconds in (("world build", source.build_s), ("world build CPU", source.build_cpu_s),
+                              ("frame loop", source.build_s), ("frame loop CPU", source.build_cpu_s)):
+            timer.add(name, seconds)                   # the world built here for the worker processes
         for chunk in source.chunks(start, n):
             if not ids_written:
                 writers.add_segmentation_ids(setup.scene.segmentation_rows(chunk.geom_names))

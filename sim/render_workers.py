@@ -51,7 +51,8 @@ class RenderedChunk:
     """Frames ``start .. start + len(frames) - 1``: ``frames[j] = (images [left, right] uint8, depth, seg)``,
     noise and effects applied; ``geom_names`` (segmentation only) and the ``device`` that drew them;
     ``stage_s``: the worker's seconds per stage for this chunk (``render``, ``read-back``, ``noise/effects``,
-    and ``start-up``, the building of its scene and GL context, on the chunk that paid for it)."""
+    and ``start-up`` / ``start-up CPU``, the making of its world and GL context, elapsed and process CPU seconds,
+    on the chunk that paid for it)."""
     start: int
     frames: list
     geom_names: list
@@ -86,7 +87,7 @@ class _WorkerState:
     """A worker's scene, trajectory and camera for one config (built on first use, kept for the next chunk)."""
 
     def __init__(self, config, resolve):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         self.timer = StageTimer()
         self.key = config.config_hash()
         self.setup = setup = resolve(config)
@@ -102,6 +103,7 @@ class _WorkerState:
         self.geom_names = self.camera.geom_names() if c.segmentation else []
         self.device = device_label(self.camera.gl_renderer)
         self.timer.add("start-up", time.perf_counter() - t0)
+        self.timer.add("start-up CPU", time.process_time() - c0)
 
     def close(self) -> None:
         self.camera.close()
@@ -172,7 +174,7 @@ class ChunkSource:
         self.config, self.workers, self.scheduler = config, max(1, int(workers)), scheduler
         self.egl_devices = tuple(str(d) for d in egl_devices)
         self._pool = self._client = self._world_dir = None
-        self.build_s = 0.0                     # seconds spent here building and saving the world (local pool)
+        self.build_s = self.build_cpu_s = 0.0  # elapsed and CPU seconds spent here building and saving the world
 
     def __enter__(self):
         if self.scheduler:
@@ -200,12 +202,12 @@ class ChunkSource:
 
     def _build_world(self):
         """Build this config's world once and save it for the worker processes (:mod:`sim.world_handoff`)."""
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         setup = self._resolve(self.config)
         world = build_world(setup.scene, setup.rig, vehicle=self.config.vehicle)
         self._world_dir = tempfile.mkdtemp(prefix="vo-testbed-world-")
         files = save_world(world, self._world_dir, self.config.config_hash())
-        self.build_s = time.perf_counter() - t0
+        self.build_s, self.build_cpu_s = time.perf_counter() - t0, time.process_time() - c0
         return files
 
     def _submit(self, a: int, b: int):
