@@ -279,6 +279,7 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
                 timer.add("first chunk frames", len(chunk.frames))
             for name, seconds in chunk.stage_s.items():
                 timer.add(name, seconds)
+            timer.add_max("worker peak MB", chunk.peak_rss_mb)
             for j, (images, depth, seg) in enumerate(chunk.frames):
                 k = chunk.start + j
                 t_ns = int(setup.frame_stamp_ns[k])

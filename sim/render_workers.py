@@ -28,6 +28,7 @@ it (:func:`device_label`); ``metadata.yaml`` records them under ``rendering``.
 from __future__ import annotations
 
 import os
+import resource
 import shutil
 import tempfile
 import threading
@@ -58,6 +59,7 @@ class RenderedChunk:
     geom_names: list
     device: str
     stage_s: dict = field(default_factory=dict)
+    peak_rss_mb: float = 0.0                   # the worker process's peak resident memory so far
 
 
 def check_splittable(config) -> None:
@@ -142,7 +144,8 @@ def render_chunk(config, a: int, b: int, resolve, png=None) -> RenderedChunk:
                 images = [EncodedPng(encode_png(img, True, png)) for img in images]
         frames.append((images, depth, seg))
     stage_s = {name: sec - before.get(name, 0.0) for name, sec in timer.totals().items()}
-    return RenderedChunk(a, frames, state.geom_names, state.device, stage_s)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return RenderedChunk(a, frames, state.geom_names, state.device, stage_s, peak)
 
 
 def _init_process(devices, counter, world_files=None) -> None:

@@ -142,7 +142,8 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     stage_ms = {s: 1e3 * tot.get(s, 0.0) / n for s in STAGES}
     stage_ms["render"] -= stage_ms["read-back"]
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    peak_children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+    peak_children = max(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0,   # spawned workers
+                        tot.get("worker peak MB", 0.0))       # forked by the forkserver: as they report it
     startup = {}
     if workers > 1 and not scheduler:
         startup = {"world_build": tot.get("world build", 0.0), "worker_mean": tot.get("start-up", 0.0) / workers,
