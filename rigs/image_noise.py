@@ -85,7 +85,7 @@ def add_quantized_noise(img: np.ndarray, sigma: float, rng: np.random.Generator)
             code.reshape(-1)[mixed[exact]] = np.clip(offsets, -_BIAS, _BIAS - 1) + _BIAS
             wide = np.flatnonzero(np.abs(offsets) > _BIAS - 1)
             wide_at, wide_offsets = mixed[exact[wide]], offsets[wide]
-    out = cv2.addWeighted(src, 1.0, code, 1.0, -float(_BIAS), dtype=cv2.CV_8U)   # saturating
+    out = cv2.addWeighted(src, 1.0, code, 1.0, -float(_BIAS), dst=high, dtype=cv2.CV_8U)  # saturating, in place
     if wide is not None and wide.size:
         out.reshape(-1)[wide_at] = np.clip(src.reshape(-1)[wide_at] + wide_offsets, 0, 255)
     return out.reshape(img.shape)
