@@ -4,7 +4,7 @@ Every frame depends only on its time and index: its pose and the actors' states 
 truth, its noise from the indexed streams ``image_noise`` / ``sensor_noise`` (:mod:`sim.rng`). So a
 route is cut into chunks of consecutive frames (:func:`chunk_ranges`); each is rendered, and its noise
 and image effects applied, by a worker process with a GL context of its own (:func:`render_chunk`; the
-scene, trajectory and camera are built once per process and config). The parent encodes and writes the
+trajectory and camera are made once per process and config). The parent encodes and writes the
 frames in order through its :class:`sim.frame_pipeline.FramePipeline`, so the dataset is byte-identical
 to a serial run, and an interrupted run resumes as one.
 
@@ -17,7 +17,10 @@ Start-up: the local processes do not each build the scene. :class:`ChunkSource` 
 here, and saves it (:mod:`sim.world_handoff`: MuJoCo's binary model and the distortion maps); each
 process loads it for the chunks of the same configuration and creates only its GL context. The processes
 are forked from a ``forkserver`` process that has imported the generator once (a fresh interpreter: no GL
-context or thread of this process is inherited), so they do not import it each either.
+context or thread of this process is inherited), so they do not import it each either. The forkserver
+lives as long as this process and serves its later runs too; its environment is this process's at its
+start (``MUJOCO_GL``; an EGL device given by ``egl_devices`` is set in each worker). A Dask cluster's
+workers build their own worlds (they may be other machines).
 
 Workers: ``workers`` local processes (the *i*-th one started renders on EGL device
 ``egl_devices[i % len]`` via ``MUJOCO_EGL_DEVICE_ID`` when devices are given, else on the device its
