@@ -51,8 +51,11 @@ def load_world(files: WorldFiles, scene, rig):
     """The :class:`sim.world.World` saved in ``files``, for ``scene`` and ``rig`` (the rig it was built with:
     a different one is a one-line :class:`sim.errors.SimError`)."""
     import mujoco
+    path = os.path.join(files.folder, MODEL_FILE)
+    if not os.path.isfile(path):             # checked here: MuJoCo would also write MUJOCO_LOG.TXT
+        raise SimError(f"{files.folder}: cannot load the saved world (no {MODEL_FILE})")
     try:
-        model = mujoco.MjModel.from_binary_path(os.path.join(files.folder, MODEL_FILE))
+        model = mujoco.MjModel.from_binary_path(path)
         with open(os.path.join(files.folder, PARTS_FILE), "rb") as f:
             parts = pickle.load(f)
     except (OSError, ValueError, pickle.UnpicklingError) as exc:
