@@ -44,7 +44,6 @@ WHEELS = {"car": (0.32, 0.12, tuple((x, y, 0.32) for x in (-1.36, 1.36) for y in
           "bus": (0.5, 0.15, tuple((x, y, 0.5) for x in (-3.3, 3.3) for y in (-1.15, 1.15))),
           "pedestrian": (0.0, 0.0, ())}
 SHAPES = {"car": (CAR_PARTS, 1.0), "bus": (BUS_PARTS, 2.0), "pedestrian": (PED_PARTS, 0.5)}   # parts, (unused) tile
-ATLAS_POOL = {"car": 48, "bus": 24, "pedestrian": 32}             # distinct atlases per kind
 SPECULAR = {"car": 0.35, "bus": 0.25, "pedestrian": 0.05}           # painted bodies and glass shine, clothes do not
 
 
@@ -272,34 +271,36 @@ def add_actor_meshes(spec) -> None:
 
 def add_actors(spec, builder, actors) -> None:
     """Add one mocap body per actor, posed at its start, carrying one textured mesh geom
-    ``dyn/urban/actor_<k>/body``; each actor has its atlas (:func:`scenes.actor_textures.actor_atlas`): actor
-    ``k`` of ``kind`` wears atlas ``k % ATLAS_POOL[kind]`` (scene stream ``texture/urban-actor/<kind>/<j>``,
-    a car's with its own layout of lights, windows and trim, :func:`scenes.actor_textures.car_layout`), so
-    consecutive actors of a lane look different while the texture memory stays bounded. A car also has a
-    body of its own (:func:`scenes.car_shapes.draw_body`, stream ``urban/actor-shape/<k>``, fitted into the
-    footprint of :data:`CAR_PARTS`), mesh ``mesh/urban/actor_<k>``: standing cars (``urban-static``) are
-    places a loop closure could confuse; buses and pedestrians use their kind's mesh
+    ``dyn/urban/actor_<k>/body``. Every actor is an actor of its own: actor ``k`` of ``kind`` wears an atlas of
+    its own (:func:`scenes.actor_textures.actor_atlas`, scene stream ``texture/urban-actor/<kind>/<k>``), and a
+    car or bus has a body of its own (stream ``urban/actor-shape/<k>``), mesh ``mesh/urban/actor_<k>``: a car
+    :func:`scenes.car_shapes.draw_body`, fitted into the footprint of :data:`CAR_PARTS`, its atlas laid out
+    for it (lights, windows, trim, arches: :func:`scenes.actor_textures.car_layout`); a bus
+    :func:`scenes.bus_shapes.draw_bus_body`, inside the footprint of :data:`BUS_PARTS`, its atlas with its own
+    window bays, doors, livery, advert and wear (:func:`scenes.bus_shapes.bus_layout`). Standing vehicles
+    (``urban-static``) are places a loop closure could confuse. Pedestrians use their kind's mesh
     (:func:`add_actor_meshes`)."""
     import mujoco
-    from scenes.actor_textures import actor_atlas, car_atlas, car_layout
+    from scenes.actor_textures import actor_atlas, bus_atlas, car_atlas, car_layout
+    from scenes.bus_shapes import bus_layout, draw_bus_body
     from scenes.car_shapes import draw_body
-    made = {}
     footprint = CAR_PARTS[0][1][:2]
     for a in actors:
         h = a.heading
         body = spec.worldbody.add_body(name=a.body_name, mocap=True, pos=[*map(float, a.origin_xy), 0.0],
                                        quat=[float(np.cos(h / 2)), 0.0, 0.0, float(np.sin(h / 2))])
-        key = (a.kind, a.actor_id % ATLAS_POOL[a.kind])
-        if key not in made:
-            rng = builder.streams(f"texture/urban-actor/{key[0]}/{key[1]}")
-            img = car_atlas(rng, car_layout(rng)) if a.kind == "car" else actor_atlas(a.kind, rng)
-            made[key] = builder.image_material(f"actor/{key[0]}/{key[1]}", img, specular=SPECULAR[a.kind])
-        mat, meshname = made[key], actor_mesh_name(a.kind)
-        if a.kind == "car":
-            shape = draw_body(builder.streams(f"urban/actor-shape/{a.actor_id}")).fitted(footprint)
+        shape_rng = builder.streams(f"urban/actor-shape/{a.actor_id}")
+        shape = draw_bus_body(shape_rng) if a.kind == "bus" else \
+            draw_body(shape_rng).fitted(footprint) if a.kind == "car" else None
+        rng = builder.streams(f"texture/urban-actor/{a.kind}/{a.actor_id}")
+        img = car_atlas(rng, car_layout(rng, shape.arches())) if a.kind == "car" else \
+            bus_atlas(rng, bus_layout(rng, shape)) if a.kind == "bus" else actor_atlas(a.kind, rng)
+        mat = builder.image_material(f"actor/{a.kind}/{a.actor_id}", img, specular=SPECULAR[a.kind])
+        meshname = actor_mesh_name(a.kind)
+        if shape is not None:                                             # a car or bus: a mesh of its own
             meshname = f"mesh/{a.body_name}"
             m = spec.add_mesh(name=meshname)
-            m.uservert, m.usertexcoord, m.userface = parts_mesh("car", shape.parts(), shape.wheels())
+            m.uservert, m.usertexcoord, m.userface = parts_mesh(a.kind, shape.parts(), shape.wheels())
         body.add_geom(name=f"{GEOM_PREFIX}{a.body_name}/body", type=mujoco.mjtGeom.mjGEOM_MESH,
                       meshname=meshname, material=mat, contype=0, conaffinity=0, group=1)
 

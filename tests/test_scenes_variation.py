@@ -152,3 +152,37 @@ def test_validate_traffic_and_places_bad_input_one_line(capsys, tmp_path):
         code, err = run(*args)
         lines = [line for line in err.strip().splitlines() if line.strip()]
         assert code == 2 and "Traceback" not in err and len(lines) == 1 and needle in lines[0], err
+
+
+def test_every_bus_its_own_body_and_livery():
+    """A bus's body and atlas come from its own indexed streams: the same seed and index give the same bytes,
+    another index or seed another bus (body, window bays, atlas); every body stays inside the clearance
+    footprint and its windows inside the side cell, without overlapping."""
+    from scenes.actor_textures import bus_atlas
+    from scenes.bus_shapes import BUS_HALF_XY, bus_layout, draw_bus_body
+
+    def bus(seed, k):
+        st = scene_streams(seed)
+        body = draw_bus_body(st(f"urban/actor-shape/{k}"))
+        rng = st(f"texture/urban-actor/bus/{k}")
+        layout = bus_layout(rng, body)
+        return body, layout, bus_atlas(rng, layout)
+
+    b0, l0, a0 = bus(0, 7)
+    b0b, l0b, a0b = bus(0, 7)
+    assert b0 == b0b and l0 == l0b and a0.tobytes() == a0b.tobytes()
+    others = [bus(0, k) for k in range(8, 40)] + [bus(1, 7)]
+    for b, lay, a in others:
+        assert a.shape == a0.shape and np.abs(a.astype(int) - a0.astype(int)).mean() > 2.0
+        assert b != b0 and lay["decks"] != l0["decks"]
+    bays = {tuple(np.round([x for w in lay["decks"][-1][2] for x in w], 2)) for _, lay, _ in others}
+    assert len(bays) == len(others)                                        # no two lower decks alike
+    assert {b.decks for b, _, _ in others} == {1, 2}
+    for b, lay, _ in others + [(b0, l0, a0)]:
+        assert b.half_length <= BUS_HALF_XY[0] and b.half_width <= BUS_HALF_XY[1]
+        r, _, centres = b.wheels()
+        assert all(abs(c[0]) + r < b.half_length for c in centres)
+        for fy0, fy1, windows in lay["decks"]:
+            assert 0 < fy0 < fy1 < 1
+            edges = np.ravel(windows)
+            assert np.all(np.diff(edges) > 0) and edges[0] > 0 and edges[-1] < 1
