@@ -30,7 +30,8 @@ import numpy as np
 
 from rigs.atomic_io import atomic_write_bytes
 
-_CODE_FILES = ("textures.py", "lunar.py", "builder.py")
+_CODE_FILES = ("textures.py", "lunar.py", "builder.py", "actor_textures.py", "bus_shapes.py", "car_shapes.py",
+               "urban_actors.py")
 
 
 def _code_digest() -> str:

@@ -186,3 +186,29 @@ def test_every_bus_its_own_body_and_livery():
             assert 0 < fy0 < fy1 < 1
             edges = np.ravel(windows)
             assert np.all(np.diff(edges) > 0) and edges[0] > 0 and edges[-1] < 1
+
+
+def test_bus_atlas_through_the_texture_store_keyed_by_its_variation(tmp_path):
+    """A bus's atlas from the texture store is the bytes a fresh draw gives (a second store on the same folder
+    reads it back); its key holds both of its streams, so every bus has its own file and atlas."""
+    from types import SimpleNamespace
+
+    from scenes.texture_store import TextureStore
+    from scenes.urban import actor_lanes
+    from scenes.urban_actors import CAR_PARTS, actor_look, actor_shape, draw_actors
+    from sim.rng import stream
+    buses = [a for a in draw_actors(actor_lanes(), 0.0, stream(0, "dynamic")) if a.kind == "bus"][:6]
+    assert len(buses) == 6
+
+    def looks(store):
+        b = SimpleNamespace(streams=scene_streams(0), textures=store)
+        return [actor_look(b, a, actor_shape(b, a, CAR_PARTS[0][1][:2])) for a in buses]
+    fresh = looks(TextureStore(None))
+    first = TextureStore(tmp_path)
+    stored = looks(first)
+    again = TextureStore(tmp_path)
+    read = looks(again)
+    assert first.misses == 6 and again.hits == 6 and again.misses == 0
+    assert [x.tobytes() for x in fresh] == [x.tobytes() for x in stored] == [x.tobytes() for x in read]
+    assert len({x.tobytes() for x in fresh}) == 6
+    assert len(list(tmp_path.rglob("*.npy"))) == 6
