@@ -24,8 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scenes.actor_textures import actor_atlas, bus_atlas, car_atlas, car_layout, cell_uv
-from scenes.bus_shapes import bus_layout, draw_bus_body
+from scenes.actor_sheets import add_sheets, sheet_uv
+from scenes.actor_textures import cell_uv
+from scenes.bus_shapes import draw_bus_body
 from scenes.car_shapes import draw_body
 
 ACTOR_SCOPE = "urban/actor_"
@@ -48,9 +49,6 @@ WHEELS = {"car": (0.32, 0.12, tuple((x, y, 0.32) for x in (-1.36, 1.36) for y in
           "bus": (0.5, 0.15, tuple((x, y, 0.5) for x in (-3.3, 3.3) for y in (-1.15, 1.15))),
           "pedestrian": (0.0, 0.0, ())}
 SHAPES = {"car": (CAR_PARTS, 1.0), "bus": (BUS_PARTS, 2.0), "pedestrian": (PED_PARTS, 0.5)}   # parts, (unused) tile
-# atlases shared by the cars / pedestrians of the scene (k % pool): with a skybox MuJoCo takes at most 999
-# materials, and the urban scene's surfaces use about 670; a bus has its own
-ATLAS_POOL = {"car": 48, "pedestrian": 32}
 SPECULAR = {"car": 0.35, "bus": 0.25, "pedestrian": 0.05}           # painted bodies and glass shine, clothes do not
 
 
@@ -264,43 +262,28 @@ def parts_mesh(kind: str, parts=None, wheels=None) -> tuple:
     return np.ravel(v).tolist(), np.ravel(uv).tolist(), np.ravel(f).tolist()
 
 
-def actor_mesh_name(kind: str) -> str:
-    return f"mesh/{ACTOR_SCOPE}{kind}"
-
-
-def add_actor_meshes(spec) -> None:
-    """The shared mesh of each actor kind (:func:`parts_mesh`), named :func:`actor_mesh_name`."""
-    for kind in SHAPES:
-        m = spec.add_mesh(name=actor_mesh_name(kind))
-        m.uservert, m.usertexcoord, m.userface = parts_mesh(kind)
-
-
 def add_actors(spec, builder, actors) -> None:
     """Add one mocap body per actor, posed at its start, carrying one textured mesh geom
-    ``dyn/urban/actor_<k>/body``. A car or bus has a body of its own (:func:`actor_shape`, stream
-    ``urban/actor-shape/<k>``), mesh ``mesh/urban/actor_<k>``: a car :func:`scenes.car_shapes.draw_body`, fitted into
-    the footprint of :data:`CAR_PARTS`; a bus :func:`scenes.bus_shapes.draw_bus_body`, inside the footprint of
-    :data:`BUS_PARTS`. A bus also wears an atlas of its own (stream ``texture/urban-actor/bus/<k>``: its window
-    bays, doors, livery, advert and wear, :func:`scenes.bus_shapes.bus_layout`); car ``k`` wears atlas
-    ``k % 48`` (each with its own layout of lights, windows and trim, :func:`scenes.actor_textures.car_layout`),
-    pedestrian ``k`` atlas ``k % 32`` (:data:`ATLAS_POOL`), so consecutive actors of a lane look different while
-    the scene keeps within MuJoCo's material limit. Standing vehicles (``urban-static``) are places a loop closure
-    could confuse. Pedestrians use their kind's mesh (:func:`add_actor_meshes`)."""
+    ``dyn/urban/actor_<k>/body``, mesh ``mesh/urban/actor_<k>``. Every actor is one of its own: a car or bus has a
+    body of its own (:func:`actor_shape`, stream ``urban/actor-shape/<k>``): a car :func:`scenes.car_shapes.draw_body`,
+    fitted into the footprint of :data:`CAR_PARTS`; a bus :func:`scenes.bus_shapes.draw_bus_body`, inside the
+    footprint of :data:`BUS_PARTS`; every actor an atlas of its own (stream ``texture/urban-actor/<kind>/<k>``, laid
+    out for its body: :func:`scenes.actor_sheets.actor_look`), tiled with others into sheets, one material each
+    (:func:`scenes.actor_sheets.add_sheets`). Standing vehicles (``urban-static``) are places a loop closure could
+    confuse."""
     import mujoco
-    footprint, made = CAR_PARTS[0][1][:2], {}
+    footprint = CAR_PARTS[0][1][:2]
+    shapes = {a.actor_id: actor_shape(builder, a, footprint) for a in actors}
+    looks = add_sheets(builder, actors, shapes, SPECULAR)
     for a in actors:
         h = a.heading
         body = spec.worldbody.add_body(name=a.body_name, mocap=True, pos=[*map(float, a.origin_xy), 0.0],
                                        quat=[float(np.cos(h / 2)), 0.0, 0.0, float(np.sin(h / 2))])
-        shape, key = actor_shape(builder, a, footprint), actor_atlas_key(a)
-        if key not in made:
-            made[key] = builder.image_material(f"actor/{key[0]}/{key[1]}", actor_look(builder, a, shape),
-                                               specular=SPECULAR[a.kind])
-        mat, meshname = made[key], actor_mesh_name(a.kind)
-        if shape is not None:                                             # a car or bus: a mesh of its own
-            meshname = f"mesh/{a.body_name}"
-            m = spec.add_mesh(name=meshname)
-            m.uservert, m.usertexcoord, m.userface = parts_mesh(a.kind, shape.parts(), shape.wheels())
+        shape, (mat, tile) = shapes[a.actor_id], looks[a.actor_id]
+        meshname = f"mesh/{a.body_name}"                                  # a mesh of its own, into its tile
+        v, uv, f = parts_mesh(a.kind, *((shape.parts(), shape.wheels()) if shape is not None else ()))
+        m = spec.add_mesh(name=meshname)
+        m.uservert, m.usertexcoord, m.userface = v, sheet_uv(a.kind, uv, tile), f
         body.add_geom(name=f"{GEOM_PREFIX}{a.body_name}/body", type=mujoco.mjtGeom.mjGEOM_MESH,
                       meshname=meshname, material=mat, contype=0, conaffinity=0, group=1)
 
@@ -310,27 +293,6 @@ def actor_shape(builder, a: Actor, footprint):
     ``footprint``, a :class:`scenes.bus_shapes.BusBody`; None for a pedestrian."""
     rng = builder.streams(f"urban/actor-shape/{a.actor_id}")
     return draw_bus_body(rng) if a.kind == "bus" else draw_body(rng).fitted(footprint) if a.kind == "car" else None
-
-
-def actor_atlas_key(a: Actor) -> tuple:
-    """``(kind, j)``: the atlas actor ``a`` wears, its own for a bus (``j = k``), else ``k % ATLAS_POOL[kind]``."""
-    return a.kind, a.actor_id if a.kind == "bus" else a.actor_id % ATLAS_POOL[a.kind]
-
-
-def actor_look(builder, a: Actor, shape) -> np.ndarray:
-    """The ``(H, W, 3) uint8`` atlas :func:`actor_atlas_key` names (stream ``texture/urban-actor/<kind>/<j>``), a
-    bus's laid out for its body ``shape`` (:func:`scenes.bus_shapes.bus_layout`), a car's with a layout of its own
-    (:func:`scenes.actor_textures.car_layout`); through the builder's texture store, keyed by the states of the
-    streams it depends on (a bus's shape stream too)."""
-    kind, j = actor_atlas_key(a)
-    keys = (f"texture/urban-actor/{kind}/{j}",) + ((f"urban/actor-shape/{a.actor_id}",) if kind == "bus" else ())
-
-    def draw():
-        rng = builder.streams(keys[0])
-        if kind == "car":
-            return car_atlas(rng, car_layout(rng))
-        return bus_atlas(rng, bus_layout(rng, shape)) if kind == "bus" else actor_atlas(kind, rng)
-    return builder.textures.get(tuple(builder.streams(k) for k in keys), ("actor", kind), draw)
 
 
 def actor_of_geom(geom_name: str) -> int:

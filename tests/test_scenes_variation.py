@@ -193,16 +193,17 @@ def test_bus_atlas_through_the_texture_store_keyed_by_its_variation(tmp_path):
     reads it back); its key holds both of its streams, so every bus has its own file and atlas."""
     from types import SimpleNamespace
 
+    from scenes.actor_sheets import actor_look
     from scenes.texture_store import TextureStore
     from scenes.urban import actor_lanes
-    from scenes.urban_actors import CAR_PARTS, actor_look, actor_shape, draw_actors
+    from scenes.urban_actors import CAR_PARTS, actor_shape, draw_actors
     from sim.rng import stream
     buses = [a for a in draw_actors(actor_lanes(), 0.0, stream(0, "dynamic")) if a.kind == "bus"][:6]
     assert len(buses) == 6
 
     def looks(store):
         b = SimpleNamespace(streams=scene_streams(0), textures=store)
-        return [actor_look(b, a, actor_shape(b, a, CAR_PARTS[0][1][:2])) for a in buses]
+        return [actor_look(b, "bus", a.actor_id, actor_shape(b, a, CAR_PARTS[0][1][:2])) for a in buses]
     fresh = looks(TextureStore(None))
     first = TextureStore(tmp_path)
     stored = looks(first)
@@ -212,3 +213,26 @@ def test_bus_atlas_through_the_texture_store_keyed_by_its_variation(tmp_path):
     assert [x.tobytes() for x in fresh] == [x.tobytes() for x in stored] == [x.tobytes() for x in read]
     assert len({x.tobytes() for x in fresh}) == 6
     assert len(list(tmp_path.rglob("*.npy"))) == 6
+
+
+def test_place_similarity_counts_distinct_places_of_a_rigid_motion():
+    """The similarity of a loop-closure check: features of A (on a plane 10 m ahead, exact depth) seen again from
+    a camera moved by a known rigid motion all count; the same features piled onto one pixel of B (the degenerate
+    fit PnP RANSAC accepts: a far-away pose) count as the one place they are."""
+    import cv2
+    from sim.app.validation.place_recognition import OrbMatcher, PlaceConfig, View
+    rng = np.random.default_rng(5)
+    K = np.array([[400.0, 0, 320], [0, 400.0, 240], [0, 0, 1]])
+    n = 80
+    xa = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)]).astype(np.float32)
+    depth = np.full((480, 640), 10.0)
+    view_a = View(np.zeros((480, 640), np.uint8), depth, np.eye(4), K, 0.0)
+    des = rng.integers(0, 256, (n, 32), dtype=np.uint8)
+    P = (np.linalg.solve(K, np.vstack([xa.T, np.ones(n)])) * 10.0).T
+    R, t = cv2.Rodrigues(np.array([0.02, -0.1, 0.01]))[0], np.array([0.5, 0.1, -1.0])
+    q = (K @ (R @ P.T + t[:, None])).T
+    xb = (q[:, :2] / q[:, 2:]).astype(np.float32)
+    m = OrbMatcher(PlaceConfig())
+    assert m.inliers((xa, des), (xb, des), view_a=view_a) >= n - 2
+    pile = np.tile(np.float32([[300.0, 200.0]]), (n, 1)) + rng.uniform(-0.3, 0.3, (n, 2)).astype(np.float32)
+    assert m.inliers((xa, des), (pile, des), view_a=view_a) <= 1
