@@ -236,3 +236,15 @@ def test_place_similarity_counts_distinct_places_of_a_rigid_motion():
     assert m.inliers((xa, des), (xb, des), view_a=view_a) >= n - 2
     pile = np.tile(np.float32([[300.0, 200.0]]), (n, 1)) + rng.uniform(-0.3, 0.3, (n, 2)).astype(np.float32)
     assert m.inliers((xa, des), (pile, des), view_a=view_a) <= 1
+
+
+def test_place_views_leave_out_actors_standing_where_the_vehicle_is():
+    """An actor whose origin is within ``actor_clear_m`` of a view's vehicle goes 1 km below the ground (the
+    camera would be inside it); the others and the input stay as they are."""
+    from rigs.geometry import make_T, rot_z
+    from sim.app.validation.place_recognition import clear_of_actors
+    near, far = make_T(rot_z(0.3), [4.0, 1.0, 0.0]), make_T(np.eye(3), [20.0, -3.0, 0.0])
+    actors = {"near": near, "far": far}
+    out = clear_of_actors(actors, make_T(rot_z(1.0), [0.5, 0.0, 0.0]), 9.0)
+    assert out["near"][2, 3] == -1000.0 and np.array_equal(out["near"][:2], near[:2])
+    assert np.array_equal(out["far"], far) and actors["near"][2, 3] == 0.0

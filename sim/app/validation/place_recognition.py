@@ -52,6 +52,7 @@ class PlaceConfig:
     grid_px: int = 8
     max_depth_m: float = 80.0
     verify: str = "pnp"          # geometric check: "pnp" (3-D, a rigid motion) or "fundamental" (2-D, epipolar)
+    actor_clear_m: float = 9.0   # actors this close to a view's vehicle are left out of it (a bus: 5.5 m half)
 
     def __post_init__(self):
         if self.verify not in ("pnp", "fundamental"):
@@ -109,9 +110,23 @@ def render_views(config, place: PlaceConfig = PlaceConfig(), progress: bool = Tr
         T_b_c = cam.T_b_c_array
         for T, s in tqdm(list(zip(T_places, arcs)), desc="render places", unit="place", disable=not progress):
             for T_b, out in ((T, places), (revisit_pose(T, place), revisits)):
-                imgs, depth, _ = camera.measure(T_b, actors)
+                imgs, depth, _ = camera.measure(T_b, clear_of_actors(actors, T_b, place.actor_clear_m))
                 out.append(View(imgs[0], np.asarray(depth[0], float), T_b @ T_b_c, K, float(s)))
     return places, revisits
+
+
+def clear_of_actors(actors: dict, T_w_b: np.ndarray, clear_m: float) -> dict:
+    """``actors`` ({body: T_w_actor (4,4)}) with those whose origin is within ``clear_m`` (horizontally) of the
+    vehicle at ``T_w_b`` moved 1 km below the ground: the places are sampled along the route with the actors at
+    the start time, so a place can fall on a vehicle standing in the route's lane (``urban-dynamic``'s own-lane
+    platoon), which would put the camera inside it."""
+    out = {}
+    for name, T in actors.items():
+        T = np.array(T, float)
+        if np.hypot(*(T[:2, 3] - T_w_b[:2, 3])) < clear_m:
+            T[2, 3] -= 1000.0
+        out[name] = T
+    return out
 
 
 def covisible_fraction(a: View, b: View, place: PlaceConfig = PlaceConfig()) -> float:
