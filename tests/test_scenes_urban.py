@@ -39,7 +39,7 @@ def test_builds_compiles_and_names_actors(built):
     assert all(n.startswith("dyn/urban/actor_") for n in dyn)
     assert m.nmocap == len(sc.actors)
     assert sum(n.startswith("static/building") for n in names) > 100 and m.ngeom < 2000
-    assert sc.texture_bytes < 100e6         # ~94 MB: a texture per large surface and road piece, an atlas per actor, parked cars
+    assert sc.texture_bytes < 100e6         # ~94 MB: a texture per large surface and road piece, per actor, parked car
     assert m.nmat < 800                     # MuJoCo takes at most 999 with a skybox: actor atlases tiled into sheets
     rows = sc.segmentation_rows(names)
     assert {r[2] for r in rows if r[2] > 0} == {a.actor_id for a in sc.actors}
