@@ -23,7 +23,9 @@ Our extensions (each documented in its module, figures in docs/estimators.md):
   ``min_parallax_px`` the epoch is "no translation" (``T_kf_c = (R_1_3, 0)``, status ``ok``).
 * ROP gates and the rotation consensus (:mod:`vo.rop.consensus`); >= 3 ROPs are needed.
 * Failure: the pose is the track filter's PnP pose when it has >= :data:`MIN_COAST_PNP_INLIERS` inliers
-  and lies within ``moving_prior_gate_m`` of the prediction (it uses the three-view tracks too); else it
+  and lies within ``moving_prior_gate_m`` of the prediction (it uses the three-view tracks too); else a
+  small PnP fit of the keyframe's stereo tracks when it is well conditioned (first-order rotation sigma,
+  :mod:`vo.rop.weak_frame`: a rotation-only fit of 15 bunched tracks was 2 deg off); else it
   coasts at constant velocity (at most :data:`~vo.estimators.base.MAX_COAST_FRAMES` frames, then held)
   with the heading of the rotation-only fit to the left tracks when there are >=
   :data:`MIN_ROTATION_TRACKS`; never NaN; the frame becomes a fresh keyframe (keeping its tracks when
@@ -60,6 +62,7 @@ from vo.rop.ropset import PAIRS
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 from vo.rop.uncertainty import Step, UncertaintyModel
+from vo.rop.weak_frame import weak_frame_pose
 
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MIN_COAST_PNP_INLIERS = 20  # PnP inliers of the track filter's motion for it to give a failed frame's pose
@@ -156,6 +159,15 @@ class RopEstimator(Estimator):
         car's motion as the only candidate (crossing traffic) is far from it. Else None."""
         trusted = self._n_solved > 0 and self._n_coast < MAX_COAST_FRAMES
         return self._filter.frame_pose(trusted, self.config.moving_prior_gate_m, MIN_COAST_PNP_INLIERS)
+
+    def _weak_pose(self) -> np.ndarray | None:
+        """A failed frame's pose ``T_kf_c`` from a small PnP fit of the keyframe's stereo tracks when it is well
+        conditioned and near the prediction (:mod:`vo.rop.weak_frame`; before a rotation-only fit); else None."""
+        if self.klt is None or self.klt.view is None or self._n_solved == 0:
+            return None
+        w = weak_frame_pose(self.klt.view, self.rig, self._prior(), self.config.moving_reproj_px,
+                            self.config.moving_prior_gate_m)
+        return w.T_kf_c if w is not None and w.ok else None
 
     def _step_miss(self, T_kf_c: np.ndarray) -> str:
         """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): the track filter saw competing rigid
@@ -263,7 +275,9 @@ class RopEstimator(Estimator):
         T_prev = self.T_o_c0
         coast = self._n_coast < MAX_COAST_FRAMES
         T_step = self._T_kf_cur @ self._last_motion if coast else self._T_kf_cur.copy()
-        T_pnp = self._pnp_pose()
+        T_pnp, source = self._pnp_pose(), "the track filter's PnP"
+        if T_pnp is None:
+            T_pnp, source = self._weak_pose(), "a well-conditioned PnP of the keyframe's stereo tracks"
         if T_pnp is not None:
             T_step, R_1_3 = T_pnp, None
         elif R_1_3 is not None:
@@ -278,7 +292,7 @@ class RopEstimator(Estimator):
         self._new_keyframe(left, right, int(frame.t_ns), timings, keep_tracks=keep_tracks)
         self._lost = True
         if T_pnp is not None:
-            msg += f"; pose from the track filter's PnP ({self._filter.n_inliers} inliers), new keyframe"
+            msg += f"; pose from {source}, new keyframe"
         else:
             msg += ("; rotation from the rotation-only fit" if R_1_3 is not None else "") + "; translation " + \
                    ("extrapolated (constant velocity)" if coast else "held") + ", re-initialising from this frame"
