@@ -2,10 +2,13 @@
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from rigs.geometry import inv_T, make_T, so3_exp, so3_log
 from rigs.presets import get_rig
-from vo.rop.weak_frame import MAX_ROTATION_SIGMA_DEG, MIN_POINTS, weak_frame_pose
+from vo.errors import EstimatorError
+from vo.rop.rop_config import RopConfig
+from vo.rop.weak_frame import MAX_ROTATION_SIGMA_DEG, MIN_POINTS, rotation_miss, weak_frame_pose
 
 RIG = get_rig("cart27")                    # 720x480, 0.2857 m baseline, with lens distortion
 T_KF_C = make_T(so3_exp(np.radians([0.5, 4.5, 0.3])), [0.05, -0.01, 0.07])   # a fast turn: 4.5 deg, 7 cm
@@ -61,3 +64,19 @@ def test_a_fit_far_from_the_prediction_is_rejected_and_too_few_tracks_give_none(
     assert w is not None and not w.ok and "from the prediction" in w.why
     few = SimpleNamespace(p1=view.p1[:MIN_POINTS - 1], p2=view.p2[:MIN_POINTS - 1], p3=view.p3[:MIN_POINTS - 1])
     assert weak_frame_pose(few, RIG, np.eye(4), 2.0, 0.5) is None
+
+
+def test_the_rotation_gate_lets_a_small_disagreement_through_and_stops_a_larger_one():
+    T_pnp = make_T(so3_exp(np.radians([0.0, 4.5, 0.0])), [0.05, 0.0, 0.3])
+    near = make_T(so3_exp(np.radians([0.0, 4.65, 0.0])), [0.06, 0.0, 0.33])   # 0.15 deg and 3 cm apart
+    far = make_T(so3_exp(np.radians([0.0, 4.5, 0.3])), T_pnp[:3, 3])          # 0.3 deg apart, same position
+    assert rotation_miss(near, T_pnp, 0.2) == ""
+    assert "0.30 deg > 0.2 deg" in rotation_miss(far, T_pnp, 0.2)
+    assert rotation_miss(far, None, 0.2) == ""                                 # no PnP pose: nothing to compare
+
+
+def test_the_rotation_gate_is_a_validated_option():
+    assert RopConfig().pnp_rotation_gate_deg == 0.2
+    assert RopConfig.from_options({"pnp_rotation_gate_deg": 0.5}).pnp_rotation_gate_deg == 0.5
+    with pytest.raises(EstimatorError, match="rop.pnp_rotation_gate_deg"):
+        RopConfig.from_options({"pnp_rotation_gate_deg": 0})
