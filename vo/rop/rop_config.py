@@ -61,8 +61,9 @@ class RopConfig:
     step farther than this (m) from the track filter's PnP pose fails the frame, which then takes the PnP
     pose; ``moving_prior_gate_m`` that PnP pose stands for a failed frame only within this distance (m)
     of the prediction (:mod:`vo.rop.estimator`); ``pnp_rotation_gate_deg`` a ROP step whose rotation is farther
-    than this (deg) from that PnP pose's fails the frame likewise (:func:`vo.rop.weak_frame.rotation_miss`). Experimental (:data:`EXPERIMENTAL`, given as
-    ``experimental.<field>``): ``weights``, ``klt_refine``, ``rop_loss``, ``moving_prior``."""
+    than this (deg) from that PnP pose's fails the frame likewise (:func:`vo.rop.weak_frame.rotation_miss`).
+    Experimental (:data:`EXPERIMENTAL`, given as ``experimental.<field>``): ``weights``, ``klt_refine``,
+    ``rop_loss``, ``moving_prior``."""
 
     frontend: Literal[FRONTENDS] = "klt"
     ransac_threshold_px: float = knob(1.0, gt=0)
