@@ -15,6 +15,7 @@ from vo.errors import VoError
 from vo.frontend.grid import Grid
 from vo.frontend.lk_invariant import lk_illumination_invariant
 from vo.frontend.lk_normalized import PyramidCache, lk_pyramids, normalized_pyramid
+from vo.frontend.epipolar_offset import offset_epipolar_mask
 from vo.frontend.stereo import epipolar_mask
 
 
@@ -39,6 +40,11 @@ class KltConfig:
     normalised windows lack coarse structure (fast turns, large disparities) keeps the matches it had;
     ``stereo_win`` LK window of the left -> right stereo match in :func:`stereo_klt` only (0 = ``win``;
     temporal tracking always uses ``win``). Seed 003 uses one 21x21 window for both.
+    ``offset_min_matches``, ``offset_max_px``: the stereo epipolar gate is ``epipolar_threshold_px`` around
+    the frame's own robust row offset (:mod:`vo.frontend.epipolar_offset`: the median signed epipolar
+    distance of the forward-backward-kept matches, used when there are at least ``offset_min_matches`` and
+    it is at most ``offset_max_px``; not in seed 003); ``offset_max_px = 0`` gives seed 003's gate around
+    the calibrated line.
     ``edge_win``, ``edge_win_h``, ``edge_threshold_px`` the depth-edge test of new stereo landmarks
     (:mod:`vo.frontend.depth_edge`; not in seed 003): LK window (width x height, px) of its disparity samples
     and the largest one-sided second difference of the disparity (px) a landmark may show; 0 (the default)
@@ -63,6 +69,8 @@ class KltConfig:
     stereo_win: int = 0
     normalize_box: float = 2.0
     raw_fallback: bool = True
+    offset_min_matches: int = 10
+    offset_max_px: float = 3.0
     edge_win: int = 11
     edge_win_h: int = 11
     edge_threshold_px: float = 0.0
@@ -80,6 +88,7 @@ class KltConfig:
             "edge_win": self.edge_win >= 3 and self.edge_win % 2 == 1,
             "edge_win_h": self.edge_win_h >= 3 and self.edge_win_h % 2 == 1,
             "edge_threshold_px": self.edge_threshold_px >= 0,
+            "offset_min_matches": self.offset_min_matches >= 1, "offset_max_px": self.offset_max_px >= 0,
         }
         for name, good in checks.items():
             if not good:
@@ -208,8 +217,18 @@ def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,
         config, pyramid = replace(config, win=config.stereo_win), None
     p_right, ok = track_fb(left, right, p_left, config, pyramid)
     if ok.any():
-        ok[ok] &= epipolar_mask(rig, np.asarray(p_left)[ok], p_right[ok], config.epipolar_threshold_px)
+        ok[ok] &= stereo_gate(rig, np.asarray(p_left)[ok], p_right[ok], config)
     return p_right, ok
+
+
+def stereo_gate(rig, p_left: np.ndarray, p_right: np.ndarray, config: KltConfig = KltConfig()) -> np.ndarray:
+    """(N,) bool epipolar gate of stereo matches (raw pixels): ``config.epipolar_threshold_px`` around
+    the matches' own row offset (:func:`offset_epipolar_mask`), or around the calibrated line when
+    ``config.offset_max_px`` is 0."""
+    if not config.offset_max_px:
+        return epipolar_mask(rig, p_left, p_right, config.epipolar_threshold_px)
+    return offset_epipolar_mask(rig, p_left, p_right, config.epipolar_threshold_px, config.offset_min_matches,
+                                config.offset_max_px)[0]
 
 
 class TrackIds:
