@@ -40,7 +40,7 @@ from vo.frontend.grid import Grid
 from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
 from vo.frontend.stereo import epipolar_mask, triangulate, undistort_px
-from vo.frontend.stereo_prior import disparity_guess, landmark_refs, predicted_flow_guess
+from vo.frontend.stereo_prior import disparity_guess, landmark_refs
 from rigs.geometry import inv_T, transform_points
 
 
@@ -202,14 +202,6 @@ class KltPnpEstimator(_StereoPnpEstimator):
             self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
         return int(ok.sum())
 
-    def _flow_guess(self):
-        """Start points of the temporal LK under the constant-velocity prediction (``klt_config.motion_prior``)."""
-        if not self.klt_config.motion_prior or not len(self.tracker.ids):
-            return None
-        p_o = np.array([self.landmarks[int(i)] for i in self.tracker.ids]).reshape(-1, 3)
-        T_c0_o = inv_T(self.T_o_c0)
-        return predicted_flow_guess(self.rig.cameras[0].K, T_c0_o, inv_T(self._T_prev_curr) @ T_c0_o, p_o, self.tracker.pts)
-
     def _stereo_landmarks(self, left, right, ids, p_l) -> tuple:
         """The product's landmark source: stereo KLT (started, for the corners it loses from zero disparity, at the
         disparity of the nearest landmarks: :mod:`vo.frontend.stereo_prior`), the depth-edge test, triangulation
@@ -226,7 +218,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
 
     def _step(self, t_ns, left, right, timings) -> FrameResult:
         with _timer(timings, "track"):
-            self.tracker.track(left, self._flow_guess())
+            self.tracker.track(left)
             ids = self.tracker.ids
             self.landmarks = {int(i): self.landmarks[int(i)] for i in ids}
         n_feat = len(ids)

@@ -47,8 +47,6 @@ class KltConfig:
     the calibrated line.
     ``stereo_prior``: the new corners the stereo LK loses from zero disparity are searched again from the
     disparity of their nearest known points (:mod:`vo.frontend.stereo_prior`; not in seed 003).
-    ``motion_prior`` (``klt-pnp``): temporal LK starts at the landmarks' image motion under the
-    constant-velocity prediction (:func:`vo.frontend.stereo_prior.predicted_flow_guess`; not in seed 003).
     ``edge_win``, ``edge_win_h``, ``edge_threshold_px`` the depth-edge test of new stereo landmarks
     (:mod:`vo.frontend.depth_edge`; not in seed 003): LK window (width x height, px) of its disparity samples
     and the largest one-sided second difference of the disparity (px) a landmark may show; 0 (the default)
@@ -76,7 +74,6 @@ class KltConfig:
     offset_min_matches: int = 10
     offset_max_px: float = 3.0
     stereo_prior: bool = True
-    motion_prior: bool = False
     edge_win: int = 11
     edge_win_h: int = 11
     edge_threshold_px: float = 0.0
@@ -280,20 +277,15 @@ class KltTracker:
         self._ids = TrackIds()
         self.pyramid = config.pyramid_cache()     # normalised pyramids of the last images (None: raw LK)
 
-    def track(self, img: np.ndarray, guess: np.ndarray | None = None) -> np.ndarray:
+    def track(self, img: np.ndarray) -> np.ndarray:
         """Track all points into ``img`` (forward-backward checked); drop failures. Returns the
-        (N_prev,) bool survival mask over the previous points. ``guess`` (N,2): start points in ``img``
-        (a motion prediction, :func:`vo.frontend.stereo_prior.predicted_flow_guess`); the points lost from
-        there are tried again from zero flow."""
+        (N_prev,) bool survival mask over the previous points."""
         if self.image is None or len(self.pts) == 0:
             self.image = img
             ok = np.zeros(len(self.pts), bool)
             self.pts, self.ids = self.pts[ok], self.ids[ok]
             return ok
-        p1, ok = track_fb(self.image, img, self.pts, self.config, self.pyramid, guess)
-        if guess is not None and not ok.all():
-            lost = np.flatnonzero(~ok)
-            p1[lost], ok[lost] = track_fb(self.image, img, self.pts[lost], self.config, self.pyramid)
+        p1, ok = track_fb(self.image, img, self.pts, self.config, self.pyramid)
         self.pts, self.ids, self.image = p1[ok], self.ids[ok], img
         return ok
 

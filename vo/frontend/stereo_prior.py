@@ -47,30 +47,3 @@ def landmark_refs(rig, T_c0_o: np.ndarray, p_o: np.ndarray, pts_left: np.ndarray
     p_c1 = transform_points(inv_T(rig.T_c0_c1), p_c0)
     front = (p_c0[:, 2] > 1e-6) & (p_c1[:, 2] > 1e-6)
     return np.asarray(pts_left, np.float64).reshape(-1, 2)[front], project(p_c1[front], rig.cameras[1])
-
-
-def predicted_flow_guess(K: np.ndarray, T_c0_o_prev: np.ndarray, T_c0_o_pred: np.ndarray, p_o: np.ndarray,
-                         pts: np.ndarray) -> np.ndarray:
-    """(N,2) start points of the temporal LK of tracks at ``pts`` (their pixels in the previous image):
-    ``pts`` + the image motion of their landmarks ``p_o`` (N,3) from the previous camera pose to the
-    predicted one (pinhole ``K``; the difference of two projections, so the landmark's own error and
-    the lens distortion cancel to first order). Landmarks behind either camera keep zero flow.
-
-    The same failure as in stereo: in a blank, noisy view LK from zero flow stays near its start, and
-    the few real features of a fast turn are lost while the points on noise stay put; the stationary
-    points then outvote the moving ones and PnP returns no rotation (``indoor-realistic`` seed 0,
-    frames 227-233: 0.1-1.4 deg per frame estimated for 2.5-4.5 deg true)."""
-    pts = np.asarray(pts, np.float64).reshape(-1, 2)
-    p_o = np.asarray(p_o, np.float64).reshape(-1, 3)
-    a, b = transform_points(T_c0_o_prev, p_o), transform_points(T_c0_o_pred, p_o)
-    ok = (a[:, 2] > 1e-6) & (b[:, 2] > 1e-6)
-    flow = np.zeros_like(pts)
-    flow[ok] = project(b[ok], _Pinhole(K)) - project(a[ok], _Pinhole(K))
-    return pts + flow
-
-
-class _Pinhole:
-    """The ``K`` attribute :func:`vo.frontend.stereo.project` reads."""
-
-    def __init__(self, K):
-        self.K = K
