@@ -45,8 +45,9 @@ class KltConfig:
     distance of the forward-backward-kept matches, used when there are at least ``offset_min_matches`` and
     it is at most ``offset_max_px``; not in seed 003); ``offset_max_px = 0`` gives seed 003's gate around
     the calibrated line.
-    ``stereo_prior``: the new corners the stereo LK loses from zero disparity are searched again from the
-    disparity of their nearest known points (:mod:`vo.frontend.stereo_prior`; not in seed 003).
+    ``stereo_prior`` (``klt-pnp``'s new landmarks): the new corners the stereo LK loses from zero disparity
+    are searched again from the disparity of their nearest landmarks (:mod:`vo.frontend.stereo_prior`; not
+    in seed 003).
     ``edge_win``, ``edge_win_h``, ``edge_threshold_px`` the depth-edge test of new stereo landmarks
     (:mod:`vo.frontend.depth_edge`; not in seed 003): LK window (width x height, px) of its disparity samples
     and the largest one-sided second difference of the disparity (px) a landmark may show; 0 (the default)

@@ -38,7 +38,6 @@ from vo.frontend.depth_edge import off_edge
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells, stereo_gate
 from vo.frontend.lk_normalized import lk_fb_pyramids
-from vo.frontend.stereo_prior import disparity_guess
 from vo.rop.relative import normalized_points
 from rigs.geometry.pinhole import to_normalized
 
@@ -142,16 +141,8 @@ class KltFourView:
             return to_normalized(p, cam.K)
         return normalized_points(p, cam.K, cam.dist_coeffs)
 
-    def _stereo(self, left, right, p_l, guess=None, prior=None):
-        """LK ``p_l`` -> right image from ``guess`` (default zero disparity), forward-backward and epipolar
-        checked; the points that fail are searched again from ``prior`` (:mod:`vo.frontend.stereo_prior`)."""
+    def _stereo(self, left, right, p_l, guess=None):
         p_r, ok = lk_fb(left, right, p_l, self.config, guess, self._pyramid)
-        if prior is not None:
-            gated = ok.copy()
-            gated[ok] &= stereo_gate(self.rig, p_l[ok], p_r[ok], self.config)
-            lost = np.flatnonzero(~gated)
-            p2, ok2 = lk_fb(left, right, p_l[lost], self.config, prior[lost], self._pyramid)
-            p_r[lost[ok2]], ok[lost[ok2]] = p2[ok2], True
         if ok.any():
             ok[ok] &= stereo_gate(self.rig, p_l[ok], p_r[ok], self.config)
         return p_r, ok
@@ -168,8 +159,7 @@ class KltFourView:
             ids = np.zeros(0, np.int64)
         new = detect_in_empty_cells(left, self.grid, p1, self.config, peaks_only=False)
         t1 = cv2.getTickCount()
-        prior = disparity_guess(new, p1, p2) if self.config.stereo_prior else None
-        new_r, ok = self._stereo(left, right, new, prior=prior)
+        new_r, ok = self._stereo(left, right, new)
         if ok.any():
             ok[ok] &= off_edge(left, right, new[ok], new_r[ok], self.config)
         if self.refine == "affine" and ok.any():
