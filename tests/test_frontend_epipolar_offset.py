@@ -4,41 +4,13 @@ A rectified synthetic rig (epipolar lines are image rows); the right image is th
 exact band-limited sub-pixel shift of (-disparity, +dy), so every correct match lies exactly ``dy`` px off
 its calibrated epipolar line, as under a rectification error of ``dy``.
 """
-import cv2
 import numpy as np
 import pytest
-from scipy.ndimage import fourier_shift
 
-from rigs.geometry import make_T
-from rigs.model import Camera, Rig
 from vo.frontend.epipolar_offset import estimate_row_offset, offset_epipolar_mask, signed_epipolar_distances
 from vo.frontend.klt import KltConfig, stereo_klt
 from vo.frontend.stereo import epipolar_distances, fundamental_from_rig
-
-R_B_C = np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])
-
-
-def texture(seed, h=240, w=320, lo=20, hi=235, blur=2.0):
-    rng = np.random.default_rng(seed)
-    t = cv2.GaussianBlur(rng.random((h, w)), (0, 0), blur)
-    return lo + (hi - lo) * (t - t.min()) / (t.max() - t.min())
-
-
-def shifted(img_f, du, dv):
-    """Exact (band-limited, periodic) sub-pixel shift: out(x + du, y + dv) = img(x, y)."""
-    return np.real(np.fft.ifft2(fourier_shift(np.fft.fft2(img_f), (dv, du))))
-
-
-def grid_points(h, w, step=40, margin=40):
-    return np.array([[u, v] for v in range(margin, h - margin + 1, step) for u in range(margin, w - margin + 1, step)], float)
-
-
-def stereo_rig(width=320, height=240):
-    """Rectified pinhole pair, baseline 0.2 m along +x of c0: epipolar lines are image rows."""
-    cams = tuple(Camera(n, width, height, 300, 300, (width - 1) / 2, (height - 1) / 2, T_b_c=make_T(R_B_C, [0, y, 1]))
-                 for n, y in (("cam0", 0.1), ("cam1", -0.1)))
-    return Rig("test", cams)
-
+from helpers.stereo_pair import grid_points, shifted, stereo_rig, texture
 
 def test_signed_distance_is_the_row_offset_on_a_rectified_rig():
     rig = stereo_rig()
