@@ -203,9 +203,9 @@ class KltPnpEstimator(_StereoPnpEstimator):
         return int(ok.sum())
 
     def _stereo_landmarks(self, left, right, ids, p_l) -> tuple:
-        """The product's landmark source: stereo KLT (started, for the corners it loses from zero disparity, at the
-        disparity of the nearest landmarks: :mod:`vo.frontend.stereo_prior`), the depth-edge test, triangulation
-        in the left camera."""
+        """The product's landmark source: stereo KLT (with ``klt_config.stereo_prior``, started for the corners it
+        loses from zero disparity at the disparity of the nearest landmarks: :mod:`vo.frontend.stereo_prior`),
+        the depth-edge test, triangulation in the left camera."""
         known = np.isin(self.tracker.ids, np.fromiter(self.landmarks, np.int64, len(self.landmarks)))
         p_known = np.array([self.landmarks[int(i)] for i in self.tracker.ids[known]]).reshape(-1, 3)
         prior = disparity_guess(p_l, *landmark_refs(self.rig, inv_T(self.T_o_c0), p_known, self.tracker.pts[known])) \

@@ -45,9 +45,10 @@ class KltConfig:
     distance of the forward-backward-kept matches, used when there are at least ``offset_min_matches`` and
     it is at most ``offset_max_px``; not in seed 003); ``offset_max_px = 0`` gives seed 003's gate around
     the calibrated line.
-    ``stereo_prior`` (``klt-pnp``'s new landmarks): the new corners the stereo LK loses from zero disparity
-    are searched again from the disparity of their nearest landmarks (:mod:`vo.frontend.stereo_prior`; not
-    in seed 003).
+    ``stereo_prior`` (``klt-pnp``'s new landmarks; off by default): the new corners the stereo LK loses from
+    zero disparity are searched again from the disparity of their nearest landmarks
+    (:mod:`vo.frontend.stereo_prior`; not in seed 003; measured in docs/estimators.md: better on the seed it
+    was developed on, worse on a held-out one).
     ``edge_win``, ``edge_win_h``, ``edge_threshold_px`` the depth-edge test of new stereo landmarks
     (:mod:`vo.frontend.depth_edge`; not in seed 003): LK window (width x height, px) of its disparity samples
     and the largest one-sided second difference of the disparity (px) a landmark may show; 0 (the default)
@@ -74,7 +75,7 @@ class KltConfig:
     raw_fallback: bool = True
     offset_min_matches: int = 10
     offset_max_px: float = 3.0
-    stereo_prior: bool = True
+    stereo_prior: bool = False
     edge_win: int = 11
     edge_win_h: int = 11
     edge_threshold_px: float = 0.0

@@ -9,9 +9,9 @@ knows the disparities of the points it already has: its landmarks projected into
 current pose. A new corner's right-image search starts at the median disparity vector of its ``k``
 nearest such points in the left image. :func:`vo.frontend.klt.stereo_klt` tries the prior only for the
 corners whose search from zero disparity fails the forward-backward or the epipolar check, with the same
-checks. Not in seed 003. (``rop``'s keyframes do not use it: from its carried four-view tracks it gave
-6.27 / 9.74 % on ``indoor-realistic`` seeds 0 / 11 against 8.00 / 11.85 % without, but 1.42 % against
-0.38 % on the real KITTI turn; docs/estimators.md.)
+checks. Not in seed 003; off by default (``KltConfig.stereo_prior``): on ``indoor-realistic`` it gave
+``klt-pnp`` 4.45 / 6.98 % on seeds 0 / 11 against 7.77 / 7.13 % without, but 10.37 % against 5.46 % on the
+held-out seed 23 (docs/estimators.md, "Calibration row offset and blank views").
 
 Shapes: points (N,2) raw pixels ``(u, v)``; landmarks (M,3); transforms (4,4).
 """
