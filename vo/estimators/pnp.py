@@ -40,6 +40,7 @@ from vo.frontend.grid import Grid
 from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
 from vo.frontend.stereo import epipolar_mask, triangulate, undistort_px
+from vo.frontend.stereo_prior import disparity_guess, landmark_refs
 from rigs.geometry import inv_T, transform_points
 
 
@@ -223,8 +224,14 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.T_o_c0, self._T_prev_curr = T_new, inv_T(T_o_prev) @ T_new
 
     def _stereo_landmarks(self, left, right, ids, p_l) -> tuple:
-        """The product's landmark source: stereo KLT, the depth-edge test, triangulation in the left camera."""
-        p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid)
+        """The product's landmark source: stereo KLT (with ``klt_config.stereo_prior``, started for the corners it
+        loses from zero disparity at the disparity of the nearest landmarks: :mod:`vo.frontend.stereo_prior`),
+        the depth-edge test, triangulation in the left camera."""
+        known = np.isin(self.tracker.ids, np.fromiter(self.landmarks, np.int64, len(self.landmarks)))
+        p_known = np.array([self.landmarks[int(i)] for i in self.tracker.ids[known]]).reshape(-1, 3)
+        prior = disparity_guess(p_l, *landmark_refs(self.rig, inv_T(self.T_o_c0), p_known, self.tracker.pts[known])) \
+            if self.klt_config.stereo_prior else None
+        p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid, prior)
         if ok.any():
             ok[ok] &= off_edge(left, right, p_l[ok], p_r[ok], self.klt_config)
         p_c0, ok_t = triangulate(self.rig, p_l, p_r, self.pnp_config.max_depth, self.pnp_config.max_triangulation_px)
