@@ -13,7 +13,8 @@
    over the gravity direction on the sphere, the minimiser VINS-Mono's tangent-plane iterations approach).
    The scale is observable only through changes of the acceleration (a constant specific force is explained
    equally well by a tilted gravity and a scaled path). The initialisation is accepted when the scale's
-   relative standard deviation (from the least-squares residual) is below ``init_max_scale_std`` and the
+   relative standard deviation (noise model of :func:`align`) times ``init_scale_sigmas`` is within
+   ``init_max_scale_std`` and the
    scale agrees within the same fraction with the reverse regression (:func:`_reverse_scale`): noise in the
    SfM positions pulls the linear alignment's scale towards zero without raising its residual-based
    standard deviation much. After a failure the estimator keeps the window long in time
@@ -71,37 +72,57 @@ def sfm(frames, min_parallax_px: float, virtual_focal: float):
     least ``MIN_COMMON`` features in common with the newest, mean parallax >= ``min_parallax_px`` (at the
     virtual focal length) and a relative pose with more than ``MIN_POSE_INLIERS`` RANSAC inliers (later
     candidates are tried when one fails); PnP (RANSAC) chains the other keyframes, then a full bundle
-    adjustment over the window (gtsam LM), observations beyond ``REJECT_PX`` dropped, and a second BA."""
-    last = frames[-1]
-    for ref in range(len(frames) - 1):
-        ids, xa, xb = _common(frames[ref], last)
-        if len(ids) < MIN_COMMON or np.linalg.norm(xa - xb, axis=1).mean() * virtual_focal < min_parallax_px:
-            continue
-        rel = _relative_pose(xa, xb, virtual_focal)
-        if rel is not None:
-            break
-    else:
+    adjustment over the window (gtsam LM), observations beyond ``REJECT_PX`` dropped, and a second BA.
+    When no keyframe qualifies with the newest, the next-newest keyframes are tried in turn as the second
+    view (:func:`reference_pair`); the keyframes after it are then chained forward by PnP as well."""
+    pair = reference_pair(frames, min_parallax_px, virtual_focal)
+    if pair is None:
         return None
+    ref, b, rel = pair
     n = len(frames)
     T = np.full((n, 4, 4), np.nan)
-    T[ref], T[-1] = np.eye(4), rel
+    T[ref], T[b] = np.eye(4), rel
     points = {}
-    _add_points(points, frames, T, ref, n - 1)
-    for k in range(ref + 1, n - 1):
+    _add_points(points, frames, T, ref, b)
+    for k in range(ref + 1, b):
         if not _pnp(frames[k], points, T, k):
             return None
-        _add_points(points, frames, T, k, n - 1)
-    for k in range(ref + 1, n - 1):          # tracks that end before the newest keyframe, for the PnP below
+        _add_points(points, frames, T, k, b)
+    for k in range(ref + 1, b):              # tracks that end before the second view, for the PnP below
         _add_points(points, frames, T, k, ref)
+    for k in range(b + 1, n):                # keyframes after the second view (none when it is the newest)
+        if not _pnp(frames[k], points, T, k):
+            return None
+        _add_points(points, frames, T, ref, k)
+        _add_points(points, frames, T, b, k)
     for k in range(ref - 1, -1, -1):
         if not _pnp(frames[k], points, T, k):
             return None
         _add_points(points, frames, T, k, ref)
     for a in range(n - 1):                   # the remaining tracks, widest baseline first
-        for b in range(n - 1, a, -1):
-            _add_points(points, frames, T, a, b)
-    T, points = _bundle_adjust(frames, T, points, ref, virtual_focal)
-    return ref, _bundle_adjust(frames, T, points, ref, virtual_focal, REJECT_PX)
+        for c in range(n - 1, a, -1):
+            _add_points(points, frames, T, a, c)
+    T, points = _bundle_adjust(frames, T, points, ref, virtual_focal, second=b)
+    return ref, _bundle_adjust(frames, T, points, ref, virtual_focal, REJECT_PX, second=b)
+
+
+def reference_pair(frames, min_parallax_px: float, virtual_focal: float):
+    """-> (a, b, T_c_v of b with a = v, unit baseline) or None: the two views the SfM starts from.
+
+    VINS-Mono's ``relativePose``: b is the newest keyframe, a the oldest with >= ``MIN_COMMON`` features in
+    common, mean parallax >= ``min_parallax_px`` and a relative pose with > ``MIN_POSE_INLIERS`` inliers. When
+    none qualifies, b steps back to the next-newest keyframe and so on (a later reference than VINS-Mono's
+    window would wait for): in traffic the newest keyframe often shares fewer than ``MIN_COMMON`` static
+    features at 30 px of parallax with every older one while an earlier pair of the same window qualifies."""
+    for b in range(len(frames) - 1, 0, -1):
+        for a in range(b):
+            ids, xa, xb = _common(frames[a], frames[b])
+            if len(ids) < MIN_COMMON or np.linalg.norm(xa - xb, axis=1).mean() * virtual_focal < min_parallax_px:
+                continue
+            rel = _relative_pose(xa, xb, virtual_focal)
+            if rel is not None:
+                return a, b, rel
+    return None
 
 
 def _relative_pose(xa, xb, virtual_focal):
@@ -146,10 +167,10 @@ def _pnp(frame, points, T, k) -> bool:
     return True
 
 
-def _bundle_adjust(frames, T_c_v, points, ref, virtual_focal, reject_px: float = 0.0):
+def _bundle_adjust(frames, T_c_v, points, ref, virtual_focal, reject_px: float = 0.0, second: int = -1):
     """Full gtsam BA over the window on normalized coordinates (K = virtual focal), poses T_v_c, Huber loss;
     gauge: the reference pose by a tight prior, the scale left to LM's damping and then restored to the
-    reference-newest baseline. With ``reject_px`` > 0, observations reprojecting farther than that (pixels at
+    baseline between the reference and ``second`` (default the newest keyframe). With ``reject_px`` > 0, observations reprojecting farther than that (pixels at
     the virtual focal length) at the input estimate are left out. -> (T_c_v, points)."""
     from gtsam.symbol_shorthand import L, X
     K = gtsam.Cal3_S2(virtual_focal, virtual_focal, 0.0, 0.0, 0.0)
@@ -172,7 +193,7 @@ def _bundle_adjust(frames, T_c_v, points, ref, virtual_focal, reject_px: float =
     for i in used:
         v.insert(L(i), gtsam.Point3(*points[i]))
     g.add(gtsam.PriorFactorPose3(X(ref), gtsam.Pose3(), gtsam.noiseModel.Isotropic.Sigma(6, 1e-6)))
-    last = len(frames) - 1
+    last = second % len(frames)
     d0 = float(np.linalg.norm(np.linalg.inv(T_c_v[last])[:3, 3]))
     params = gtsam.LevenbergMarquardtParams()
     params.setMaxIterations(100)
@@ -351,8 +372,8 @@ def initialize(stream, params, frames, T_i_c, config):
 
     With ``config.init_min_excitation`` > 0, tried only when the window's :func:`imu_excitation` reaches it.
     Needs the alignment's gravity magnitude within 1 m/s^2 of 9.81 and s > 0 (VINS-Mono's
-    ``LinearAlignment`` test). Accepted when the scale's relative standard deviation (noise model of
-    :func:`align`) is below ``init_max_scale_std`` and the forward and reverse regressions agree within it;
+    ``LinearAlignment`` test). Accepted when ``init_scale_sigmas`` times the scale's relative standard deviation
+    (noise model of :func:`align`) is within ``init_max_scale_std`` (the target) and the forward and reverse regressions agree within it;
     accepted as ``provisional`` (the estimator then emits no pose until its window confirms the scale) when
     the standard deviation is below ``init_provisional_scale_std`` and that option is on (above
     ``init_max_scale_std``; equal to it, the default, is off: a window whose forward and reverse regressions
@@ -373,13 +394,15 @@ def initialize(stream, params, frames, T_i_c, config):
     if not (s > 0 and abs(g_norm - GRAVITY) < 1.0 and np.all(np.isfinite(v_v))):
         return None, f"alignment failed (scale {s:.3g}, |g| {g_norm:.3g} m/s^2)"
     agree = abs(s / s_reverse - 1.0) <= config.init_max_scale_std
-    if rel_std <= config.init_max_scale_std and agree:
+    bound = config.init_scale_sigmas * rel_std
+    if bound <= config.init_max_scale_std and agree:
         return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v, rel_std), "ok"
     provisional_on = config.init_provisional_scale_std > config.init_max_scale_std
-    if provisional_on and rel_std <= config.init_provisional_scale_std:
+    if provisional_on and bound <= config.init_provisional_scale_std:
         return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v, rel_std, True), "provisional"
-    if rel_std > config.init_max_scale_std:
-        return None, (f"scale not observable yet (relative std {rel_std:.3f} > {config.init_provisional_scale_std}, "
-                      f"SfM noise {100 * tau:.1f} cm, IMU excitation {exc:.2f} m/s^2)")
+    if bound > config.init_max_scale_std:
+        return None, (f"scale not observable yet ({config.init_scale_sigmas:g} x relative std {rel_std:.3f} > "
+                      f"{config.init_provisional_scale_std}, SfM noise {100 * tau:.1f} cm, IMU excitation "
+                      f"{exc:.2f} m/s^2)")
     return None, (f"scale not observable yet (forward {s:.4g} and reverse {s_reverse:.4g} regressions "
                   f"differ by more than {config.init_max_scale_std})")
