@@ -208,9 +208,9 @@ class VinsEstimator(Estimator):
         w, cfg = self.window, self.config
         change = window_scale_change(result, np.array([w.T_w_c(st) for st in w.states]))
         if not result.provisional and abs(change) > cfg.init_max_scale_std:
-            self.window = None              # the window does not confirm the alignment: the next window retries
+            self.window = None              # the window does not confirm the alignment: a longer one retries
             if len(self.init_frames) >= cfg.init_keyframes:
-                drop_init_keyframe(self.init_frames, True)
+                drop_init_keyframe(self.init_frames, False)
             return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),
                                message=f"scale not confirmed: the window moved it {100 * change:+.1f} %")
         if result.provisional:
