@@ -37,8 +37,8 @@ from vo.vins.window import Window
 def drop_init_keyframe(keyframes: list, sfm_failed: bool) -> None:
     """Make room in ``keyframes`` (the start's keyframes, oldest first; changed in place) for the next one after a
     failed initialisation. When the SfM failed, the oldest keyframe goes (VINS-Mono's sliding window). When the
-    SfM worked but the scale was not observable, the inner keyframe whose removal leaves the shortest merged
-    interval goes instead, so the window grows in time and keeps the start of the motion: the scale is carried
+    SfM worked but the scale was not observable (or the window did not confirm it), the inner keyframe whose
+    removal leaves the shortest merged interval goes instead, so the window grows in time and keeps the start of the motion: the scale is carried
     by changes of the acceleration, which a longer window sees more of (constant acceleration alone cannot
     separate scale and gravity)."""
     kf = keyframes

@@ -77,7 +77,8 @@ class VinsConfig:
     sensor's noise: :mod:`rigs.imu_models`).
     Start-up: SfM + alignment is tried at every new keyframe once there are ``init_min_keyframes``, on at most
     ``init_keyframes`` (after a failure the oldest is dropped if the SfM failed, else the inner keyframe of
-    the shortest merged interval; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,
+    the shortest merged interval; a start whose scale the window's first optimisation moves by more than
+    ``init_max_scale_std`` is refused; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,
     ``init_max_scale_std`` (the target: largest accepted relative error bound of the aligned scale, and largest
     relative difference between the forward and reverse alignment regressions), ``init_scale_sigmas`` (the
     bound is this many relative standard deviations: 2 accepts a window whose scale is within the target at
