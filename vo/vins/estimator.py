@@ -207,7 +207,7 @@ class VinsEstimator(Estimator):
         self._start_window(result)
         w, cfg = self.window, self.config
         change = window_scale_change(result, np.array([w.T_w_c(st) for st in w.states]))
-        if not result.provisional and abs(change) > cfg.init_max_scale_std:
+        if not result.provisional and abs(change) > cfg.init_window_check:
             self.window = None              # the window does not confirm the alignment: a longer one retries
             if len(self.init_frames) >= cfg.init_keyframes:
                 drop_init_keyframe(self.init_frames, False)

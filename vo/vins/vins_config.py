@@ -78,7 +78,7 @@ class VinsConfig:
     Start-up: SfM + alignment is tried at every new keyframe once there are ``init_min_keyframes``, on at most
     ``init_keyframes`` (after a failure the oldest is dropped if the SfM failed, else the inner keyframe of
     the shortest merged interval; a start whose scale the window's first optimisation moves by more than
-    ``init_max_scale_std`` is refused; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,
+    ``init_window_check`` (relative; 0.05, the target) is refused; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,
     ``init_max_scale_std`` (the target: largest accepted relative error bound of the aligned scale, and largest
     relative difference between the forward and reverse alignment regressions), ``init_scale_sigmas`` (the
     bound is this many relative standard deviations: 2 accepts a window whose scale is within the target at
@@ -138,6 +138,7 @@ class VinsConfig:
     init_min_parallax_px: float = knob(30.0, gt=0)
     init_max_scale_std: float = knob(0.05, gt=0)
     init_scale_sigmas: float = knob(2.0, gt=0)
+    init_window_check: float = knob(0.05, gt=0)
     init_min_excitation: float = knob(0.0, ge=0)
     init_provisional_scale_std: float = knob(0.05, gt=0)
     init_confirm_s: float = knob(10.0, gt=0)
