@@ -15,6 +15,7 @@ from studies import load_study
 
 COVERED = ("ok", "keyframe")
 InitRecorder = load_study("vins_start_table").InitRecorder
+window_errors = load_study("vins_start_table").window_errors
 
 
 def _urban(tmp_path_factory, name, duration_s, **motion):
@@ -40,12 +41,18 @@ def urban_cruise(tmp_path_factory):
 
 
 def _run(path, **kw):
+    """-> (estimator, recorder, results, window errors against the truth at the first pose or None)."""
     ds = open_dataset(path)
     rec = InitRecorder(ds.groundtruth_cam0())
     est = VinsEstimator(ds.rig, initializer=rec, **kw)
     est.set_imu(ds.imu)
     est.set_dataset(ds)
-    return est, rec, [est.process(ds.frame(k)) for k in range(len(ds))]
+    res, at_pose = [], None
+    for k in range(len(ds)):
+        res.append(est.process(ds.frame(k)))
+        if at_pose is None and res[-1].status in COVERED:
+            at_pose = window_errors(est.window, ds.groundtruth_cam0())
+    return est, rec, res, at_pose
 
 
 class DivergeOnce:
@@ -64,23 +71,24 @@ class DivergeOnce:
 @pytest.mark.long
 def test_start_from_rest_initialises_within_scale_and_gravity_errors(urban_from_rest):
     """From rest (the car accelerates from 0): `init` with the identity pose until the start succeeds, then a
-    pose every frame; at the start the alignment's scale within 5 % and gravity within 1 deg of the truth
-    (the issue's targets), within 14 s; no divergence afterwards (the default thresholds do not fire on a
-    healthy run)."""
-    est, rec, res = _run(urban_from_rest)
+    pose every frame; at the first pose the window's scale within 5 % and its tilt within 1 deg of the truth
+    (the issue's targets: the start is the alignment refined and confirmed by the window's first
+    optimisation, docs/vins.md), within 14 s; the alignment's gravity within 1 deg; no divergence afterwards
+    (the default thresholds do not fire on a healthy run)."""
+    est, rec, res, at_pose = _run(urban_from_rest)
     first = next(k for k, r in enumerate(res) if r.status != "init")
     assert res[first].message == "initialised" and res[first].status == "keyframe"
     assert all(np.array_equal(r.T_o_c0, np.eye(4)) for r in res[:first])
     assert all(r.status in COVERED for r in res[first:]), {r.status: r.message for r in res[first:]}
-    s = rec.starts[0]
-    assert abs(s["scale_err_pct"]) <= 5.0 and s["gravity_err_deg"] <= 1.0, s
+    assert abs(at_pose["window_scale_err_pct"]) <= 5.0 and at_pose["window_tilt_deg"] <= 1.0, at_pose
+    assert rec.starts[-1]["gravity_err_deg"] <= 1.0, rec.starts
 
 
 @pytest.mark.long
 def test_constant_speed_start_stays_in_init_and_emits_no_pose(urban_cruise):
     """At a constant 10 m/s the scale is unobservable: every frame is `init` with the identity pose, and the
     attempts are refused for observability (IMU excitation or the scale's standard deviation), not accepted."""
-    est, rec, res = _run(urban_cruise)
+    est, rec, res, _ = _run(urban_cruise)
     assert all(r.status == "init" and frame_class(r) == "init" for r in res)
     assert all(np.array_equal(r.T_o_c0, np.eye(4)) for r in res)
     assert not rec.starts
@@ -183,3 +191,45 @@ def test_imu_excitation_is_zero_at_constant_velocity_and_sees_a_speed_change():
     expect = np.std(np.arange(10) % 2, ddof=1)
     assert imu_excitation(moving, params, frames) == pytest.approx(expect, rel=0.02)
     assert isinstance(params, gtsam.PreintegrationCombinedParams)
+
+
+class ScaledStart:
+    """The default start with its scale multiplied by ``factor`` (a wrongly scaled alignment, as an SfM that
+    misplaces a keyframe gives in traffic), recorded by :class:`InitRecorder`."""
+
+    def __init__(self, gt, factor: float):
+        from vo.vins.vi_init import initialize
+        self.factor, self.rec = factor, InitRecorder(gt, inner=self._scaled)
+        self._inner = initialize
+
+    def _scaled(self, *args):
+        r, msg = self._inner(*args)
+        if r is not None:
+            r.scale *= self.factor
+            r.v_v = r.v_v * self.factor
+        return r, msg
+
+    def __call__(self, *args):
+        return self.rec(*args)
+
+
+@pytest.mark.long
+def test_a_start_the_window_does_not_confirm_is_refused(urban_from_rest):
+    """Every accepted alignment scaled by 1.15: the window's first optimisation moves the scale back by more
+    than ``init_window_check`` (5 %), so the start is refused with "scale not confirmed", no pose is emitted
+    (identity, status `init`) and the start is tried again on later windows."""
+    ds = open_dataset(urban_from_rest)
+    start = ScaledStart(ds.groundtruth_cam0(), 1.15)
+    est = VinsEstimator(ds.rig, initializer=start)
+    est.set_imu(ds.imu)
+    est.set_dataset(ds)
+    res = [est.process(ds.frame(k)) for k in range(len(ds))]
+    refused = [k for k, r in enumerate(res) if r.message.startswith("scale not confirmed")]
+    assert refused, {r.message for r in res}
+    k0 = refused[0]
+    assert all(r.status == "init" and np.array_equal(r.T_o_c0, np.eye(4)) for r in res[:k0 + 1])
+    assert any("collecting" not in r.message for r in res[k0 + 1:])              # the start goes on
+    for k in range(k0 + 1, len(res)):
+        if res[k].status in COVERED:                                           # a later start: confirmed
+            assert res[k].message == "initialised"
+            break

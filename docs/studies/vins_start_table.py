@@ -90,9 +90,13 @@ def run_one(path, n_frames=None, estimator: str = "vins", options=None) -> dict:
         k = fr.index
         status.append(res.status)
         T.append(res.T_o_c0)
+        if res.status in ("init", "reinit") and res.message and not res.message.startswith("collecting"):
+            at_pose["last_message"] = res.message
         if "errors" not in at_pose and res.status in COVERED:
             at_pose["errors"] = window_errors(est.window, gt)
-        if res.message == "initialised" or (res.status == "reinit" and (k == 0 or status[-2] != "reinit")):
+            at_pose["start"] = len(rec.starts) - 1       # the alignment the first pose came from
+        if (res.message == "initialised" or res.message.startswith("scale not confirmed")
+                or (res.status == "reinit" and (k == 0 or status[-2] != "reinit"))):
             events.append((k, res.status, res.message))
 
     t0 = time.perf_counter()
@@ -108,12 +112,14 @@ def run_one(path, n_frames=None, estimator: str = "vins", options=None) -> dict:
            "covered": int(sum(s in COVERED for s in status))}
     first = next((k for k, s in enumerate(status) if s in COVERED), None)
     row["init_frame"] = first
+    row["refused_by_window"] = sum(1 for e in events if e[2].startswith("scale not confirmed"))
     if first is None:
-        row["last_message"] = rec.last_message
+        row["last_message"] = at_pose.get("last_message", rec.last_message)
         return row
     row["init_time_s"] = float((t_ns[first] - t_ns[0]) * 1e-9)
     row["init_dist_m"] = float(np.sum(np.linalg.norm(np.diff(Tg[:first + 1, :3, 3], axis=0), axis=1)))
-    row.update(at_first_pose)
+    row.update({k: v for k, v in at_first_pose.items() if k != "start"})
+    row["first_start"] = rec.starts[at_pose["start"]] if at_pose["start"] >= 0 else {}
     row["reinits"] = sum(1 for e in events if e[1] == "reinit")
     cpu_after = np.array(cpu[first:]) * 1e3
     row["cpu_ms_per_frame_after_init"] = {"mean": float(cpu_after.mean()), "p90": float(np.percentile(cpu_after, 90))}
@@ -137,7 +143,7 @@ def format_row(r: dict) -> str:
     if r["init_frame"] is None:
         return (f"| {name} | {r['frames']} | no initialisation | - | - | - | 0 | - | - | - | "
                 f"last: {r.get('last_message', '')} |")
-    s = r["starts"][0] if r["starts"] else {}
+    s = r.get("first_start", {})
     f = (lambda key, fmt: format(r[key], fmt) if key in r else "-")
     return (f"| {name} | {r['frames']} | {r['init_frame']} / {r['init_time_s']:.1f} s / {r['init_dist_m']:.1f} m | "
             f"{s.get('scale_err_pct', float('nan')):+.2f} / {r['window_scale_err_pct']:+.2f} | "

@@ -28,7 +28,7 @@ from vo.vins.covariance import INIT_COV, output_covariance
 from vo.vins.divergence import DivergenceCheck, Snapshot
 from vo.vins.feature_tracker import KltFrontend, mask_at, parallax_px
 from vo.vins.imu import GRAVITY, ImuStream, imu_params, preintegrate
-from vo.vins.vi_init import SFM_FAILED, initialize, usable_points
+from vo.vins.vi_init import SFM_FAILED, initialize, usable_points, window_scale_change
 from vo.vins.truth_segmentation import FeatureLabels, rule_confusion
 from vo.vins.truth_init import Truth, truth_init
 from vo.vins.window import Window
@@ -37,8 +37,8 @@ from vo.vins.window import Window
 def drop_init_keyframe(keyframes: list, sfm_failed: bool) -> None:
     """Make room in ``keyframes`` (the start's keyframes, oldest first; changed in place) for the next one after a
     failed initialisation. When the SfM failed, the oldest keyframe goes (VINS-Mono's sliding window). When the
-    SfM worked but the scale was not observable, the inner keyframe whose removal leaves the shortest merged
-    interval goes instead, so the window grows in time and keeps the start of the motion: the scale is carried
+    SfM worked but the scale was not observable (or the window did not confirm it), the inner keyframe whose
+    removal leaves the shortest merged interval goes instead, so the window grows in time and keeps the start of the motion: the scale is carried
     by changes of the acceleration, which a longer window sees more of (constant acceleration alone cannot
     separate scale and gravity)."""
     kf = keyframes
@@ -205,6 +205,14 @@ class VinsEstimator(Estimator):
 
     def _initialised(self, frame, result) -> FrameResult:
         self._start_window(result)
+        w, cfg = self.window, self.config
+        change = window_scale_change(result, np.array([w.T_w_c(st) for st in w.states]))
+        if not result.provisional and abs(change) > cfg.init_window_check:
+            self.window = None              # the window does not confirm the alignment: a longer one retries
+            if len(self.init_frames) >= cfg.init_keyframes:
+                drop_init_keyframe(self.init_frames, False)
+            return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),
+                               message=f"scale not confirmed: the window moved it {100 * change:+.1f} %")
         if result.provisional:
             self.provisional_since = frame.t_ns
             return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(),

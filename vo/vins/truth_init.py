@@ -12,7 +12,8 @@ import numpy as np
 
 from vo.errors import EstimatorError
 from vo.vins.imu import GRAVITY
-from vo.vins.vi_init import InitResult, _common, _triangulate
+from vo.vins.sfm import _common, _triangulate
+from vo.vins.vi_init import InitResult
 
 
 class Truth:

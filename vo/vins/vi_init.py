@@ -1,11 +1,9 @@
 """Monocular visual-inertial initialisation as VINS-Mono (the start-up seed 002 relies on).
 
-1. Up-to-scale SfM on the keyframes (VINS-Mono's ``relativePose`` + ``GlobalSFM``): essential matrix (OpenCV
-   RANSAC) between the oldest keyframe with enough parallax and common features and the newest one,
-   triangulation, PnP (RANSAC, then iterative refinement) for the other keyframes, triangulation of every
-   remaining track, then a full gtsam bundle adjustment over the window (Huber, Levenberg-Marquardt), a
-   second one without the observations beyond ``REJECT_PX`` (moving objects, KLT slips). Frame ``v`` = the
-   camera frame of the reference keyframe.
+1. Up-to-scale SfM on the keyframes (VINS-Mono's ``relativePose`` + ``GlobalSFM``, :mod:`vo.vins.sfm`): essential
+   matrix between a reference keyframe and the newest (or, when none pairs with it, the next-newest that does),
+   PnP for the other keyframes, triangulation, gtsam bundle adjustment. Frame ``v`` = the camera frame of the
+   reference keyframe.
 2. Gyro bias: ``scipy.optimize.least_squares`` on the pre-integrated vs SfM relative rotations.
 3. Velocities, gravity ``g_v`` and scale ``s`` (VINS-Mono's ``LinearAlignment``): linear least squares
    (``numpy.linalg.lstsq``) on the pre-integrated Delta-p and Delta-v (eq. 10-11; no differentiation of the
@@ -13,7 +11,8 @@
    over the gravity direction on the sphere, the minimiser VINS-Mono's tangent-plane iterations approach).
    The scale is observable only through changes of the acceleration (a constant specific force is explained
    equally well by a tilted gravity and a scaled path). The initialisation is accepted when the scale's
-   relative standard deviation (from the least-squares residual) is below ``init_max_scale_std`` and the
+   relative standard deviation (noise model of :func:`align`) times ``init_scale_sigmas`` is within
+   ``init_max_scale_std`` and the
    scale agrees within the same fraction with the reverse regression (:func:`_reverse_scale`): noise in the
    SfM positions pulls the linear alignment's scale towards zero without raising its residual-based
    standard deviation much. After a failure the estimator keeps the window long in time
@@ -23,18 +22,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import gtsam
 import numpy as np
 from scipy.optimize import least_squares
 
 from vo.vins.imu import GRAVITY, preintegrate
+from vo.vins.sfm import sfm
 
-MIN_COMMON = 20          # features shared by the reference and the newest keyframe (VINS-Mono: 20)
-MIN_POSE_INLIERS = 12    # essential-matrix inliers of the reference pair (VINS-Mono: 12)
-BA_SIGMA_PX = 1.0        # reprojection std of the SfM bundle adjustment at the virtual focal length
 SFM_FAILED = "SfM failed (parallax or features too few)"
-REJECT_PX = 3.0          # observations beyond this after the first BA are dropped (moving objects, KLT slips)
 
 
 @dataclass
@@ -49,139 +44,6 @@ class InitResult:
     v_v: np.ndarray           # (n,3) IMU velocities in v, metric
     scale_rel_std: float = float("nan")   # the alignment's relative standard deviation of s
     provisional: bool = False             # accepted only as a provisional start (the window must confirm it)
-
-
-def _common(a, b):
-    common, ia, ib = np.intersect1d(a.ids, b.ids, assume_unique=True, return_indices=True)
-    return common, a.xy[ia], b.xy[ib]
-
-
-def _triangulate(T_c_v_a, T_c_v_b, xa, xb):
-    P = cv2.triangulatePoints(T_c_v_a[:3], T_c_v_b[:3], xa.T.astype(float), xb.T.astype(float))
-    X = (P[:3] / P[3]).T
-    za = (T_c_v_a[:3, :3] @ X.T).T[:, 2] + T_c_v_a[2, 3]
-    zb = (T_c_v_b[:3, :3] @ X.T).T[:, 2] + T_c_v_b[2, 3]
-    return X, (za > 0) & (zb > 0) & np.all(np.isfinite(X), axis=1)
-
-
-def sfm(frames, min_parallax_px: float, virtual_focal: float):
-    """-> (ref, (T_c_v (n,4,4), points {track: p_v})) or None when no keyframe pair qualifies.
-
-    As VINS-Mono's ``relativePose`` + ``GlobalSFM::construct``: the reference is the oldest keyframe with at
-    least ``MIN_COMMON`` features in common with the newest, mean parallax >= ``min_parallax_px`` (at the
-    virtual focal length) and a relative pose with more than ``MIN_POSE_INLIERS`` RANSAC inliers (later
-    candidates are tried when one fails); PnP (RANSAC) chains the other keyframes, then a full bundle
-    adjustment over the window (gtsam LM), observations beyond ``REJECT_PX`` dropped, and a second BA."""
-    last = frames[-1]
-    for ref in range(len(frames) - 1):
-        ids, xa, xb = _common(frames[ref], last)
-        if len(ids) < MIN_COMMON or np.linalg.norm(xa - xb, axis=1).mean() * virtual_focal < min_parallax_px:
-            continue
-        rel = _relative_pose(xa, xb, virtual_focal)
-        if rel is not None:
-            break
-    else:
-        return None
-    n = len(frames)
-    T = np.full((n, 4, 4), np.nan)
-    T[ref], T[-1] = np.eye(4), rel
-    points = {}
-    _add_points(points, frames, T, ref, n - 1)
-    for k in range(ref + 1, n - 1):
-        if not _pnp(frames[k], points, T, k):
-            return None
-        _add_points(points, frames, T, k, n - 1)
-    for k in range(ref + 1, n - 1):          # tracks that end before the newest keyframe, for the PnP below
-        _add_points(points, frames, T, k, ref)
-    for k in range(ref - 1, -1, -1):
-        if not _pnp(frames[k], points, T, k):
-            return None
-        _add_points(points, frames, T, k, ref)
-    for a in range(n - 1):                   # the remaining tracks, widest baseline first
-        for b in range(n - 1, a, -1):
-            _add_points(points, frames, T, a, b)
-    T, points = _bundle_adjust(frames, T, points, ref, virtual_focal)
-    return ref, _bundle_adjust(frames, T, points, ref, virtual_focal, REJECT_PX)
-
-
-def _relative_pose(xa, xb, virtual_focal):
-    """T_c_v of b with a = v, unit baseline (essential matrix, OpenCV RANSAC at 0.3 px); None if too few inliers."""
-    E, inl = cv2.findEssentialMat(xa, xb, np.eye(3), cv2.RANSAC, 0.999, 0.3 / virtual_focal)
-    if E is None or E.shape != (3, 3):
-        return None
-    n_in, R, t, inl = cv2.recoverPose(E, xa, xb, np.eye(3), mask=inl)
-    if n_in <= MIN_POSE_INLIERS:
-        return None
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R, t.ravel()
-    return T
-
-
-def _add_points(points, frames, T, a, b):
-    if a == b:
-        return
-    ids, xa, xb = _common(frames[a], frames[b])
-    new = np.array([i not in points for i in ids], bool)
-    if not new.any():
-        return
-    X, ok = _triangulate(T[a], T[b], xa[new], xb[new])
-    for i, p in zip(ids[new][ok], X[ok]):
-        points[int(i)] = p
-
-
-def _pnp(frame, points, T, k) -> bool:
-    have = [(p, xy) for i, xy in zip(frame.ids, frame.xy) if (p := points.get(int(i))) is not None]
-    if len(have) < 10:
-        return False
-    obj = np.array([h[0] for h in have], float)
-    img = np.array([h[1] for h in have], float)
-    ok, rvec, tvec, inl = cv2.solvePnPRansac(obj, img, np.eye(3), None, reprojectionError=2.0 / 460.0,
-                                             iterationsCount=100, flags=cv2.SOLVEPNP_EPNP)
-    if not ok or inl is None or len(inl) < 8:
-        return False
-    ok, rvec, tvec = cv2.solvePnP(obj[inl.ravel()], img[inl.ravel()], np.eye(3), None, rvec, tvec, True,
-                                  cv2.SOLVEPNP_ITERATIVE)
-    T[k] = np.eye(4)
-    T[k][:3, :3], T[k][:3, 3] = cv2.Rodrigues(rvec)[0], tvec.ravel()
-    return True
-
-
-def _bundle_adjust(frames, T_c_v, points, ref, virtual_focal, reject_px: float = 0.0):
-    """Full gtsam BA over the window on normalized coordinates (K = virtual focal), poses T_v_c, Huber loss;
-    gauge: the reference pose by a tight prior, the scale left to LM's damping and then restored to the
-    reference-newest baseline. With ``reject_px`` > 0, observations reprojecting farther than that (pixels at
-    the virtual focal length) at the input estimate are left out. -> (T_c_v, points)."""
-    from gtsam.symbol_shorthand import L, X
-    K = gtsam.Cal3_S2(virtual_focal, virtual_focal, 0.0, 0.0, 0.0)
-    noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345),
-                                           gtsam.noiseModel.Isotropic.Sigma(2, BA_SIGMA_PX))
-    g, v = gtsam.NonlinearFactorGraph(), gtsam.Values()
-    used = set()
-    for k, fr in enumerate(frames):
-        v.insert(X(k), gtsam.Pose3(np.linalg.inv(T_c_v[k])))
-        for i, xy in zip(fr.ids.tolist(), fr.xy):
-            p = points.get(i)
-            if p is None:
-                continue
-            if reject_px > 0:
-                p_c = T_c_v[k][:3, :3] @ p + T_c_v[k][:3, 3]
-                if p_c[2] <= 0 or np.linalg.norm(p_c[:2] / p_c[2] - xy) * virtual_focal > reject_px:
-                    continue
-            g.add(gtsam.GenericProjectionFactorCal3_S2(xy * virtual_focal, noise, X(k), L(i), K))
-            used.add(i)
-    for i in used:
-        v.insert(L(i), gtsam.Point3(*points[i]))
-    g.add(gtsam.PriorFactorPose3(X(ref), gtsam.Pose3(), gtsam.noiseModel.Isotropic.Sigma(6, 1e-6)))
-    last = len(frames) - 1
-    d0 = float(np.linalg.norm(np.linalg.inv(T_c_v[last])[:3, 3]))
-    params = gtsam.LevenbergMarquardtParams()
-    params.setMaxIterations(100)
-    out = gtsam.LevenbergMarquardtOptimizer(g, v, params).optimize()
-    T = np.array([np.linalg.inv(out.atPose3(X(k)).matrix()) for k in range(len(frames))])
-    d1 = float(np.linalg.norm(np.linalg.inv(T[last])[:3, 3]))
-    f = d0 / d1 if d1 > 0 else 1.0
-    T[:, :3, 3] *= f
-    return T, {i: out.atPoint3(L(i)) * f for i in used}
 
 
 def usable_points(result: InitResult, frames, min_parallax_deg: float = 1.0, depth_m=(0.1, 1e3)) -> dict:
@@ -204,6 +66,18 @@ def usable_points(result: InitResult, frames, min_parallax_deg: float = 1.0, dep
         if np.all((z > depth_m[0]) & (z < depth_m[1])) and ra @ rb <= cos_min * np.linalg.norm(ra) * np.linalg.norm(rb):
             out[i] = p
     return out
+
+
+def window_scale_change(result: InitResult, T_w_c: np.ndarray) -> float:
+    """How far the window's first visual-inertial optimisation moved the start's scale: least-squares ratio of
+    the window's camera distances from its first state (``T_w_c`` (n,4,4), the start's keyframes in order) to
+    those of the aligned SfM (``scale * p_v_c``), minus 1. The alignment's standard deviation assumes
+    independent SfM position noise; a keyframe the SfM placed wrongly (in traffic: the keyframe at standstill,
+    posed by PnP on tracks partly on moving cars) biases it beyond that, and the window, which weighs each
+    observation against the IMU, then moves the scale away from it."""
+    d_a = np.linalg.norm(result.scale * (result.p_v_c - result.p_v_c[0]), axis=1)
+    d_w = np.linalg.norm(T_w_c[:, :3, 3] - T_w_c[0, :3, 3], axis=1)
+    return float(np.sum(d_w * d_a) / max(np.sum(d_a ** 2), 1e-12) - 1.0)
 
 
 def gyro_bias(stream, params, frames, R_v_i) -> np.ndarray:
@@ -351,8 +225,8 @@ def initialize(stream, params, frames, T_i_c, config):
 
     With ``config.init_min_excitation`` > 0, tried only when the window's :func:`imu_excitation` reaches it.
     Needs the alignment's gravity magnitude within 1 m/s^2 of 9.81 and s > 0 (VINS-Mono's
-    ``LinearAlignment`` test). Accepted when the scale's relative standard deviation (noise model of
-    :func:`align`) is below ``init_max_scale_std`` and the forward and reverse regressions agree within it;
+    ``LinearAlignment`` test). Accepted when ``init_scale_sigmas`` times the scale's relative standard deviation
+    (noise model of :func:`align`) is within ``init_max_scale_std`` (the target) and the forward and reverse regressions agree within it;
     accepted as ``provisional`` (the estimator then emits no pose until its window confirms the scale) when
     the standard deviation is below ``init_provisional_scale_std`` and that option is on (above
     ``init_max_scale_std``; equal to it, the default, is off: a window whose forward and reverse regressions
@@ -373,13 +247,15 @@ def initialize(stream, params, frames, T_i_c, config):
     if not (s > 0 and abs(g_norm - GRAVITY) < 1.0 and np.all(np.isfinite(v_v))):
         return None, f"alignment failed (scale {s:.3g}, |g| {g_norm:.3g} m/s^2)"
     agree = abs(s / s_reverse - 1.0) <= config.init_max_scale_std
-    if rel_std <= config.init_max_scale_std and agree:
+    bound = config.init_scale_sigmas * rel_std
+    if bound <= config.init_max_scale_std and agree:
         return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v, rel_std), "ok"
     provisional_on = config.init_provisional_scale_std > config.init_max_scale_std
-    if provisional_on and rel_std <= config.init_provisional_scale_std:
+    if provisional_on and bound <= config.init_provisional_scale_std:
         return InitResult(ref, R_v_c, p_v_c, points, bg, s, g_v, v_v, rel_std, True), "provisional"
-    if rel_std > config.init_max_scale_std:
-        return None, (f"scale not observable yet (relative std {rel_std:.3f} > {config.init_provisional_scale_std}, "
-                      f"SfM noise {100 * tau:.1f} cm, IMU excitation {exc:.2f} m/s^2)")
+    if bound > config.init_max_scale_std:
+        return None, (f"scale not observable yet ({config.init_scale_sigmas:g} x relative std {rel_std:.3f} > "
+                      f"{config.init_provisional_scale_std}, SfM noise {100 * tau:.1f} cm, IMU excitation "
+                      f"{exc:.2f} m/s^2)")
     return None, (f"scale not observable yet (forward {s:.4g} and reverse {s_reverse:.4g} regressions "
                   f"differ by more than {config.init_max_scale_std})")

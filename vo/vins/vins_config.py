@@ -77,9 +77,12 @@ class VinsConfig:
     sensor's noise: :mod:`rigs.imu_models`).
     Start-up: SfM + alignment is tried at every new keyframe once there are ``init_min_keyframes``, on at most
     ``init_keyframes`` (after a failure the oldest is dropped if the SfM failed, else the inner keyframe of
-    the shortest merged interval; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,
-    ``init_max_scale_std`` (largest accepted relative standard deviation of the aligned scale, and largest
-    relative difference between the forward and reverse alignment regressions), ``init_min_excitation``
+    the shortest merged interval; a start whose scale the window's first optimisation moves by more than
+    ``init_window_check`` (relative; 0.05, the target) is refused; ``init=truth`` starts at ``init_keyframes``), ``init_min_parallax_px``,
+    ``init_max_scale_std`` (the target: largest accepted relative error bound of the aligned scale, and largest
+    relative difference between the forward and reverse alignment regressions), ``init_scale_sigmas`` (the
+    bound is this many relative standard deviations: 2 accepts a window whose scale is within the target at
+    about 95 % confidence; 1 accepted a third of the starts beyond it, docs/vins.md), ``init_min_excitation``
     (m/s^2: the standard deviation over the window's keyframe intervals of the mean specific force, below which
     the window is not tried, :func:`vo.vins.vi_init.imu_excitation`; 0 = off, as in VINS-Mono, which logs its
     0.25 test without acting on it: the scale's standard deviation already says whether the motion observes
@@ -134,6 +137,8 @@ class VinsConfig:
     init_min_keyframes: int = knob(11, ge=3)
     init_min_parallax_px: float = knob(30.0, gt=0)
     init_max_scale_std: float = knob(0.05, gt=0)
+    init_scale_sigmas: float = knob(2.0, gt=0)
+    init_window_check: float = knob(0.05, gt=0)
     init_min_excitation: float = knob(0.0, ge=0)
     init_provisional_scale_std: float = knob(0.05, gt=0)
     init_confirm_s: float = knob(10.0, gt=0)
