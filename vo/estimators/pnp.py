@@ -32,6 +32,7 @@ import numpy as np
 
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
+from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 from vo.estimators.near_far import NearFarGate, refine_on_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.frontend.depth_edge import off_edge
@@ -155,12 +156,14 @@ class KltPnpEstimator(_StereoPnpEstimator):
     """Seed 003's optical-flow stereo VO. Options: ``klt_config`` (:class:`KltConfig`), ``pnp_config``.
     Collaborators (default: the product's): ``tracker``, a :class:`KltTracker` (or one that behaves as it);
     ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks
-    in the current left camera (default: stereo KLT, the depth-edge test, triangulation)."""
+    in the current left camera (default: stereo KLT, the depth-edge test, triangulation). ``disparity_offset``
+    (:class:`OffsetConfig`): the online stereo disparity-offset estimate (:mod:`vo.estimators.disparity_offset`)
+    that corrects landmark depths under an inconsistent calibration."""
 
     name = "klt-pnp"
 
     def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", tracker=None,
-                 landmark_source=None, **options):
+                 landmark_source=None, disparity_offset: OffsetConfig | None = None, **options):
         if frontend != "klt":
             raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
         super().__init__(rig, **options)
@@ -172,11 +175,16 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.near: dict = {}             # track id -> (near at birth, birth c_o (3,), birth bearing_o (3,))
         self._next_keyframe = False
         self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]), rig.baseline)
+        self.offset = DisparityOffset(OffsetConfig.from_option(disparity_offset, f"{self.name}.disparity_offset"),
+                                      float(cam.K[0, 0]), rig.baseline)
+        self._raw: dict = {}             # track id -> p_o (3,) as triangulated (before the offset's correction)
+        self._applied_offset = 0.0
 
     def _initialize(self, left, right, timings) -> int:
         self.tracker.reset()
         self.landmarks.clear()
         self.near.clear()
+        self._raw.clear()
         with _timer(timings, "detect"):
             new_ids = self.tracker.detect(left)
         n = self._add_landmarks(left, right, new_ids, timings)
@@ -191,12 +199,16 @@ class KltPnpEstimator(_StereoPnpEstimator):
             p_c0, ok = self.landmark_source(left, right, self.tracker.ids[sel], p_l)
             p_o = transform_points(self.T_o_c0, p_c0)
             z_c0 = transform_points(inv_T(self.T_o_c0), p_o)[:, 2]
-            near = z_c0 < self.pnp_config.near_baselines * self.rig.baseline
             cam = self.rig.cameras[0]
             x_n = (undistort_px(p_l, cam) - cam.K[:2, 2]) / np.diag(cam.K)[:2] if len(p_l) else np.zeros((0, 2))
             dir_o = (self.T_o_c0[:3, :3] @ np.c_[x_n, np.ones(len(x_n))].T).T
+            self.offset.add(self.tracker.ids[sel][ok], self.T_o_c0[:3, 3], dir_o[ok], z_c0[ok])
+            if self.offset.delta_px != 0.0:
+                z_c0 = np.where(ok, self.offset.fb / (self.offset.fb / np.where(ok, z_c0, 1.0) + self.offset.delta_px), z_c0)
+            near = z_c0 < self.pnp_config.near_baselines * self.rig.baseline
             for i, p, c, d in zip(self.tracker.ids[sel][ok], p_o[ok], near[ok], dir_o[ok]):
-                self.landmarks[int(i)] = p
+                self._raw[int(i)] = p
+                self.landmarks[int(i)] = self.offset.correct(int(i), p)
                 self.near[int(i)] = (bool(c), self.T_o_c0[:3, 3].copy(), d)
             self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
         return int(ok.sum())
@@ -235,8 +247,24 @@ class KltPnpEstimator(_StereoPnpEstimator):
             status, msg = "keyframe", f"{n_new} new landmarks"
         self.landmarks = {int(i): self.landmarks[int(i)] for i in self.tracker.ids}
         self.near = {i: self.near[i] for i in self.landmarks}
+        self._update_offset()
         self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
         return self._result(t_ns, status, n_feat, n_inl, msg)
+
+    def _update_offset(self) -> None:
+        """Feed the tracked (inlier) landmarks to the disparity-offset estimate; when the offset it applies
+        changes, move every tracked landmark to its corrected depth."""
+        if not self.offset.config.enabled:
+            return
+        self._raw = {i: self._raw[i] for i in self.landmarks}
+        self.offset.forget(self.landmarks)
+        cam = self.rig.cameras[0]
+        pts = self.tracker.pts
+        x_n = (undistort_px(pts, cam) - cam.K[:2, 2]) / np.diag(cam.K)[:2] if len(pts) else np.zeros((0, 2))
+        self.offset.observe(self.tracker.ids, x_n, self.T_o_c0)
+        if self.offset.delta_px != self._applied_offset:
+            self._applied_offset = self.offset.delta_px
+            self.landmarks = {i: self.offset.correct(i, self._raw[i]) for i in self.landmarks}
 
     def _near_far(self, T_o_c0, inl, p_o, near, rays, timings) -> tuple:
         """The close/far split's pose and inliers (:mod:`vo.estimators.near_far`) where its gate says the
