@@ -63,6 +63,8 @@ class DisparityOffset:
     (:meth:`add`), their tracks fed each frame (:meth:`observe`); :attr:`delta_px` is the offset to apply (0
     until significant) and :meth:`correct` moves a landmark along its birth ray to the corrected depth."""
 
+    max_frames = 4               # frames of one keyframe's adjustment (its cost grows as their square)
+
     def __init__(self, config: OffsetConfig, f_px: float, baseline_m: float):
         self.config, self.f, self.fb, self.baseline_m = config, f_px, f_px * baseline_m, baseline_m
         self.births: dict = {}       # id -> (birth centre (3,), raw depth)
@@ -103,7 +105,9 @@ class DisparityOffset:
                if np.linalg.norm(c_k - g[0]) >= cfg.min_travel_baselines * self.baseline_m]
         for k in due:
             g = self.keyframes.pop(k)      # the birth frame itself (pose at c_b) adds nothing
-            fit = self.fit_keyframe(*g, [h for h in self.history if h[0] > k and np.any(h[1][:3, 3] != g[0])])
+            later = [h for h in self.history if h[0] > k and np.any(h[1][:3, 3] != g[0])]
+            pick = np.unique(np.round(np.linspace(0, len(later) - 1, min(len(later), self.max_frames))).astype(int))
+            fit = self.fit_keyframe(*g, [later[j] for j in pick]) if later else None
             if fit is not None:
                 self.fits.append(fit)
         oldest = min(self.keyframes, default=self._frame)
@@ -113,8 +117,10 @@ class DisparityOffset:
 
     def fit_keyframe(self, c_b, ids, dir_b, z_raw, frames) -> tuple | None:
         """One keyframe's landmarks (``ids`` (M,), birth centre ``c_b``, rays ``dir_b`` (M,3), raw depths
-        ``z_raw`` (M,)) seen on the later ``frames`` ((frame, T_o_c0, ids, x_n) each): the offset and the
-        poses of those frames adjusted together (reprojection error, Huber loss at 1 px; each landmark at
+        ``z_raw`` (M,)) seen on later ``frames`` ((frame, T_o_c0, ids, x_n) each; :meth:`observe` passes at
+        most :attr:`max_frames`, evenly spaced up to the current one, which bounds the cost): the offset and the
+        poses of those frames
+        adjusted together (reprojection error, Huber loss at 1 px; each landmark at
         depth ``f b / (D + delta)`` along its birth ray) -> ``(delta, variance)`` or None (fewer than
         ``min_landmarks`` landmarks seen after birth, or no solution)."""
         member = {int(i): j for j, i in enumerate(ids)}
