@@ -123,31 +123,52 @@ class DisparityOffset:
         adjusted together (reprojection error, Huber loss at 1 px; each landmark at
         depth ``f b / (D + delta)`` along its birth ray) -> ``(delta, variance)`` or None (fewer than
         ``min_landmarks`` landmarks seen after birth, or no solution)."""
-        member = {int(i): j for j, i in enumerate(ids)}
+        ids = np.asarray(ids, np.int64)
+        order = np.argsort(ids)
         obs_f, obs_l, obs_x = [], [], []
         for f_i, (_, _, f_ids, f_x) in enumerate(frames):
-            for i, x in zip(f_ids, f_x):
-                j = member.get(int(i))
-                if j is not None:
-                    obs_f.append(f_i)
-                    obs_l.append(j)
-                    obs_x.append(x)
-        if len(set(obs_l)) < self.config.min_landmarks:
+            pos = np.minimum(np.searchsorted(ids[order], f_ids), len(ids) - 1)
+            hit = ids[order][pos] == f_ids
+            obs_f.append(np.full(int(hit.sum()), f_i))
+            obs_l.append(order[pos[hit]])
+            obs_x.append(f_x[hit])
+        obs_f, obs_l, obs_x = np.concatenate(obs_f), np.concatenate(obs_l), np.concatenate(obs_x)
+        if len(np.unique(obs_l)) < self.config.min_landmarks:
             return None
-        obs_f, obs_l, obs_x = np.array(obs_f), np.array(obs_l), np.array(obs_x)
         d_raw = self.fb / z_raw
-        n_f = len(frames)
+        n_f, fb, f = len(frames), self.fb, self.f
 
-        def residuals(v):
-            lam = self.fb / np.maximum(d_raw + v[0], 1e-3)
-            p_o = c_b[None, :] + dir_b * lam[:, None]
-            out = np.empty((len(obs_f), 2))
+        def model(v):
+            """Per observation: camera-frame point (K,3), rotation jacobian d p_c / d rvec (K,3,3), d p_c / d delta (K,3)."""
+            den = np.maximum(d_raw + v[0], 1e-3)
+            p_o = c_b[None, :] + dir_b * (fb / den)[:, None]
+            p_c, dp_r, dp_d = np.empty((len(obs_f), 3)), np.empty((len(obs_f), 3, 3)), np.empty((len(obs_f), 3))
             for f_i in range(n_f):
                 m = obs_f == f_i
-                R = cv2.Rodrigues(v[1 + 6 * f_i:4 + 6 * f_i].reshape(3, 1))[0]
-                p_c = p_o[obs_l[m]] @ R.T + v[4 + 6 * f_i:7 + 6 * f_i]
-                out[m] = p_c[:, :2] / np.maximum(p_c[:, 2:3], 1e-6) - obs_x[m]
-            return self.f * out.ravel()
+                R, dR = cv2.Rodrigues(v[1 + 6 * f_i:4 + 6 * f_i].reshape(3, 1))
+                p = p_o[obs_l[m]]
+                p_c[m] = p @ R.T + v[4 + 6 * f_i:7 + 6 * f_i]
+                dp_r[m] = np.einsum("kij,nj->nik", dR.reshape(3, 3, 3), p)
+                dp_d[m] = (dir_b[obs_l[m]] @ R.T) * (-fb / den[obs_l[m]] ** 2)[:, None]
+            return p_c, dp_r, dp_d
+
+        def residuals(v):
+            p_c = model(v)[0]
+            return f * (p_c[:, :2] / np.maximum(p_c[:, 2:3], 1e-6) - obs_x).ravel()
+
+        def jacobian(v):
+            p_c, dp_r, dp_d = model(v)
+            z = np.maximum(p_c[:, 2], 1e-6)
+            P = np.zeros((len(z), 2, 3))                 # d pixel / d p_c
+            P[:, 0, 0] = P[:, 1, 1] = f / z
+            P[:, :, 2] = -f * p_c[:, :2] / z[:, None] ** 2
+            J = np.zeros((len(z), 2, 1 + 6 * n_f))
+            J[:, :, 0] = np.einsum("nij,nj->ni", P, dp_d)
+            rows = np.arange(len(z))
+            for k in range(3):
+                J[rows, :, 1 + 6 * obs_f + k] = np.einsum("nij,nj->ni", P, dp_r[:, :, k])
+                J[rows, :, 4 + 6 * obs_f + k] = P[:, :, k]
+            return J.reshape(2 * len(z), -1)
 
         v0 = [0.0]
         for _, T_o_c, _, _ in frames:
@@ -156,7 +177,7 @@ class DisparityOffset:
         if len(obs_f) * 2 <= len(v0):
             return None
         try:
-            sol = least_squares(residuals, np.array(v0), method="trf", loss="huber", f_scale=1.0, x_scale="jac")
+            sol = least_squares(residuals, np.array(v0), jac=jacobian, method="trf", loss="huber", f_scale=1.0, x_scale="jac")
             J = sol.jac
             dof = max(J.shape[0] - J.shape[1], 1)
             s2 = max(float(np.sum(sol.fun ** 2)) / dof, 1.0)

@@ -230,10 +230,10 @@ class KltPnpEstimator(_StereoPnpEstimator):
         if n_feat < self.pnp_config.min_features:
             return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
         p_o = np.array([self.landmarks[int(i)] for i in ids])
-        near = np.array([self.near[int(i)][0] for i in ids], bool)
-        rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
         T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
-        if T_o_c0 is not None:
+        if T_o_c0 is not None and self.pnp_config.near_baselines > 0:
+            near = np.array([self.near[int(i)][0] for i in ids], bool)
+            rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
             T_o_c0, inl = self._near_far(T_o_c0, inl, p_o, near, rays, timings)
         n_inl = int(inl.sum())
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
