@@ -15,9 +15,12 @@ Moving objects (our extension): each frame's PnP takes, among the rigid motions 
 nearest the constant-velocity prediction (``pnp_config.consensus="prior"``, default;
 :mod:`vo.estimators.pnp_core`), not RANSAC's largest consensus, which in traffic is often a car ahead.
 
-Close/far split (``klt-pnp``; ORB-SLAM2's rule, not in seed 003): where near and far landmarks disagree on
-the step length beyond a calibration tolerance (a stereo disparity offset, as on the real KITTI excerpt), the
-pose is refitted with far landmarks as rays (:mod:`vo.estimators.near_far`); otherwise the PnP pose stands.
+Stereo disparity offset (``klt-pnp``; not in seed 003): a calibration whose right principal point is off the
+images' (the real KITTI excerpt: about 1.2-1.4 px) makes far landmarks long and every step long; the offset is
+estimated online from the tracks and, where significant, landmark depths are corrected along their birth rays
+(:mod:`vo.estimators.disparity_offset`); with a consistent calibration nothing changes. The close/far split
+(ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works around the same offset is off by default
+(``pnp_config={near_baselines: 40}`` turns it on).
 
 Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on the
 keyframe where they were born; old key points are not re-matched left-right on later keyframes, since those
