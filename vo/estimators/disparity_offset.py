@@ -177,7 +177,8 @@ class DisparityOffset:
         if len(obs_f) * 2 <= len(v0):
             return None
         try:
-            sol = least_squares(residuals, np.array(v0), jac=jacobian, method="trf", loss="huber", f_scale=1.0, x_scale="jac")
+            sol = least_squares(residuals, np.array(v0), jac=jacobian, method="trf", loss="huber", f_scale=1.0,
+                                x_scale="jac", max_nfev=30)
             J = sol.jac
             dof = max(J.shape[0] - J.shape[1], 1)
             s2 = max(float(np.sum(sol.fun ** 2)) / dof, 1.0)
