@@ -1,7 +1,7 @@
 """Online estimate of a stereo disparity offset (a calibration error of the right camera's principal point).
 
 A rectified stereo rig measures depth ``z = f b / d``. When the written calibration puts the right camera's
-principal point ``delta`` px off the images' (the real KITTI excerpt: about 1.4 px, docs/estimators.md), every
+principal point ``delta`` px off the images' (the real KITTI excerpt: 1.2-1.4 px, docs/estimators.md), every
 disparity is ``delta`` px short and every depth long by ``delta / d``: far landmarks much more than near ones,
 so a PnP step on them is long (the excerpt: 5-13 %) and no choice of landmarks removes the bias.
 
@@ -68,7 +68,7 @@ class DisparityOffset:
     def __init__(self, config: OffsetConfig, f_px: float, baseline_m: float):
         self.config, self.f, self.fb, self.baseline_m = config, f_px, f_px * baseline_m, baseline_m
         self.births: dict = {}       # id -> (birth centre (3,), raw depth)
-        self.keyframes: dict = {}    # birth frame -> (centre (3,), ids (N,), rays (N,3), raw depths (N,)), until fitted
+        self.keyframes: dict = {}    # birth frame -> (centre (3,), ids (N,), rays (N,3), raw depths (N,)) until fitted
         self.history: list = []      # (frame, T_o_c0 (4,4), ids (N,), normalised points (N,2))
         self.fits: list = []         # (delta, variance) per fitted keyframe
         self.delta_px = 0.0
@@ -106,7 +106,8 @@ class DisparityOffset:
         for k in due:
             g = self.keyframes.pop(k)      # the birth frame itself (pose at c_b) adds nothing
             later = [h for h in self.history if h[0] > k and np.any(h[1][:3, 3] != g[0])]
-            pick = np.unique(np.round(np.linspace(0, len(later) - 1, min(len(later), self.max_frames))).astype(int))
+            n_pick = min(len(later), self.max_frames)
+            pick = np.unique(np.round(np.linspace(0, len(later) - 1, n_pick)).astype(int))
             fit = self.fit_keyframe(*g, [later[j] for j in pick]) if later else None
             if fit is not None:
                 self.fits.append(fit)
@@ -139,7 +140,7 @@ class DisparityOffset:
         n_f, fb, f = len(frames), self.fb, self.f
 
         def model(v):
-            """Per observation: camera-frame point (K,3), rotation jacobian d p_c / d rvec (K,3,3), d p_c / d delta (K,3)."""
+            """Per observation: camera-frame point (K,3), d p_c / d rvec (K,3,3), d p_c / d delta (K,3)."""
             den = np.maximum(d_raw + v[0], 1e-3)
             p_o = c_b[None, :] + dir_b * (fb / den)[:, None]
             p_c, dp_r, dp_d = np.empty((len(obs_f), 3)), np.empty((len(obs_f), 3, 3)), np.empty((len(obs_f), 3))

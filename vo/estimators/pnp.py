@@ -207,7 +207,8 @@ class KltPnpEstimator(_StereoPnpEstimator):
             dir_o = (self.T_o_c0[:3, :3] @ np.c_[x_n, np.ones(len(x_n))].T).T
             self.offset.add(self.tracker.ids[sel][ok], self.T_o_c0[:3, 3], dir_o[ok], z_c0[ok])
             if self.offset.delta_px != 0.0:
-                z_c0 = np.where(ok, self.offset.fb / (self.offset.fb / np.where(ok, z_c0, 1.0) + self.offset.delta_px), z_c0)
+                fb = self.offset.fb
+                z_c0 = np.where(ok, fb / (fb / np.where(ok, z_c0, 1.0) + self.offset.delta_px), z_c0)
             near = z_c0 < self.pnp_config.near_baselines * self.rig.baseline
             for i, p, c, d in zip(self.tracker.ids[sel][ok], p_o[ok], near[ok], dir_o[ok]):
                 self._raw[int(i)] = p
