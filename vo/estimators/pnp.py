@@ -161,12 +161,13 @@ class KltPnpEstimator(_StereoPnpEstimator):
     ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks
     in the current left camera (default: stereo KLT, the depth-edge test, triangulation). ``disparity_offset``
     (:class:`OffsetConfig`): the online stereo disparity-offset estimate (:mod:`vo.estimators.disparity_offset`)
-    that corrects landmark depths under an inconsistent calibration."""
+    that corrects landmark depths under an inconsistent calibration; ``offset``, the estimate itself (a
+    :class:`DisparityOffset` or one that behaves as it; default: built from ``disparity_offset``)."""
 
     name = "klt-pnp"
 
     def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", tracker=None,
-                 landmark_source=None, disparity_offset: OffsetConfig | None = None, **options):
+                 landmark_source=None, disparity_offset: OffsetConfig | None = None, offset=None, **options):
         if frontend != "klt":
             raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
         super().__init__(rig, **options)
@@ -178,8 +179,8 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.near: dict = {}             # track id -> (near at birth, birth c_o (3,), birth bearing_o (3,))
         self._next_keyframe = False
         self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]), rig.baseline)
-        self.offset = DisparityOffset(OffsetConfig.from_option(disparity_offset, f"{self.name}.disparity_offset"),
-                                      float(cam.K[0, 0]), rig.baseline)
+        offset_config = OffsetConfig.from_option(disparity_offset, f"{self.name}.disparity_offset")
+        self.offset = offset if offset is not None else DisparityOffset(offset_config, float(cam.K[0, 0]), rig.baseline)
         self._raw: dict = {}             # track id -> p_o (3,) as triangulated (before the offset's correction)
         self._applied_offset = 0.0
 
