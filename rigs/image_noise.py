@@ -6,17 +6,19 @@ quantisation): ``clip(rint(img + sigma n), 0, 255)``. Two draws of it:
 - :func:`add_quantized_noise`, the simulator camera's (:mod:`sim.sensors.camera`): as ``img`` holds whole
   grey levels, ``rint(img + sigma n) = img + rint(sigma n)``, so it draws the integer offset
   ``d = rint(sigma n)`` directly, with its exact probabilities ``P(d) = Phi((d + 1/2) / sigma) -
-  Phi((d - 1/2) / sigma)`` (offsets beyond +-255 clip alike and are merged into +-255): one 16-bit
-  uniform per pixel indexes a 65536-entry table holding ``floor(65536 P(d))`` entries of each ``d``; the
+  Phi((d - 1/2) / sigma)`` (offsets beyond +-255 clip alike and are merged into +-255): one
+  16-bit uniform index into a 65536-entry table holding ``floor(65536 P(d))`` entries of each ``d``; the
   few entries left over (the fractional parts) send a pixel to an exact float64 inverse-CDF draw of the
-  residual masses. The sorted table is read in two steps: the uniform's high byte picks one of 256
-  buckets of 256 entries, and a bucket whose entries all hold one offset (for sigma 1 all but 10) gives
-  it through a 256-entry look-up table (``cv2.LUT``) and one saturating ``cv2.addWeighted`` pass; only
-  the pixels of the other buckets (about 4 %) read the full table. The 16-bit uniforms are the bit
-  generator's raw 64-bit words, four per word, which are the very values of
-  ``rng.integers(0, 2**16, n, uint16)``, so the bytes are those of the plain table look-up. The written
-  pixels have the same distribution as the Gaussian sum, at a sixth of its cost (1.9 ms against 12 ms
-  CPU per 752x480 pair on the shared 2-core machines at load 30, ``vo-testbed bench generate --noise``).
+  residual masses. The index is drawn in two steps, its high byte for every pixel and its low byte only
+  where needed: the high byte picks one of 256 buckets of 256 sorted entries, and a bucket whose entries
+  all hold one offset (for sigma 1, 248 of 256) gives it through a 256-entry look-up table (``cv2.LUT``);
+  only the pixels of the other buckets (about 3 %) draw a low byte and read the full table. As the two
+  bytes of a uniform 16-bit index are independent uniform bytes, each pixel's offset has the table's
+  distribution exactly, at one random byte per pixel (plus 3 %): the raw 64-bit words of the PCG64
+  stream, eight bytes per word. The codes (``d + 128``) then go through one saturating
+  ``cv2.addWeighted`` pass. The written pixels have the same distribution as the Gaussian sum, at a tenth
+  of its cost (``vo-testbed bench generate --noise``; docs/simulator.md). Dataset version 0.4.0 (this
+  draw's bytes differ from 0.3.0's, which drew all 16 bits of every pixel).
 - :func:`add_image_noise`, the Monte-Carlo re-noising readers' (below): the Gaussian sum itself, in
   float64 (``dtype``). It is kept so that the Monte-Carlo runs keep their bytes: an estimator's discrete
   decisions make any change of draw act as a new noise draw (klt-pnp on campus-short, sigma 1: end
@@ -40,7 +42,7 @@ from rigs.records import StereoFrame
 from rigs.errors import RecordError
 
 MC_TAG = 0xC0FFEE           # the Monte-Carlo runs' stream tag (sim.app.nees)
-TABLE_BITS = 16             # add_quantized_noise: one 16-bit uniform per pixel
+TABLE_BITS = 16             # add_quantized_noise: a 16-bit table index per pixel (drawn bytewise)
 MAX_OFFSET = 255            # offsets beyond +-255 grey levels clip alike (merged into +-255)
 _ESCAPE = np.iinfo(np.int16).min
 _SCRATCH = threading.local()   # add_quantized_noise's per-thread work arrays
@@ -51,57 +53,78 @@ def add_quantized_noise(img: np.ndarray, sigma: float, rng: np.random.Generator)
     """``clip(img + rint(sigma n), 0, 255)`` with the integer offsets drawn directly (module docstring).
 
     ``img``: (H,W) or (H,W,3) uint8; returns a new uint8 array of the same shape. Draws, in order:
-    the values of ``rng.integers(0, 2**16, img.size, uint16)``, then ``rng.random(m)`` for the ``m``
-    pixels whose entry is a residual one (for sigma 1 about 4e-5 of the pixels). ``sigma = 0`` returns an
-    unchanged copy and draws nothing from ``rng``.
+    ``img.size`` uniform bytes (:func:`_uniform_bytes`: the high bytes of the 16-bit table index), then
+    as many bytes for the ``m`` pixels of mixed buckets (their low bytes, in pixel order), then
+    ``rng.random(e)`` for the ``e`` of those whose entry is a residual one (for sigma 1, m is about 3 %
+    of the pixels and e about 4e-5). ``sigma = 0`` returns an unchanged copy and draws nothing.
     """
     sigma = _check_sigma(sigma)
     _check_uint8(img)
     if sigma == 0:
         return img.copy()
     table, values, residual_cdf = _offset_table(sigma)
+    codes, special = _entry_codes(sigma)
     src = np.ascontiguousarray(img).reshape(img.shape[0], -1)                # (H, W*C)
-    u16 = _uniform16(rng, img.size).reshape(src.shape)
-    high, code, is_mixed = _scratch(src.shape)
-    np.right_shift(u16, 8, out=high, casting="unsafe")
+    high = _uniform_bytes(rng, img.size).reshape(src.shape)
+    code, is_mixed, mask_words = _scratch(src.shape)
     cv2.LUT(high, _bucket_lut(sigma), dst=code)                              # d + 128, or 0: mixed bucket
-    out = cv2.addWeighted(src, 1.0, code, 1.0, -float(_BIAS), dtype=cv2.CV_8U)   # saturating
-    mixed = np.flatnonzero(np.equal(code, 0, out=is_mixed))
+    mixed = _zero_positions(code, is_mixed, mask_words)
+    wide = None
     if mixed.size:
-        offsets = np.take(table, u16.reshape(-1)[mixed])
-        escaped = np.flatnonzero(offsets == _ESCAPE)
-        if escaped.size:
-            u = rng.random(escaped.size) * residual_cdf[-1]
-            pick = np.minimum(np.searchsorted(residual_cdf, u, side="right"), len(values) - 1)
-            offsets[escaped] = values[pick]
-        out.reshape(-1)[mixed] = np.clip(src.reshape(-1)[mixed] + offsets, 0, 255)
+        index = np.left_shift(high.reshape(-1)[mixed], 8, dtype=np.uint16)
+        index |= _uniform_bytes(rng, mixed.size)
+        code.reshape(-1)[mixed] = np.take(codes, index)
+        exact = np.flatnonzero(np.take(special, index))                     # residual or beyond +-127
+        if exact.size:
+            offsets = table[index[exact]]
+            escaped = np.flatnonzero(offsets == _ESCAPE)
+            if escaped.size:
+                u = rng.random(escaped.size) * residual_cdf[-1]
+                pick = np.minimum(np.searchsorted(residual_cdf, u, side="right"), len(values) - 1)
+                offsets[escaped] = values[pick]
+            code.reshape(-1)[mixed[exact]] = np.clip(offsets, -_BIAS, _BIAS - 1) + _BIAS
+            wide = np.flatnonzero(np.abs(offsets) > _BIAS - 1)
+            wide_at, wide_offsets = mixed[exact[wide]], offsets[wide]
+    out = cv2.addWeighted(src, 1.0, code, 1.0, -float(_BIAS), dst=high, dtype=cv2.CV_8U)  # saturating, in place
+    if wide is not None and wide.size:
+        out.reshape(-1)[wide_at] = np.clip(src.reshape(-1)[wide_at] + wide_offsets, 0, 255)
     return out.reshape(img.shape)
 
 
+def _zero_positions(code: np.ndarray, is_mixed: np.ndarray, flat: np.ndarray) -> np.ndarray:
+    """Flat indices of the zero bytes of ``code`` (H, W*C); ``is_mixed`` (H, W*C) bool is a view of the
+    head of ``flat``, whose tail (up to a multiple of 8) holds False: the mask's 8-byte words are scanned first
+    and only the words with a zero byte are expanded (twice as fast as ``flatnonzero`` on the whole mask
+    when about 3 % of the bytes are zero)."""
+    np.equal(code, 0, out=is_mixed)
+    words = flat.view(np.uint64)
+    hit = np.flatnonzero(words != 0)
+    z = np.flatnonzero(words[hit].view(bool))
+    return hit[z >> 3] * 8 + (z & 7)
+
+
 def _scratch(shape: tuple) -> tuple:
-    """This thread's reused work arrays for an image of ``shape`` (H, W*C): high bytes and bucket codes
-    (uint8) and the mixed-bucket mask (bool). Reusing them spares the page faults of fresh large
-    allocations, which cost as much as the arithmetic; one set per thread, as frames are noised in
-    worker threads concurrently."""
+    """This thread's reused work arrays for an image of ``shape`` (H, W*C): bucket codes (uint8) and the
+    mixed-bucket mask (bool) as a view of a flat array padded with False to a multiple of 8 bytes, and that array. Reusing
+    them spares the page faults of fresh large allocations, which cost as much as the arithmetic; one set
+    per thread, as frames are noised in worker threads concurrently."""
     arrays = getattr(_SCRATCH, "arrays", None)
     if arrays is None or arrays[0].shape != shape:
-        arrays = _SCRATCH.arrays = (np.empty(shape, np.uint8), np.empty(shape, np.uint8), np.empty(shape, bool))
+        n = shape[0] * shape[1]
+        flat = np.zeros(-(-n // 8) * 8, bool)
+        arrays = _SCRATCH.arrays = (np.empty(shape, np.uint8), flat[:n].reshape(shape), flat)
     return arrays
 
 
-def _uniform16(rng: np.random.Generator, n: int) -> np.ndarray:
-    """(n,) uint16 equal to ``rng.integers(0, 2**16, n, dtype=np.uint16)``, leaving ``rng`` in the same
-    state. With numpy's PCG64 and no buffered 32-bit half, those are the little-endian 16-bit quarters of
-    the raw 64-bit words (numpy splits each word into two 32-bit halves, low first, and each half into two
-    16-bit quarters, low first), which ``random_raw`` gives at half the cost; the tail ``n mod 4`` and any
-    other bit generator go through ``integers`` itself."""
+def _uniform_bytes(rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n,) uint8 uniform bytes from ``rng``: with numpy's PCG64, the little-endian bytes of
+    ``ceil(n / 8)`` raw 64-bit words (``random_raw``; the unused bytes of the last word are dropped), the
+    cheapest uniform bits it gives; any other bit generator (some give 32-bit raw words) through
+    ``rng.integers(0, 256, n, uint8)``."""
     bits = rng.bit_generator
-    if type(bits) is not np.random.PCG64 or bits.state["has_uint32"]:
-        return rng.integers(0, 1 << TABLE_BITS, size=n, dtype=np.uint16)
-    words = bits.random_raw(n // 4).astype("<u8", copy=False).view(np.uint16)
-    if n % 4 == 0:
-        return words
-    return np.concatenate([words, rng.integers(0, 1 << TABLE_BITS, size=n % 4, dtype=np.uint16)])
+    if type(bits) is not np.random.PCG64:
+        return rng.integers(0, 256, size=n, dtype=np.uint8)
+    return bits.random_raw(-(-n // 8)).astype("<u8", copy=False).view(np.uint8)[:n]
 
 
 def offset_probabilities(sigma: float) -> tuple:
@@ -126,6 +149,15 @@ def _offset_table(sigma: float) -> tuple:
     table[:counts.sum()] = np.repeat(d, counts)
     residual = np.clip(p * n - counts, 0.0, None)
     return table, d.astype(np.int16), np.cumsum(residual)
+
+
+@functools.lru_cache(maxsize=16)
+def _entry_codes(sigma: float) -> tuple:
+    """``(codes (65536,) uint8, special (65536,) bool)``: each table entry's byte code ``d + 128`` and
+    whether it needs the exact path (a residual entry, or ``|d| > 127``, which a byte code cannot hold)."""
+    table = _offset_table(sigma)[0].astype(np.int32)
+    special = (table == _ESCAPE) | (np.abs(table) > _BIAS - 1)
+    return (np.clip(table, -_BIAS, _BIAS - 1) + _BIAS).astype(np.uint8), special
 
 
 @functools.lru_cache(maxsize=16)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from scenes.bus_shapes import BusBody, bus_layout
 from scenes.errors import SceneError
 from scenes.textures import fbm
 
@@ -187,36 +188,74 @@ def car_atlas(rng: np.random.Generator, layout: dict | None = None) -> np.ndarra
     return at.done()
 
 
-def bus_atlas(rng: np.random.Generator) -> np.ndarray:
-    """A double-decker bus: two rows of windows with pillars on ``side``, a tall windscreen on ``front``."""
+LIVERY = ((0.9, 0.88, 0.2), (0.95, 0.95, 0.93), (0.1, 0.1, 0.12), (0.8, 0.3, 0.08), (0.25, 0.55, 0.8),
+          (0.45, 0.7, 0.3), (0.6, 0.1, 0.4))                                  # stripe / skirt colours
+INK = ((0.05, 0.05, 0.06), (0.95, 0.95, 0.92), (0.8, 0.1, 0.1), (0.1, 0.2, 0.6), (0.95, 0.75, 0.1))
+
+
+def bus_atlas(rng: np.random.Generator, layout: dict | None = None) -> np.ndarray:
+    """A bus: its livery (paint, skirt, stripes), the window bays of its decks, doors, an advert panel (a
+    background, lines of text, a logo), a fleet number and wear on ``side``; windscreens, destination display
+    and lights on ``front``; window, lights and plate on ``rear``, where ``layout`` puts them
+    (:func:`scenes.bus_shapes.bus_layout`; None: the layout of a standard double-decker drawn from ``rng``)."""
+    L = layout if layout is not None else bus_layout(rng, BusBody(2, 5.5, 1.25, 4.2, 0.5, (-3.3, 3.3)))
     at = _Atlas("bus", rng)
     paint = _pick(rng, BUS_COLOURS)
+    second = np.array(LIVERY[rng.integers(0, len(LIVERY))])
     trim = np.array([0.09, 0.09, 0.1])
     at.fill("paint", paint, gradient=0.05, noise=0.012)
     at.fill("roof", paint * 0.9 + 0.05, noise=0.012)
     at.fill("under", RUBBER * 1.5)
     at.fill("side", paint, gradient=0.08, noise=0.012)
-    n_win = int(rng.integers(6, 9))
-    for fy0, fy1 in ((0.1, 0.33), (0.47, 0.7)):                          # upper and lower deck
-        for i in range(n_win):
-            at.glass("side", 0.04 + i * 0.92 / n_win + 0.01, fy0, 0.04 + (i + 1) * 0.92 / n_win - 0.01, fy1)
-    at.rect("side", 0.0, 0.39, 1.0, 0.42, paint * 0.75 + 0.1)            # between-decks band
-    at.rect("side", 0.0, 0.9, 1.0, 1.0, trim)
-    for fx in (0.2, 0.8):
-        at.disc("side", fx, 1.0, 0.14, trim)
+    at.rect("side", 0.0, L["skirt"], 1.0, 1.0, second * 0.6 if rng.random() < 0.5 else trim)
+    for fy0, fy1 in L["stripes"]:
+        at.rect("side", 0.0, fy0, 1.0, fy1, second)
+    if L["advert"] is not None:
+        x0, y0, x1, y1 = L["advert"]
+        back = rng.uniform(0.15, 0.95, 3)
+        at.rect("side", x0, y0, x1, y1, back)
+        for _ in range(int(rng.integers(1, 4))):                         # lines of text, a logo
+            tx, ty = rng.uniform(0.05, 0.5), rng.uniform(0.1, 0.6)
+            ink = np.array(INK[rng.integers(0, len(INK))])
+            at.rect("side", x0 + tx * (x1 - x0), y0 + ty * (y1 - y0), x0 + (tx + rng.uniform(0.2, 0.45)) * (x1 - x0),
+                    y0 + (ty + rng.uniform(0.12, 0.3)) * (y1 - y0), ink)
+        if rng.random() < 0.6:
+            at.disc("side", x0 + rng.uniform(0.75, 0.9) * (x1 - x0), 0.5 * (y0 + y1), 0.3 * (y1 - y0),
+                    rng.uniform(0.0, 1.0, 3))
+    for fy0, fy1, windows in L["decks"]:
+        for fx0, fx1 in windows:
+            at.glass("side", fx0, fy0, fx1, fy1)
+    for fx0, fx1 in L["doors"]:
+        at.rect("side", fx0 - 0.005, L["door_y"][0] - 0.01, fx1 + 0.005, L["door_y"][1], trim)
+        at.glass("side", fx0, L["door_y"][0], 0.5 * (fx0 + fx1) - 0.003, L["door_y"][1] - 0.01)
+        at.glass("side", 0.5 * (fx0 + fx1) + 0.003, L["door_y"][0], fx1, L["door_y"][1] - 0.01)
+    nx, ny = L["number"]
+    at.rect("side", nx, ny, nx + 0.05, ny + 0.04, np.array(INK[int(paint.mean() < 0.5)]))
+    (ax0, ax1), ar = L["arches"]
+    for fx in (ax0, ax1):
+        at.disc("side", fx, 1.0, ar, trim)
+    x0, y0, w, h = at.cells["side"]                                        # wear: grime towards the bottom
+    grime = np.clip(fbm(rng, w, 4, 3, aspect=0.25)[:h, :w], 0, None) * ((np.arange(h) + 0.5) / h)[:, None]
+    at.img[y0:y0 + h, x0:x0 + w] *= (1.0 - L["wear"] * 2.0 * grime)[..., None]
     at.fill("front", paint, gradient=0.06, noise=0.012)
-    at.glass("front", 0.06, 0.08, 0.94, 0.32)
-    at.rect("front", 0.1, 0.36, 0.9, 0.43, (0.05, 0.05, 0.05))            # destination display
-    at.rect("front", 0.2, 0.38, 0.6, 0.41, (0.9, 0.6, 0.1))
-    at.glass("front", 0.06, 0.46, 0.94, 0.78)
-    for fx in (0.06, 0.8):
-        at.rect("front", fx, 0.84, fx + 0.14, 0.9, (0.93, 0.92, 0.84))
+    upper, lower = L["screens"]
+    if upper is not None:
+        at.glass("front", 0.06, upper[0], 0.94, upper[1])
+    at.glass("front", 0.06, lower[0], 0.94, lower[1])
+    dx, dy = L["display"]
+    at.rect("front", dx, dy, 1.0 - dx, dy + 0.06, (0.05, 0.05, 0.05))   # destination display
+    at.rect("front", dx + 0.04, dy + 0.015, dx + 0.04 + rng.uniform(0.2, 0.5), dy + 0.045, (0.9, 0.6, 0.1))
+    lx, lw, ly = L["lights"]
+    for fx in (lx, 1.0 - lx - lw):
+        at.rect("front", fx, ly, fx + lw, ly + 0.06, (0.93, 0.92, 0.84))
     at.fill("rear", paint, gradient=0.06, noise=0.012)
-    at.glass("rear", 0.15, 0.1, 0.85, 0.3)
-    for fx in (0.05, 0.83):
-        at.rect("rear", fx, 0.78, fx + 0.12, 0.88, (0.62, 0.06, 0.05))
+    rx, ry0, ry1 = L["rear_window"]
+    at.glass("rear", rx, ry0, 1.0 - rx, ry1)
+    tx, tw, ty = L["tail"]
+    for fx in (tx, 1.0 - tx - tw):
+        at.rect("rear", fx, ty, fx + tw, ty + 0.1, (0.62, 0.06, 0.05))
     at.rect("rear", 0.4, 0.84, 0.6, 0.9, (0.9, 0.9, 0.86))
-    _tyre(at, "tyre", np.array([0.45, 0.45, 0.47]))
+    _tyre(at, "tyre", np.array([0.45, 0.45, 0.47]) + rng.normal(0, 0.03))
     return at.done()
 
 

@@ -9,7 +9,8 @@ that determines its bytes:
 - the exact state of the random stream it is drawn from (``bit_generator.state`` of a fresh generator
   of that stream key: the stream's identity, whatever seed and key made it),
 - the texture's parameters (kind, richness, size, weathering),
-- the source of the drawing code (``scenes/textures.py``, ``scenes/lunar.py``) and numpy's version,
+- the source of the drawing code (:data:`_CODE_FILES`: ``scenes/textures.py``, ``scenes/lunar.py``, the actor
+  atlases' modules) and numpy's version,
 
 so a hit gives the very bytes a fresh draw would give. Files are written atomically
 (:func:`rigs.atomic_io.atomic_write`), so concurrent processes never see half a texture, and two that draw
@@ -30,7 +31,8 @@ import numpy as np
 
 from rigs.atomic_io import atomic_write_bytes
 
-_CODE_FILES = ("textures.py", "lunar.py", "builder.py")
+_CODE_FILES = ("textures.py", "lunar.py", "builder.py", "actor_textures.py", "actor_sheets.py", "bus_shapes.py",
+               "car_shapes.py", "urban_actors.py")
 
 
 def _code_digest() -> str:

@@ -29,7 +29,7 @@ from scenes.base import GcpSite, Route
 from scenes.built import BuiltScene
 from scenes.errors import SceneError
 from scenes.routes import point_at, resample, rounded_polyline
-from scenes.urban_actors import (Lane, actor_poses, add_actor_meshes, add_actors, draw_actors, first_contact,
+from scenes.urban_actors import (Lane, actor_poses, add_actors, draw_actors, first_contact,
                                  segmentation_rows)
 from scenes.urban_furniture import add_furniture, add_markings, add_parked_cars
 
@@ -111,7 +111,6 @@ class UrbanScene(BuiltScene):
         self._buildings(b, self.rng("buildings"))
         add_markings(b, ROAD_HALF, MAIN_X, CROSS_Y)
         add_furniture(b, self.rng("furniture"), street_segments(), ROAD_HALF, BUILDING_LINE, CURB_H)
-        add_actor_meshes(b.spec)
         add_parked_cars(b, self.rng("parked"), street_segments(), ROAD_HALF)
         add_actors(b.spec, b, self.actors)
 

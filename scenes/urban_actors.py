@@ -24,6 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scenes.actor_sheets import add_sheets, sheet_uv
+from scenes.actor_textures import cell_uv
+from scenes.bus_shapes import draw_bus_body
+from scenes.car_shapes import draw_body
+
 ACTOR_SCOPE = "urban/actor_"
 GEOM_PREFIX = "dyn/"
 T_REF_NS = 1_000_000_000
@@ -44,7 +49,6 @@ WHEELS = {"car": (0.32, 0.12, tuple((x, y, 0.32) for x in (-1.36, 1.36) for y in
           "bus": (0.5, 0.15, tuple((x, y, 0.5) for x in (-3.3, 3.3) for y in (-1.15, 1.15))),
           "pedestrian": (0.0, 0.0, ())}
 SHAPES = {"car": (CAR_PARTS, 1.0), "bus": (BUS_PARTS, 2.0), "pedestrian": (PED_PARTS, 0.5)}   # parts, (unused) tile
-ATLAS_POOL = {"car": 48, "bus": 24, "pedestrian": 32}             # distinct atlases per kind
 SPECULAR = {"car": 0.35, "bus": 0.25, "pedestrian": 0.05}           # painted bodies and glass shine, clothes do not
 
 
@@ -216,7 +220,6 @@ def parts_mesh(kind: str, parts=None, wheels=None) -> tuple:
     :mod:`scenes.actor_textures`) and its wheels (octagonal prisms along y, caps onto the ``tyre`` cell).
     ``parts`` / ``wheels``: as :data:`CAR_PARTS` / :data:`WHEELS` (None: the kind's own; a parked car passes
     its body's, :mod:`scenes.car_shapes`)."""
-    from scenes.actor_textures import cell_uv
     v, uv, f = [], [], []
 
     def face(pts, cells_uv, n):
@@ -259,49 +262,37 @@ def parts_mesh(kind: str, parts=None, wheels=None) -> tuple:
     return np.ravel(v).tolist(), np.ravel(uv).tolist(), np.ravel(f).tolist()
 
 
-def actor_mesh_name(kind: str) -> str:
-    return f"mesh/{ACTOR_SCOPE}{kind}"
-
-
-def add_actor_meshes(spec) -> None:
-    """The shared mesh of each actor kind (:func:`parts_mesh`), named :func:`actor_mesh_name`."""
-    for kind in SHAPES:
-        m = spec.add_mesh(name=actor_mesh_name(kind))
-        m.uservert, m.usertexcoord, m.userface = parts_mesh(kind)
-
-
 def add_actors(spec, builder, actors) -> None:
     """Add one mocap body per actor, posed at its start, carrying one textured mesh geom
-    ``dyn/urban/actor_<k>/body``; each actor has its atlas (:func:`scenes.actor_textures.actor_atlas`): actor
-    ``k`` of ``kind`` wears atlas ``k % ATLAS_POOL[kind]`` (scene stream ``texture/urban-actor/<kind>/<j>``,
-    a car's with its own layout of lights, windows and trim, :func:`scenes.actor_textures.car_layout`), so
-    consecutive actors of a lane look different while the texture memory stays bounded. A car also has a
-    body of its own (:func:`scenes.car_shapes.draw_body`, stream ``urban/actor-shape/<k>``, fitted into the
-    footprint of :data:`CAR_PARTS`), mesh ``mesh/urban/actor_<k>``: standing cars (``urban-static``) are
-    places a loop closure could confuse; buses and pedestrians use their kind's mesh
-    (:func:`add_actor_meshes`)."""
+    ``dyn/urban/actor_<k>/body``, mesh ``mesh/urban/actor_<k>``. Every actor is one of its own: a car or bus has a
+    body of its own (:func:`actor_shape`, stream ``urban/actor-shape/<k>``): a car :func:`scenes.car_shapes.draw_body`,
+    fitted into the footprint of :data:`CAR_PARTS`; a bus :func:`scenes.bus_shapes.draw_bus_body`, inside the
+    footprint of :data:`BUS_PARTS`; every actor an atlas of its own (stream ``texture/urban-actor/<kind>/<k>``, laid
+    out for its body: :func:`scenes.actor_sheets.actor_look`), tiled with others into sheets, one material each
+    (:func:`scenes.actor_sheets.add_sheets`). Standing vehicles (``urban-static``) are places a loop closure could
+    confuse."""
     import mujoco
-    from scenes.actor_textures import actor_atlas, car_atlas, car_layout
-    from scenes.car_shapes import draw_body
-    made = {}
     footprint = CAR_PARTS[0][1][:2]
+    shapes = {a.actor_id: actor_shape(builder, a, footprint) for a in actors}
+    looks = add_sheets(builder, actors, shapes, SPECULAR)
     for a in actors:
         h = a.heading
         body = spec.worldbody.add_body(name=a.body_name, mocap=True, pos=[*map(float, a.origin_xy), 0.0],
                                        quat=[float(np.cos(h / 2)), 0.0, 0.0, float(np.sin(h / 2))])
-        key = (a.kind, a.actor_id % ATLAS_POOL[a.kind])
-        if key not in made:
-            rng = builder.streams(f"texture/urban-actor/{key[0]}/{key[1]}")
-            img = car_atlas(rng, car_layout(rng)) if a.kind == "car" else actor_atlas(a.kind, rng)
-            made[key] = builder.image_material(f"actor/{key[0]}/{key[1]}", img, specular=SPECULAR[a.kind])
-        mat, meshname = made[key], actor_mesh_name(a.kind)
-        if a.kind == "car":
-            shape = draw_body(builder.streams(f"urban/actor-shape/{a.actor_id}")).fitted(footprint)
-            meshname = f"mesh/{a.body_name}"
-            m = spec.add_mesh(name=meshname)
-            m.uservert, m.usertexcoord, m.userface = parts_mesh("car", shape.parts(), shape.wheels())
+        shape, (mat, tile) = shapes[a.actor_id], looks[a.actor_id]
+        meshname = f"mesh/{a.body_name}"                                  # a mesh of its own, into its tile
+        v, uv, f = parts_mesh(a.kind, *((shape.parts(), shape.wheels()) if shape is not None else ()))
+        m = spec.add_mesh(name=meshname)
+        m.uservert, m.usertexcoord, m.userface = v, sheet_uv(a.kind, uv, tile), f
         body.add_geom(name=f"{GEOM_PREFIX}{a.body_name}/body", type=mujoco.mjtGeom.mjGEOM_MESH,
                       meshname=meshname, material=mat, contype=0, conaffinity=0, group=1)
+
+
+def actor_shape(builder, a: Actor, footprint):
+    """Actor ``a``'s own body (stream ``urban/actor-shape/<k>``): a :class:`scenes.car_shapes.CarBody` fitted into
+    ``footprint``, a :class:`scenes.bus_shapes.BusBody`; None for a pedestrian."""
+    rng = builder.streams(f"urban/actor-shape/{a.actor_id}")
+    return draw_bus_body(rng) if a.kind == "bus" else draw_body(rng).fitted(footprint) if a.kind == "car" else None
 
 
 def actor_of_geom(geom_name: str) -> int:

@@ -264,6 +264,9 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
     png = PngOptions.of(c.render) if c.format == "euroc" else None    # EuRoC images: encoded by the workers
     with ChunkSource(c, workers, resolve, scheduler, egl_devices, png) as source, \
             FrameLoop(n, "render", threads, progress, start, timer) as loop:
+        for name, seconds in (("world build", source.build_s), ("world build CPU", source.build_cpu_s),
+                              ("frame loop", source.build_s), ("frame loop CPU", source.build_cpu_s)):
+            timer.add(name, seconds)                   # the world built here for the worker processes
         for chunk in source.chunks(start, n):
             if not ids_written:
                 writers.add_segmentation_ids(setup.scene.segmentation_rows(chunk.geom_names))
@@ -276,6 +279,7 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
                 timer.add("first chunk frames", len(chunk.frames))
             for name, seconds in chunk.stage_s.items():
                 timer.add(name, seconds)
+            timer.add_max("worker peak MB", chunk.peak_rss_mb)
             for j, (images, depth, seg) in enumerate(chunk.frames):
                 k = chunk.start + j
                 t_ns = int(setup.frame_stamp_ns[k])

@@ -32,6 +32,12 @@ class StageTimer:
             self._seconds[name] = self._seconds.get(name, 0.0) + float(seconds)
             self._counts[name] = self._counts.get(name, 0) + 1
 
+    def add_max(self, name: str, value: float) -> None:
+        """Keep the largest ``value`` under ``name`` (a peak, e.g. a worker process's memory), not a sum."""
+        with self._lock:
+            self._seconds[name] = max(self._seconds.get(name, float(value)), float(value))
+            self._counts[name] = self._counts.get(name, 0) + 1
+
     def seconds(self, name: str) -> float:
         with self._lock:
             return self._seconds.get(name, 0.0)
@@ -47,6 +53,9 @@ class _NoTimer:
         return nullcontext()
 
     def add(self, name: str, seconds: float) -> None:
+        pass
+
+    def add_max(self, name: str, value: float) -> None:
         pass
 
 

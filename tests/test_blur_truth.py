@@ -20,16 +20,14 @@ import cv2
 import numpy as np
 import pytest
 
-from rigs.geometry import inv_T
 from sim.generate import generate, resolve
 from sim.scenarios import get_scenario
 from vo.dataset.open import open_dataset
 
-EXPOSURE_MS = 80.0
-COMMON = ["duration_s=0.35", "ideal=true", "depth=true", "motion.start_speed_mps=0.8",
-          "motion.vibration_pitch_deg=0", "motion.vibration_roll_deg=0", "motion.vibration_yaw_deg=0",
-          "motion.vibration_heave_m=0"]
-BLUR = [f"camera.exposure_ms={EXPOSURE_MS}", "camera.blur_subframes=9"]
+from studies import load_study
+
+B = load_study("blur_tracks")
+
 # d^2 of the PnP pose against a pose, in the metric of its covariance sigma^2 (J^T J)^-1: chi^2 with 6 dof for
 # white track noise; 5^2 = 25 is its 99.97 % quantile.
 D_MAX = 5.0
@@ -39,61 +37,10 @@ D_MAX = 5.0
 def datasets(tmp_path_factory):
     root = tmp_path_factory.mktemp("blur_truth")
     out = {}
-    for name, extra in (("sharp", []), ("blurred", BLUR)):
-        generate(get_scenario("indoor-short", COMMON + extra), root / name, progress=False)
+    for name, extra in (("sharp", []), ("blurred", B.BLUR)):
+        generate(get_scenario("indoor-short", B.COMMON + extra), root / name, progress=False)
         out[name] = open_dataset(root / name)
     return out
-
-
-def _rt(T_w_c: np.ndarray) -> np.ndarray:
-    """[rvec, tvec] of T_c_w (OpenCV's extrinsics) of a camera pose T_w_c."""
-    T_c_w = inv_T(T_w_c)
-    return np.concatenate([cv2.Rodrigues(T_c_w[:3, :3])[0].ravel(), T_c_w[:3, 3]])
-
-
-def _K(cam) -> np.ndarray:
-    return np.array([[cam.fx, 0.0, cam.cx], [0.0, cam.fy, cam.cy], [0.0, 0.0, 1.0]])
-
-
-def _lifted_features(sharp, k: int):
-    """Corners of sharp frame k at integer pixels and their world points (written depth, true pose of k)."""
-    cam, img, depth = sharp.rig.cameras[0], sharp.frame(k).left, sharp.depth(k)
-    px = np.rint(cv2.goodFeaturesToTrack(img, 400, 0.01, 15, blockSize=7).reshape(-1, 2))
-    z = depth[px[:, 1].astype(int), px[:, 0].astype(int)]
-    keep = np.isfinite(z)
-    px, z = px[keep], z[keep]
-    # undistorted rays of the pixel centres (the renderer distorts exactly with the rig's model)
-    xy = cv2.undistortPoints(px.reshape(-1, 1, 2), _K(cam), np.asarray(cam.dist)).reshape(-1, 2)
-    p_c = np.column_stack([xy, np.ones(len(xy))]) * z[:, None]
-    T_w_c = sharp.groundtruth_cam0().T[k]
-    return px.astype(np.float32), p_c @ T_w_c[:3, :3].T + T_w_c[:3, 3]
-
-
-def _track(img0, img1, px):
-    """KLT from img0 to img1 -> (positions, kept): kept tracks return to within 0.3 px when tracked back (a
-    check that does not use the truth, so it cannot favour one time convention)."""
-    lk = dict(winSize=(21, 21), maxLevel=3, criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 50, 1e-3))
-    q, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, px.reshape(-1, 1, 2), None, **lk)
-    back, st_b, _ = cv2.calcOpticalFlowPyrLK(img1, img0, q, None, **lk)
-    fb = np.linalg.norm(back.reshape(-1, 2) - px, axis=1)
-    return q.reshape(-1, 2).astype(float), (st.ravel() == 1) & (st_b.ravel() == 1) & (fb < 0.3)
-
-
-def _pnp(p_w, q, cam, x0):
-    """PnP (Levenberg-Marquardt from x0) -> (x = [rvec, tvec], information J^T J / sigma^2, sigma px) with sigma
-    the post-fit residual scale sqrt(SSR / (2n - 6)), which does not depend on the truth."""
-    K, dist = _K(cam), np.asarray(cam.dist)
-    ok, rvec, tvec = cv2.solvePnP(p_w, q, K, dist, x0[:3].copy(), x0[3:].copy(), useExtrinsicGuess=True,
-                                  flags=cv2.SOLVEPNP_ITERATIVE)
-    assert ok
-    proj, J = cv2.projectPoints(p_w, rvec, tvec, K, dist)
-    sigma = np.sqrt(((proj.reshape(-1, 2) - q) ** 2).sum() / (2 * len(q) - 6))
-    J = J[:, :6]
-    return np.concatenate([rvec.ravel(), tvec.ravel()]), J.T @ J / sigma ** 2, sigma
-
-
-def _camera_centre(x) -> np.ndarray:
-    return -cv2.Rodrigues(x[:3])[0].T @ x[3:]
 
 
 def test_blurred_dataset_writes_mid_exposure_truth_and_depth(datasets):
@@ -110,17 +57,17 @@ def test_blurred_dataset_writes_mid_exposure_truth_and_depth(datasets):
 def test_pnp_on_blurred_frame_gives_mid_exposure_pose(datasets, k):
     sharp, blurred = datasets["sharp"], datasets["blurred"]
     cam = sharp.rig.cameras[0]
-    px, p_w = _lifted_features(sharp, k)
-    q, ok = _track(sharp.frame(k).left, blurred.frame(k + 1).left, px)
-    x_mid = _rt(blurred.groundtruth_cam0().T[k + 1])
-    proj_mid = cv2.projectPoints(p_w, x_mid[:3], x_mid[3:], _K(cam), np.asarray(cam.dist))[0].reshape(-1, 2)
+    px, p_w = B.lifted_features(sharp, k)
+    q, ok = B.track(sharp.frame(k).left, blurred.frame(k + 1).left, px)
+    x_mid = B.rt(blurred.groundtruth_cam0().T[k + 1])
+    proj_mid = cv2.projectPoints(p_w, x_mid[:3], x_mid[3:], B.K_matrix(cam), np.asarray(cam.dist))[0].reshape(-1, 2)
     assert ok.sum() > 100
 
     # the poses a wrong convention would write: the exposure's start and end (the vehicle's true trajectory)
-    setup = resolve(get_scenario("indoor-short", COMMON + BLUR))
-    t = int(blurred.frame_times_ns[k + 1]) + np.array([-1, 1]) * int(EXPOSURE_MS * 5e5)
+    setup = resolve(get_scenario("indoor-short", B.COMMON + B.BLUR))
+    t = int(blurred.frame_times_ns[k + 1]) + np.array([-1, 1]) * int(B.EXPOSURE_MS * 5e5)
     T_w_c_ends = setup.trajectory.states(t).T_w_b @ setup.rig.cameras[0].T_b_c_array
-    proj_start = cv2.projectPoints(p_w, *np.split(_rt(T_w_c_ends[0]), 2), _K(cam),
+    proj_start = cv2.projectPoints(p_w, *np.split(B.rt(T_w_c_ends[0]), 2), B.K_matrix(cam),
                                    np.asarray(cam.dist))[0].reshape(-1, 2)
     half_blur = np.median(np.linalg.norm(proj_mid - proj_start, axis=1)[ok])
     assert half_blur > 0.8          # blur ~2 px at the median feature (measured 1.9), up to 9 px at the edges
@@ -134,7 +81,7 @@ def test_pnp_on_blurred_frame_gives_mid_exposure_pose(datasets, k):
     assert abs(along_mid) < 0.1 * half_blur
     assert along_start > 0.8 * half_blur
 
-    x, info, sigma = _pnp(p_w[ok], q[ok], cam, x_mid)
+    x, info, sigma = B.pnp(p_w[ok], q[ok], cam, x_mid)
     assert sigma < 0.6                              # measured 0.25-0.30 px, as KLT into the sharp frame
 
     def d(x_ref):                                               # Mahalanobis distance of the PnP pose to x_ref
@@ -143,8 +90,8 @@ def test_pnp_on_blurred_frame_gives_mid_exposure_pose(datasets, k):
 
     assert d(x_mid) < D_MAX
     for T_end in T_w_c_ends:                                    # start and end of the exposure: rejected
-        assert d(_rt(T_end)) > 3 * D_MAX
+        assert d(B.rt(T_end)) > 3 * D_MAX
     # the same in metres: the camera centre is within mm of the truth, the exposure's ends 3 cm away
-    err_mid = np.linalg.norm(_camera_centre(x) - _camera_centre(x_mid))
-    err_start = np.linalg.norm(_camera_centre(x) - T_w_c_ends[0][:3, 3])
+    err_mid = np.linalg.norm(B.camera_centre(x) - B.camera_centre(x_mid))
+    err_start = np.linalg.norm(B.camera_centre(x) - T_w_c_ends[0][:3, 3])
     assert err_start > 5 * err_mid

@@ -163,3 +163,48 @@ def test_klt_pnp_takes_its_tracker_and_landmark_source_through_the_constructor(c
     far = [est.process(f).T_o_c0 for f in ds.frames(stop=20)]
     path = lambda T: np.sum(np.linalg.norm(np.diff(np.array(T)[:, :3, 3], axis=0), axis=1))  # noqa: E731
     assert path(far) / path(same) == pytest.approx(1.05, abs=0.02)
+
+
+class RecordingAdjuster:
+    """A keyframe adjuster that records its calls; ``shift`` (m, along x) moves each keyframe's pose and
+    ``reject`` drops the landmarks with even ids."""
+
+    def __init__(self, shift: float = 0.0, reject: bool = False):
+        self.shift, self.reject = shift, reject
+        self.resets, self.calls, self.returned = 0, [], []
+
+    def reset(self):
+        self.resets += 1
+
+    def adjust(self, left, right, T_o_c0, ids, px, landmarks):
+        self.calls.append((set(map(int, ids)), set(landmarks)))
+        T = T_o_c0.copy()
+        T[0, 3] += self.shift
+        rejected = {i for i in landmarks if i % 2 == 0} if self.reject else set()
+        self.returned.append(T)
+        return T, landmarks, rejected
+
+
+@pytest.mark.slow
+def test_klt_pnp_takes_a_keyframe_adjuster_through_the_constructor(campus_short):
+    """Seed 003's keyframe optimization slot: an adjuster that changes nothing leaves the trajectory as it is;
+    it is reset on initialisation and called on every keyframe with the tracked ids and the current landmarks;
+    the pose it returns is the keyframe's reported pose, and the landmarks it rejects leave the map."""
+    from vo.dataset import open_dataset
+    from vo.estimators.pnp import KltPnpEstimator
+    ds = open_dataset(campus_short)
+    plain = run_estimator("klt-pnp", ds, progress=False)
+    same = RecordingAdjuster()
+    res = run_estimator("klt-pnp", ds, {"keyframe_adjuster": same}, progress=False)
+    np.testing.assert_allclose(res.trajectory.T, plain.trajectory.T, atol=1e-12)
+    n_kf = sum(r.status == "keyframe" for r in plain.frames)
+    assert same.resets == 1 and len(same.calls) == 1 + n_kf and n_kf >= 1
+    assert all(lm <= ids for ids, lm in same.calls)            # landmarks are those of tracked ids
+    moved = RecordingAdjuster(shift=0.1, reject=True)
+    est = KltPnpEstimator(ds.rig, keyframe_adjuster=moved)
+    out = [est.process(f) for f in ds.frames()]
+    kf = [r for r in out if r.status == "keyframe"]
+    assert kf and len(moved.returned) == 1 + len(kf)
+    np.testing.assert_allclose(kf[0].T_o_c0, moved.returned[1], atol=1e-12)
+    for ids, lm in moved.calls[2:]:                            # rejected (even) ids never come back
+        assert not {i for i in lm if i % 2 == 0} & {i for _, l0 in moved.calls[1:2] for i in l0}

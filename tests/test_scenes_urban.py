@@ -39,7 +39,8 @@ def test_builds_compiles_and_names_actors(built):
     assert all(n.startswith("dyn/urban/actor_") for n in dyn)
     assert m.nmocap == len(sc.actors)
     assert sum(n.startswith("static/building") for n in names) > 100 and m.ngeom < 2000
-    assert sc.texture_bytes < 80e6          # ~64 MB: a texture per large surface and road piece, 104 actor atlases, parked cars
+    assert sc.texture_bytes < 100e6         # ~94 MB: a texture per large surface and road piece, per actor, parked car
+    assert m.nmat < 800                     # MuJoCo takes at most 999 with a skybox: actor atlases tiled into sheets
     rows = sc.segmentation_rows(names)
     assert {r[2] for r in rows if r[2] > 0} == {a.actor_id for a in sc.actors}
     assert all(r[3] == "static" and r[2] == -1 for r in rows if r[1].startswith("static/"))
@@ -316,3 +317,34 @@ def test_parked_cars_are_each_a_car_of_their_own(built):
     for kind in BODIES:                       # a traffic car's body fits the footprint its clearance checks use
         fit = CarBody(kind, (1.06, 1.04, 1.0)).fitted((2.2, 0.9))
         assert fit.half_xy()[0] <= 2.2 + 1e-9 and fit.half_xy()[1] <= 0.9 + 1e-9
+
+
+def test_buses_are_each_a_bus_of_their_own(built):
+    """Every bus has its own mesh (decks, length, width, height) and atlas (a tile of a sheet of its own), inside
+    the clearance footprint; both deck counts appear (seed 0)."""
+    import mujoco
+    from scenes.actor_sheets import PER_SHEET
+    from scenes.urban_actors import BUS_PARTS
+    sc, spec, m = built
+    role = int(mujoco.mjtTextureRole.mjTEXROLE_RGB)
+    ids = {a.actor_id for a in sc.actors if a.kind == "bus"}
+    assert len(ids) > 50
+    geoms = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"dyn/urban/actor_{k}/body") for k in sorted(ids)]
+    meshes = [int(m.geom_dataid[g]) for g in geoms]
+    texs = [int(m.mat_texid[m.geom_matid[g], role]) for g in geoms]
+    tiles = []                                 # (sheet texture, atlas tile the mesh maps into)
+    for mid, tex in zip(meshes, texs):
+        tc = m.mesh_texcoord[m.mesh_texcoordadr[mid]:m.mesh_texcoordadr[mid] + m.mesh_texcoordnum[mid]]
+        lo, hi = np.floor(tc.min(0) * PER_SHEET["bus"]), np.floor(tc.max(0) * PER_SHEET["bus"])
+        assert np.all(lo == hi)                # every texture coordinate inside one atlas of the sheet
+        tiles.append((tex, *lo))
+    assert len(set(meshes)) == len(geoms) and len(set(tiles)) == len(geoms)
+    half_xy = np.array(BUS_PARTS[0][1][:2])
+    heights = []
+    spec_mesh = {me.name: me for me in spec.meshes}
+    for k in sorted(ids):                      # vertices in the actor frame (the compiled mesh is turned)
+        v = np.asarray(spec_mesh[f"mesh/urban/actor_{k}"].uservert).reshape(-1, 3)
+        assert np.all(np.abs(v[:, 0]) <= half_xy[0] + 1e-9) and np.all(np.abs(v[:, 1]) <= half_xy[1] + 0.05 + 1e-9)
+        assert abs(v[:, 2].min()) < 1e-9                 # on the ground; tyres 5 cm proud of the side
+        heights.append(v[:, 2].max())
+    assert min(heights) < 3.9 < max(heights)                  # single- and double-deckers

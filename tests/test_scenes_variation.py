@@ -152,3 +152,99 @@ def test_validate_traffic_and_places_bad_input_one_line(capsys, tmp_path):
         code, err = run(*args)
         lines = [line for line in err.strip().splitlines() if line.strip()]
         assert code == 2 and "Traceback" not in err and len(lines) == 1 and needle in lines[0], err
+
+
+def test_every_bus_its_own_body_and_livery():
+    """A bus's body and atlas come from its own indexed streams: the same seed and index give the same bytes,
+    another index or seed another bus (body, window bays, atlas); every body stays inside the clearance
+    footprint and its windows inside the side cell, without overlapping."""
+    from scenes.actor_textures import bus_atlas
+    from scenes.bus_shapes import BUS_HALF_XY, bus_layout, draw_bus_body
+
+    def bus(seed, k):
+        st = scene_streams(seed)
+        body = draw_bus_body(st(f"urban/actor-shape/{k}"))
+        rng = st(f"texture/urban-actor/bus/{k}")
+        layout = bus_layout(rng, body)
+        return body, layout, bus_atlas(rng, layout)
+
+    b0, l0, a0 = bus(0, 7)
+    b0b, l0b, a0b = bus(0, 7)
+    assert b0 == b0b and l0 == l0b and a0.tobytes() == a0b.tobytes()
+    others = [bus(0, k) for k in range(8, 40)] + [bus(1, 7)]
+    for b, lay, a in others:
+        assert a.shape == a0.shape and np.abs(a.astype(int) - a0.astype(int)).mean() > 2.0
+        assert b != b0 and lay["decks"] != l0["decks"]
+    bays = {tuple(np.round([x for w in lay["decks"][-1][2] for x in w], 2)) for _, lay, _ in others}
+    assert len(bays) == len(others)                                        # no two lower decks alike
+    assert {b.decks for b, _, _ in others} == {1, 2}
+    for b, lay, _ in others + [(b0, l0, a0)]:
+        assert b.half_length <= BUS_HALF_XY[0] and b.half_width <= BUS_HALF_XY[1]
+        r, _, centres = b.wheels()
+        assert all(abs(c[0]) + r < b.half_length for c in centres)
+        for fy0, fy1, windows in lay["decks"]:
+            assert 0 < fy0 < fy1 < 1
+            edges = np.ravel(windows)
+            assert np.all(np.diff(edges) > 0) and edges[0] > 0 and edges[-1] < 1
+
+
+def test_bus_atlas_through_the_texture_store_keyed_by_its_variation(tmp_path):
+    """A bus's atlas from the texture store is the bytes a fresh draw gives (a second store on the same folder
+    reads it back); its key holds both of its streams, so every bus has its own file and atlas."""
+    from types import SimpleNamespace
+
+    from scenes.actor_sheets import actor_look
+    from scenes.texture_store import TextureStore
+    from scenes.urban import actor_lanes
+    from scenes.urban_actors import CAR_PARTS, actor_shape, draw_actors
+    from sim.rng import stream
+    buses = [a for a in draw_actors(actor_lanes(), 0.0, stream(0, "dynamic")) if a.kind == "bus"][:6]
+    assert len(buses) == 6
+
+    def looks(store):
+        b = SimpleNamespace(streams=scene_streams(0), textures=store)
+        return [actor_look(b, "bus", a.actor_id, actor_shape(b, a, CAR_PARTS[0][1][:2])) for a in buses]
+    fresh = looks(TextureStore(None))
+    first = TextureStore(tmp_path)
+    stored = looks(first)
+    again = TextureStore(tmp_path)
+    read = looks(again)
+    assert first.misses == 6 and again.hits == 6 and again.misses == 0
+    assert [x.tobytes() for x in fresh] == [x.tobytes() for x in stored] == [x.tobytes() for x in read]
+    assert len({x.tobytes() for x in fresh}) == 6
+    assert len(list(tmp_path.rglob("*.npy"))) == 6
+
+
+def test_place_similarity_counts_distinct_places_of_a_rigid_motion():
+    """The similarity of a loop-closure check: features of A (on a plane 10 m ahead, exact depth) seen again from
+    a camera moved by a known rigid motion all count; the same features piled onto one pixel of B (the degenerate
+    fit PnP RANSAC accepts: a far-away pose) count as the one place they are."""
+    import cv2
+    from sim.app.validation.place_recognition import OrbMatcher, PlaceConfig, View
+    rng = np.random.default_rng(5)
+    K = np.array([[400.0, 0, 320], [0, 400.0, 240], [0, 0, 1]])
+    n = 80
+    xa = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)]).astype(np.float32)
+    depth = np.full((480, 640), 10.0)
+    view_a = View(np.zeros((480, 640), np.uint8), depth, np.eye(4), K, 0.0)
+    des = rng.integers(0, 256, (n, 32), dtype=np.uint8)
+    P = (np.linalg.solve(K, np.vstack([xa.T, np.ones(n)])) * 10.0).T
+    R, t = cv2.Rodrigues(np.array([0.02, -0.1, 0.01]))[0], np.array([0.5, 0.1, -1.0])
+    q = (K @ (R @ P.T + t[:, None])).T
+    xb = (q[:, :2] / q[:, 2:]).astype(np.float32)
+    m = OrbMatcher(PlaceConfig())
+    assert m.inliers((xa, des), (xb, des), view_a=view_a) >= n - 2
+    pile = np.tile(np.float32([[300.0, 200.0]]), (n, 1)) + rng.uniform(-0.3, 0.3, (n, 2)).astype(np.float32)
+    assert m.inliers((xa, des), (pile, des), view_a=view_a) <= 1
+
+
+def test_place_views_leave_out_actors_standing_where_the_vehicle_is():
+    """An actor whose origin is within ``actor_clear_m`` of a view's vehicle goes 1 km below the ground (the
+    camera would be inside it); the others and the input stay as they are."""
+    from rigs.geometry import make_T, rot_z
+    from sim.app.validation.place_recognition import clear_of_actors
+    near, far = make_T(rot_z(0.3), [4.0, 1.0, 0.0]), make_T(np.eye(3), [20.0, -3.0, 0.0])
+    actors = {"near": near, "far": far}
+    out = clear_of_actors(actors, make_T(rot_z(1.0), [0.5, 0.0, 0.0]), 9.0)
+    assert out["near"][2, 3] == -1000.0 and np.array_equal(out["near"][:2], near[:2])
+    assert np.array_equal(out["far"], far) and actors["near"][2, 3] == 0.0

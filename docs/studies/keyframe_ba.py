@@ -3,11 +3,12 @@
 Seed 003's pipeline optimizes on keyframes ("the optimization process only happens in key frames", Table 4)
 and on every keyframe stereo-matches the *old* key points as well, "add[ing] key points calculated through
 optical flow to old landmarks"; those observations only serve the optimization. The paper gives neither the
-window nor the cost. This study builds one with gtsam and runs ``klt-pnp`` with it (``KeyframeBaKltPnp``):
+window nor the cost. This study builds one with gtsam (``KeyframeWindow``) and hands it to ``klt-pnp`` as its
+``keyframe_adjuster`` collaborator:
 
 * on every keyframe all tracks are stereo-matched; the poses ``T_o_c0`` of the last ``window`` keyframes and the
   landmarks they observe are adjusted by Levenberg-Marquardt (``iterations`` at most); then the new tracks
-  are triangulated at the adjusted pose;
+  are triangulated at the adjusted pose by the product's landmark source;
 * each observation is a ``GenericProjectionFactorCal3_S2`` on undistorted pixels (the right one through
   ``body_P_sensor = T_c0_c1``), ``sigma_px`` and a Huber loss of threshold ``huber_k`` (whitened);
 * the oldest keyframe of the window is held (a prior of ``FIXED_SIGMA``): the gauge;
@@ -35,13 +36,13 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
+import urban_dynamic_vo as udv          # the sibling study: its runner and report
 from rigs.typed_config import check_fields, knob
+from vo.dataset.open import open_dataset
 from vo.errorprop.triangulation import triangulation_covariance
 from vo.errors import EstimatorError
-from vo.estimators.pnp import KltPnpEstimator, _timer
-from vo.frontend.klt import stereo_klt
+from vo.frontend.klt import KltConfig, stereo_klt
 from vo.frontend.stereo import triangulate, undistort_px
-from rigs.geometry import inv_T
 
 FIXED_SIGMA = 1e-6       # prior on the window's oldest keyframe (rad, m): the gauge
 
@@ -77,8 +78,8 @@ class Keyframe:
 class KeyframeWindow:
     """The last ``config.window`` keyframes of a stereo rig ``rig``."""
 
-    def __init__(self, rig, config: BaConfig):
-        self.config, self.rig = config, rig
+    def __init__(self, rig, config: BaConfig, klt_config: KltConfig = KltConfig()):
+        self.config, self.rig, self.klt_config = config, rig, klt_config
         c0, c1 = rig.cameras[0], rig.cameras[1]
         self.cams = (c0, c1)
         self.cal = [gtsam.Cal3_S2(c.K[0, 0], c.K[1, 1], c.K[0, 1], c.K[0, 2], c.K[1, 2]) for c in (c0, c1)]
@@ -159,7 +160,19 @@ class KeyframeWindow:
             v.insert(L(i), gtsam.Point3(*landmarks[i]))
         return g, v
 
-    def adjust(self, landmarks: dict) -> np.ndarray:
+    def adjust(self, left, right, T_o_c0: np.ndarray, ids: np.ndarray, px_left: np.ndarray, landmarks: dict) -> tuple:
+        """``klt-pnp``'s keyframe adjuster: stereo-match every track ``ids`` (n,) at raw left pixels ``px_left``
+        (n,2) of the keyframe at ``T_o_c0`` (4,4), add it to the window, drop the moving tracks from
+        ``landmarks`` (id -> p_o (3,)) and adjust; returns (pose (4,4), landmarks, rejected ids)."""
+        if not self.enabled:                    # window 0 or 1: the product's klt-pnp exactly
+            return T_o_c0, landmarks, set()
+        px_right, ok = stereo_klt(left, right, px_left, self.rig, self.klt_config)
+        self.add(T_o_c0, ids, px_left, px_right, ok)
+        for i in self.rejected:
+            landmarks.pop(i, None)
+        return self.optimize(landmarks), landmarks, set(self.rejected)
+
+    def optimize(self, landmarks: dict) -> np.ndarray:
         """Adjust the window; update the keyframe poses and ``landmarks`` in place; return the newest
         keyframe's pose (4,4). Without enough keyframes or landmarks, or if gtsam refuses the system,
         nothing changes."""
@@ -183,45 +196,7 @@ class KeyframeWindow:
         return self.frames[-1].T_o_c0
 
 
-class KeyframeBaKltPnp(KltPnpEstimator):
-    """``klt-pnp`` whose keyframes adjust the window (:class:`KeyframeWindow`) before triangulating new tracks."""
-
-    def __init__(self, rig, ba_config: BaConfig = BaConfig(), **options):
-        super().__init__(rig, **options)
-        self.ba = KeyframeWindow(rig, ba_config)
-
-    def _initialize(self, left, right, timings) -> int:
-        self.ba.reset()
-        return super()._initialize(left, right, timings)
-
-    def _add_landmarks(self, left, right, new_ids, timings) -> int:
-        if not self.ba.enabled:                 # window 0 or 1: the product's klt-pnp exactly
-            return super()._add_landmarks(left, right, new_ids, timings)
-        ids = self.tracker.ids
-        new = np.isin(ids, new_ids)
-        with _timer(timings, "stereo"):
-            p_l = self.tracker.pts
-            p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config)
-        with _timer(timings, "ba"):
-            self.ba.add(self.T_o_c0, ids, p_l, p_r, ok)
-            for i in self.ba.rejected:
-                self.landmarks.pop(i, None)
-            self._set_pose(self.ba.adjust(self.landmarks))
-        p_o, ok_t = self._triangulate_o(p_l[new], p_r[new])
-        ok = ok[new] & ok_t
-        for i, p in zip(ids[new][ok], p_o[ok]):
-            self.landmarks[int(i)] = p
-        self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
-        return int(ok.sum())
-
-    def _set_pose(self, T_o_c0_new) -> None:
-        T_o_prev = self.T_o_c0 @ inv_T(self._T_prev_curr)
-        self.T_o_c0, self._T_prev_curr = T_o_c0_new, inv_T(T_o_prev) @ T_o_c0_new
-
-
 def main() -> None:
-    import urban_dynamic_vo as udv          # the sibling study: its runner and report
-
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dataset")
     ap.add_argument("--window", type=int, default=5)
@@ -230,8 +205,8 @@ def main() -> None:
     ap.add_argument("--oracle", action="store_true", help="drop the features on moving actors before the PnP")
     a = ap.parse_args()
     cfg = BaConfig(window=a.window, chi2_gate=a.chi2_gate)
-    udv.make_estimator = lambda name, rig, **options: KeyframeBaKltPnp(rig, ba_config=cfg, **options)
-    udv.report(udv.run(a.dataset, "klt-pnp", a.max_frames, {}, a.oracle))
+    window = KeyframeWindow(open_dataset(a.dataset).rig, cfg)
+    udv.report(udv.run(a.dataset, "klt-pnp", a.max_frames, {"keyframe_adjuster": window}, a.oracle))
 
 
 if __name__ == "__main__":

@@ -7,9 +7,10 @@ One run of :func:`bench_generate` on a scenario's first ``frames`` frames, side 
 - *end to end*: :func:`sim.generate.generate` into a temporary folder (render, noise and effects, PNG
   encoding, writing), timed over its frame loop (scene building, IMU and truth files left out, as for
   render only the GL context's creation); with ``workers > 1`` the frames are rendered by that many
-  processes (:mod:`sim.render_workers`), their start-up included (each builds its scene and GL context;
-  ``start-up`` in the stage figures); *after start-up* is the end-to-end rate from the arrival of the first
-  rendered chunk to the end, the rate a long route approaches. The workers' stage times come back
+  processes (:mod:`sim.render_workers`), their start-up included (the world built once in this process,
+  ``startup_s['world_build']``, then each process loads it and makes its GL context, ``start-up`` in the
+  stage figures and ``startup_s['worker_mean']``, elapsed and CPU seconds); *after start-up* is the
+  end-to-end rate from the arrival of the first rendered chunk to the end, the rate a long route approaches. The workers' stage times come back
   with each chunk and are summed over the processes; the render-only run stays one process.
 
 ``repeat`` alternates the two and keeps each one's best run (the machine may be shared). Per-stage
@@ -67,6 +68,7 @@ class GenerateBench:
     renderer: str = ""                                # render only: GL renderer and EGL device (device_label)
     end_to_end_renderers: tuple = ()                  # end to end: metadata.yaml's ``rendering`` (per process)
     peak_rss_children_mb: float = 0.0                 # the largest render worker process's peak (workers > 1)
+    startup_s: dict = field(default_factory=dict)     # workers > 1: world build here, mean per worker, first chunk
 
     @property
     def ratio(self) -> float:
@@ -141,14 +143,20 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     stage_ms = {s: 1e3 * tot.get(s, 0.0) / n for s in STAGES}
     stage_ms["render"] -= stage_ms["read-back"]
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    peak_children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+    peak_children = max(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0,   # spawned workers
+                        tot.get("worker peak MB", 0.0))       # forked by the forkserver: as they report it
+    startup = {}
+    if workers > 1 and not scheduler:
+        startup = {"world_build": tot.get("world build", 0.0), "worker_mean": tot.get("start-up", 0.0) / workers,
+                   "first_chunk": tot.get("first chunk", 0.0), "world_build_cpu": tot.get("world build CPU", 0.0),
+                   "worker_mean_cpu": tot.get("start-up CPU", 0.0) / workers}
     r = config.render
     png = f"level {r.png_compression}, {r.png_strategy}, {r.png_filter} filter"
     return GenerateBench(scenario, n, threads, workers, png, n / best_render[0],
                          n / best_e2e[0], stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n,
                          os.cpu_count() or 0,
                          (round(load0, 2), round(os.getloadavg()[0], 2)), after_start, device, renderers,
-                         peak_children)
+                         peak_children, startup)
 
 
 def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -> list:
@@ -222,6 +230,10 @@ def format_bench(b: GenerateBench) -> str:
              f"ratio         {b.ratio:7.2f}",
              *([f"after start-up {b.after_start_pairs_per_s:6.1f} pairs/s   (workers' first chunk in; ratio "
                 f"{b.after_start_pairs_per_s / b.render_pairs_per_s:.2f})"] if b.after_start_pairs_per_s else []),
+             *([f"start-up      world build here {b.startup_s['world_build']:.2f} s (CPU "
+                f"{b.startup_s['world_build_cpu']:.2f}), per worker {b.startup_s['worker_mean']:.2f} s (CPU "
+                f"{b.startup_s['worker_mean_cpu']:.2f}, mean), first chunk in after {b.startup_s['first_chunk']:.2f} s"]
+               if b.startup_s else []),
              "stage ms/pair " + "  ".join(f"{s} {b.stage_ms[s]:.1f}" for s in STAGES),
              f"peak memory   {b.peak_rss_mb:7.0f} MB" + (f" (largest worker process {b.peak_rss_children_mb:.0f} MB)"
                                                      if b.workers > 1 else ""),

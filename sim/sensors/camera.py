@@ -22,13 +22,15 @@ class StereoCamera:
     """The rig's first two cameras on ``vehicle`` in ``scene``. Images are 8-bit grey
     (:func:`rigs.image.to_gray`) unless ``rgb``; ``depth`` / ``segmentation`` as :class:`sim.render.StereoRenderer`.
     Use as a context manager (it owns an off-screen GL context). ``timer``: a
-    :class:`sim.stage_timer.StageTimer` for the renderer's read-back (None: not timed)."""
+    :class:`sim.stage_timer.StageTimer` for the renderer's read-back (None: not timed). ``world``: the
+    compiled world of ``scene``, ``rig`` and ``vehicle`` when built already (:mod:`sim.world_handoff`);
+    None: built here."""
 
     def __init__(self, scene, rig, vehicle: str = "cart", depth: bool = False, segmentation: bool = False,
-                 supersample: int = 1, rgb: bool = False, timer=None):
+                 supersample: int = 1, rgb: bool = False, timer=None, world=None):
         from sim.render import StereoRenderer
         from sim.world import build_world
-        self.world = build_world(scene, rig, vehicle=vehicle)
+        self.world = world if world is not None else build_world(scene, rig, vehicle=vehicle)
         self.rgb = bool(rgb)
         self._renderer = StereoRenderer(self.world, rig, depth=depth, segmentation=segmentation,
                                         supersample=supersample, timer=timer or NO_TIMER)

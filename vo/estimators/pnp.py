@@ -44,6 +44,7 @@ from vo.frontend.grid import Grid
 from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
 from vo.frontend.stereo import epipolar_mask, triangulate, undistort_px
+from vo.frontend.stereo_prior import disparity_guess, landmark_refs
 from rigs.geometry import inv_T, transform_points
 
 
@@ -159,7 +160,11 @@ class KltPnpEstimator(_StereoPnpEstimator):
     """Seed 003's optical-flow stereo VO. Options: ``klt_config`` (:class:`KltConfig`), ``pnp_config``.
     Collaborators (default: the product's): ``tracker``, a :class:`KltTracker` (or one that behaves as it);
     ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks
-    in the current left camera (default: stereo KLT, the depth-edge test, triangulation). ``disparity_offset``
+    in the current left camera (default: stereo KLT, the depth-edge test, triangulation);
+    ``keyframe_adjuster`` (default none: seed 003 without its keyframe optimization), an object with ``reset()``
+    and ``adjust(left, right, T_o_c0 (4,4), ids (N,), px (N,2), landmarks {id: p_o (3,)} of the tracked ids) -> (T_o_c0 (4,4),
+    landmarks {id: p_o (3,)}, rejected ids)``, called on every keyframe before its new tracks are triangulated
+    (``docs/studies/keyframe_ba.py`` supplies a windowed bundle adjustment). ``disparity_offset``
     (:class:`OffsetConfig`): the online stereo disparity-offset estimate (:mod:`vo.estimators.disparity_offset`)
     that corrects landmark depths under an inconsistent calibration; ``offset``, the estimate itself (a
     :class:`DisparityOffset` or one that behaves as it; default: built from ``disparity_offset``)."""
@@ -167,7 +172,8 @@ class KltPnpEstimator(_StereoPnpEstimator):
     name = "klt-pnp"
 
     def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", tracker=None,
-                 landmark_source=None, disparity_offset: OffsetConfig | None = None, offset=None, **options):
+                 landmark_source=None, keyframe_adjuster=None, disparity_offset: OffsetConfig | None = None,
+                 offset=None, **options):
         if frontend != "klt":
             raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
         super().__init__(rig, **options)
@@ -175,6 +181,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         cam = rig.cameras[0]
         self.tracker = tracker if tracker is not None else KltTracker(cam.width, cam.height, self.klt_config)
         self.landmark_source = landmark_source if landmark_source is not None else self._stereo_landmarks
+        self.keyframe_adjuster = keyframe_adjuster
         self.landmarks: dict = {}        # track id -> p_o (3,)
         self.near: dict = {}             # track id -> (near at birth, birth c_o (3,), birth bearing_o (3,))
         self._next_keyframe = False
@@ -189,6 +196,8 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.landmarks.clear()
         self.near.clear()
         self._raw.clear()
+        if self.keyframe_adjuster is not None:
+            self.keyframe_adjuster.reset()
         with _timer(timings, "detect"):
             new_ids = self.tracker.detect(left)
         n = self._add_landmarks(left, right, new_ids, timings)
@@ -197,6 +206,9 @@ class KltPnpEstimator(_StereoPnpEstimator):
 
     def _add_landmarks(self, left, right, new_ids, timings) -> int:
         """Stereo-match the tracks ``new_ids``, triangulate, keep those with a landmark; returns the count added."""
+        if self.keyframe_adjuster is not None:
+            with _timer(timings, "ba"):
+                self._adjust_keyframe(left, right)
         with _timer(timings, "stereo"):
             sel = np.isin(self.tracker.ids, new_ids)
             p_l = self.tracker.pts[sel]
@@ -218,9 +230,26 @@ class KltPnpEstimator(_StereoPnpEstimator):
             self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
         return int(ok.sum())
 
+    def _adjust_keyframe(self, left, right) -> None:
+        """Let the keyframe adjuster move this keyframe's pose and the landmarks, and drop those it rejects."""
+        ids = self.tracker.ids
+        tracked = {int(i): self.landmarks[int(i)] for i in ids if int(i) in self.landmarks}
+        T_new, landmarks, rejected = self.keyframe_adjuster.adjust(left, right, self.T_o_c0, ids, self.tracker.pts,
+                                                                   tracked)
+        self.landmarks = {int(i): p for i, p in landmarks.items() if i not in rejected}
+        self.near = {i: v for i, v in self.near.items() if i in self.landmarks}
+        T_o_prev = self.T_o_c0 @ inv_T(self._T_prev_curr)
+        self.T_o_c0, self._T_prev_curr = T_new, inv_T(T_o_prev) @ T_new
+
     def _stereo_landmarks(self, left, right, ids, p_l) -> tuple:
-        """The product's landmark source: stereo KLT, the depth-edge test, triangulation in the left camera."""
-        p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid)
+        """The product's landmark source: stereo KLT (with ``klt_config.stereo_prior``, started for the corners it
+        loses from zero disparity at the disparity of the nearest landmarks: :mod:`vo.frontend.stereo_prior`),
+        the depth-edge test, triangulation in the left camera."""
+        known = np.isin(self.tracker.ids, np.fromiter(self.landmarks, np.int64, len(self.landmarks)))
+        p_known = np.array([self.landmarks[int(i)] for i in self.tracker.ids[known]]).reshape(-1, 3)
+        prior = disparity_guess(p_l, *landmark_refs(self.rig, inv_T(self.T_o_c0), p_known, self.tracker.pts[known])) \
+            if self.klt_config.stereo_prior else None
+        p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid, prior)
         if ok.any():
             ok[ok] &= off_edge(left, right, p_l[ok], p_r[ok], self.klt_config)
         p_c0, ok_t = triangulate(self.rig, p_l, p_r, self.pnp_config.max_depth, self.pnp_config.max_triangulation_px)

@@ -15,6 +15,7 @@ from vo.errors import VoError
 from vo.frontend.grid import Grid
 from vo.frontend.lk_invariant import lk_illumination_invariant
 from vo.frontend.lk_normalized import PyramidCache, lk_pyramids, normalized_pyramid
+from vo.frontend.epipolar_offset import offset_epipolar_mask
 from vo.frontend.stereo import epipolar_mask
 
 
@@ -39,6 +40,15 @@ class KltConfig:
     normalised windows lack coarse structure (fast turns, large disparities) keeps the matches it had;
     ``stereo_win`` LK window of the left -> right stereo match in :func:`stereo_klt` only (0 = ``win``;
     temporal tracking always uses ``win``). Seed 003 uses one 21x21 window for both.
+    ``offset_min_matches``, ``offset_max_px``: the stereo epipolar gate is ``epipolar_threshold_px`` around
+    the frame's own robust row offset (:mod:`vo.frontend.epipolar_offset`: the median signed epipolar
+    distance of the forward-backward-kept matches, used when there are at least ``offset_min_matches`` and
+    it is at most ``offset_max_px``; not in seed 003); ``offset_max_px = 0`` gives seed 003's gate around
+    the calibrated line.
+    ``stereo_prior`` (``klt-pnp``'s new landmarks; off by default): the new corners the stereo LK loses from
+    zero disparity are searched again from the disparity of their nearest landmarks
+    (:mod:`vo.frontend.stereo_prior`; not in seed 003; measured in docs/estimators.md: better on the seed it
+    was developed on, worse on a held-out one).
     ``edge_win``, ``edge_win_h``, ``edge_threshold_px`` the depth-edge test of new stereo landmarks
     (:mod:`vo.frontend.depth_edge`; not in seed 003): LK window (width x height, px) of its disparity samples
     and the largest one-sided second difference of the disparity (px) a landmark may show; 0 (the default)
@@ -63,6 +73,9 @@ class KltConfig:
     stereo_win: int = 0
     normalize_box: float = 2.0
     raw_fallback: bool = True
+    offset_min_matches: int = 10
+    offset_max_px: float = 3.0
+    stereo_prior: bool = False
     edge_win: int = 11
     edge_win_h: int = 11
     edge_threshold_px: float = 0.0
@@ -80,6 +93,7 @@ class KltConfig:
             "edge_win": self.edge_win >= 3 and self.edge_win % 2 == 1,
             "edge_win_h": self.edge_win_h >= 3 and self.edge_win_h % 2 == 1,
             "edge_threshold_px": self.edge_threshold_px >= 0,
+            "offset_min_matches": self.offset_min_matches >= 1, "offset_max_px": self.offset_max_px >= 0,
         }
         for name, good in checks.items():
             if not good:
@@ -154,10 +168,11 @@ def detect_in_empty_cells(img: np.ndarray, grid: Grid, existing_pts: np.ndarray,
 
 
 def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig(),
-       pyramids: tuple | None = None) -> tuple:
+       pyramids: tuple | None = None, guess: np.ndarray | None = None) -> tuple:
     """One-directional pyramidal LK -> ``(p1 (N,2), ok (N,))``: the illumination-invariant one when
     ``config.illumination_invariant``, else OpenCV's on the normalised pyramids (``pyramids``, the two
-    images' :meth:`KltConfig.pyramid`, built here when None) or, with ``normalize_box = 0``, on the raw images."""
+    images' :meth:`KltConfig.pyramid`, built here when None) or, with ``normalize_box = 0``, on the raw images.
+    ``guess`` (N,2): start points in ``img1`` (OpenCV's LK only; default zero flow)."""
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
     if p0.shape[0] == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
@@ -165,11 +180,12 @@ def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = K
         return lk_illumination_invariant(img0, img1, p0, config.win, config.levels, config.lk_iters, config.lk_eps)
     if config.box:
         pyr0, pyr1 = pyramids if pyramids is not None else (config.pyramid(img0), config.pyramid(img1))
-        return lk_pyramids(pyr0, pyr1, p0, config.win, config.lk_iters, config.lk_eps)
+        return lk_pyramids(pyr0, pyr1, p0, config.win, config.lk_iters, config.lk_eps, guess)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
-    p1, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, p0.astype(np.float32).reshape(-1, 1, 2), None,
+    start = None if guess is None else np.asarray(guess, np.float32).reshape(-1, 1, 2).copy()
+    p1, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, p0.astype(np.float32).reshape(-1, 1, 2), start,
                                          winSize=(config.win, config.win), maxLevel=config.max_level,
-                                         criteria=crit)
+                                         criteria=crit, flags=0 if guess is None else cv2.OPTFLOW_USE_INITIAL_FLOW)
     p1 = p1.reshape(-1, 2).astype(np.float64)
     h, w = img1.shape[:2]
     ok = st.reshape(-1).astype(bool) & np.all(np.isfinite(p1), axis=1)
@@ -178,9 +194,10 @@ def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = K
 
 
 def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig(),
-             pyramid=None) -> tuple:
+             pyramid=None, guess: np.ndarray | None = None) -> tuple:
     """LK ``img0 -> img1`` then back; keep points whose round trip ends < ``fb_threshold_px`` from the start.
-    ``pyramid`` (image -> normalised pyramid, e.g. a :class:`PyramidCache`) defaults to ``config.pyramid``.
+    ``pyramid`` (image -> normalised pyramid, e.g. a :class:`PyramidCache`) defaults to ``config.pyramid``;
+    ``guess`` (N,2) start points of the forward LK in ``img1`` (default: zero flow).
 
     Returns ``(p1 (N,2) float64, ok (N,) bool)``.
     """
@@ -189,27 +206,50 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
         return np.zeros((0, 2)), np.zeros(0, bool)
     pyramid = pyramid or config.pyramid
     pyr = (pyramid(img0), pyramid(img1)) if config.box and not config.illumination_invariant else None
-    p1, ok_f = lk(img0, img1, p0, config, pyr)
-    p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config, None if pyr is None else pyr[::-1])
+    if config.illumination_invariant:
+        guess = None
+    p1, ok_f = lk(img0, img1, p0, config, pyr, guess)
+    p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config, None if pyr is None else pyr[::-1],
+                   None if guess is None else p0)
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
     if pyr is not None and config.raw_fallback and not ok.all():
         lost = np.flatnonzero(~ok)
-        p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0))
+        p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0),
+                                      guess=None if guess is None else np.asarray(guess)[lost])
     return p1, ok
 
 
 def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,
-               config: KltConfig = KltConfig(), pyramid=None) -> tuple:
+               config: KltConfig = KltConfig(), pyramid=None, prior: np.ndarray | None = None) -> tuple:
     """Left -> right LK with forward-backward and calibrated epipolar checks -> ``(p_right, ok)``.
 
     The LK window (both directions) is ``config.stereo_win`` when set, else ``config.win`` (a ``pyramid``
-    cache is then not used: its box follows ``win``)."""
+    cache is then not used: its box follows ``win``). ``prior`` (N,2) right-image start points
+    (:mod:`vo.frontend.stereo_prior`): the points the search from zero disparity loses are searched again
+    from there (those whose first match fails the forward-backward or the epipolar check), with the same checks."""
     if config.stereo_win:
         config, pyramid = replace(config, win=config.stereo_win), None
+    p_left = np.asarray(p_left, np.float64).reshape(-1, 2)
     p_right, ok = track_fb(left, right, p_left, config, pyramid)
+    if prior is not None:
+        gated = ok.copy()
+        gated[ok] &= stereo_gate(rig, p_left[ok], p_right[ok], config)
+        lost = np.flatnonzero(~gated)
+        p2, ok2 = track_fb(left, right, p_left[lost], config, pyramid, np.asarray(prior)[lost])
+        p_right[lost[ok2]], ok[lost[ok2]] = p2[ok2], True
     if ok.any():
-        ok[ok] &= epipolar_mask(rig, np.asarray(p_left)[ok], p_right[ok], config.epipolar_threshold_px)
+        ok[ok] &= stereo_gate(rig, p_left[ok], p_right[ok], config)
     return p_right, ok
+
+
+def stereo_gate(rig, p_left: np.ndarray, p_right: np.ndarray, config: KltConfig = KltConfig()) -> np.ndarray:
+    """(N,) bool epipolar gate of stereo matches (raw pixels): ``config.epipolar_threshold_px`` around
+    the matches' own row offset (:func:`offset_epipolar_mask`), or around the calibrated line when
+    ``config.offset_max_px`` is 0."""
+    if not config.offset_max_px:
+        return epipolar_mask(rig, p_left, p_right, config.epipolar_threshold_px)
+    return offset_epipolar_mask(rig, p_left, p_right, config.epipolar_threshold_px, config.offset_min_matches,
+                                config.offset_max_px)[0]
 
 
 class TrackIds:

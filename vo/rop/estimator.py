@@ -18,12 +18,17 @@ Our extensions (each documented in its module, figures in docs/estimators.md):
   (``moving_objects``, :mod:`vo.rop.moving`). The prior is the constant-velocity prediction of the track
   filter's own PnP poses (``moving_prior="pnp"``), so that one wrong ROP step does not move the prediction
   onto a car. A ROP step more than ``moving_step_gate_m`` from the PnP pose of the same tracks fails the
-  frame, which then takes that PnP pose. The pose of every other frame comes from the ROPs.
+  frame, which then takes that PnP pose; so does a ROP step whose rotation is more than
+  ``pnp_rotation_gate_deg`` from that PnP pose's (:func:`vo.rop.weak_frame.rotation_miss`: the ROP adjustment's
+  covariance does not reveal its bad steps; that frame becomes a keyframe, not a lost one). The pose of every
+  other frame comes from the ROPs.
 * Standstill: a rotation-only fit gives the parallax (:mod:`vo.rop.rotation_only`); below
   ``min_parallax_px`` the epoch is "no translation" (``T_kf_c = (R_1_3, 0)``, status ``ok``).
 * ROP gates and the rotation consensus (:mod:`vo.rop.consensus`); >= 3 ROPs are needed.
 * Failure: the pose is the track filter's PnP pose when it has >= :data:`MIN_COAST_PNP_INLIERS` inliers
-  and lies within ``moving_prior_gate_m`` of the prediction (it uses the three-view tracks too); else it
+  and lies within ``moving_prior_gate_m`` of the prediction (it uses the three-view tracks too); else a
+  small PnP fit of the keyframe's stereo tracks when it is well conditioned (first-order rotation sigma,
+  :mod:`vo.rop.weak_frame`: a rotation-only fit of 15 bunched tracks was 2 deg off); else it
   coasts at constant velocity (at most :data:`~vo.estimators.base.MAX_COAST_FRAMES` frames, then held)
   with the heading of the rotation-only fit to the left tracks when there are >=
   :data:`MIN_ROTATION_TRACKS`; never NaN; the frame becomes a fresh keyframe (keeping its tracks when
@@ -60,6 +65,7 @@ from vo.rop.ropset import PAIRS
 from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 from vo.rop.uncertainty import Step, UncertaintyModel
+from vo.rop.weak_frame import rotation_miss, weak_frame_pose
 
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MIN_COAST_PNP_INLIERS = 20  # PnP inliers of the track filter's motion for it to give a failed frame's pose
@@ -157,6 +163,15 @@ class RopEstimator(Estimator):
         trusted = self._n_solved > 0 and self._n_coast < MAX_COAST_FRAMES
         return self._filter.frame_pose(trusted, self.config.moving_prior_gate_m, MIN_COAST_PNP_INLIERS)
 
+    def _weak_pose(self) -> np.ndarray | None:
+        """A failed frame's pose ``T_kf_c`` from a small PnP fit of the keyframe's stereo tracks when it is well
+        conditioned and near the prediction (:mod:`vo.rop.weak_frame`; before a rotation-only fit); else None."""
+        if self.klt is None or self.klt.view is None or self._n_solved == 0:
+            return None
+        w = weak_frame_pose(self.klt.view, self.rig, self._prior(), self.config.moving_reproj_px,
+                            self.config.moving_prior_gate_m)
+        return w.T_kf_c if w is not None and w.ok else None
+
     def _step_miss(self, T_kf_c: np.ndarray) -> str:
         """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): the track filter saw competing rigid
         motions and the step lies farther than ``moving_step_gate_m`` from the filter's PnP pose of the same
@@ -169,6 +184,14 @@ class RopEstimator(Estimator):
         if self.config.moving_objects == "none":
             return ""
         return self._filter.step_miss(T_kf_c, self._pnp_pose(), self.config.moving_step_gate_m)
+
+    def _rotation_miss(self, T_kf_c: np.ndarray) -> str:
+        """Why the ROP step's rotation is suspect ("" when it is not): more than ``pnp_rotation_gate_deg`` from
+        the track filter's PnP pose of the same tracks (:func:`vo.rop.weak_frame.rotation_miss`); the frame then
+        takes that pose and becomes a keyframe (status ``keyframe``, not lost: its pose is measured)."""
+        if self.config.moving_objects == "none":
+            return ""
+        return rotation_miss(T_kf_c, self._pnp_pose(), self.config.pnp_rotation_gate_deg)
 
     def _advance_prior(self, T_kf_c: np.ndarray) -> None:
         """Extend the PnP chain of the prediction by this frame (its PnP pose, else the frame's own)."""
@@ -255,15 +278,18 @@ class RopEstimator(Estimator):
                            timings, pose_class)
 
     def _fail(self, frame, left, right, status, n_feat, msg, timings, t0, R_1_3=None,
-              keep_tracks=False) -> FrameResult:
+              keep_tracks=False, lost=True) -> FrameResult:
         """The track filter's PnP pose when it may stand for the frame's (:meth:`_pnp_pose`); else coast: the
         rotation-only fit's rotation when there was one (tracks survive a failed ROP solve), the translation
         extrapolated at constant velocity (held after :data:`MAX_COAST_FRAMES`); then a fresh keyframe. The pose's class
-        (:data:`~vo.estimators.base.FRAME_CLASSES`): ok from PnP, coasting when extrapolated, lost when held."""
+        (:data:`~vo.estimators.base.FRAME_CLASSES`): ok from PnP, coasting when extrapolated, lost when held.
+        ``lost=False`` (a ROP step replaced by the PnP pose, :meth:`_rotation_miss`): the next frame is no re-init."""
         T_prev = self.T_o_c0
         coast = self._n_coast < MAX_COAST_FRAMES
         T_step = self._T_kf_cur @ self._last_motion if coast else self._T_kf_cur.copy()
-        T_pnp = self._pnp_pose()
+        T_pnp, source = self._pnp_pose(), "the track filter's PnP"
+        if T_pnp is None:
+            T_pnp, source = self._weak_pose(), "a well-conditioned PnP of the keyframe's stereo tracks"
         if T_pnp is not None:
             T_step, R_1_3 = T_pnp, None
         elif R_1_3 is not None:
@@ -273,12 +299,12 @@ class RopEstimator(Estimator):
         if np.all(np.isfinite(T_new)):
             self.T_o_c0 = T_new
         self._last_motion = inv_T(T_prev) @ self.T_o_c0
-        self._n_coast += 1
+        self._n_coast += int(lost)
         self.uncertainty.reset(self.T_o_c0, self.cov)
         self._new_keyframe(left, right, int(frame.t_ns), timings, keep_tracks=keep_tracks)
-        self._lost = True
+        self._lost = lost
         if T_pnp is not None:
-            msg += f"; pose from the track filter's PnP ({self._filter.n_inliers} inliers), new keyframe"
+            msg += f"; pose from {source}, new keyframe"
         else:
             msg += ("; rotation from the rotation-only fit" if R_1_3 is not None else "") + "; translation " + \
                    ("extrapolated (constant velocity)" if coast else "held") + ", re-initialising from this frame"
@@ -305,6 +331,9 @@ class RopEstimator(Estimator):
         if miss:
             return self._fail(frame, left, right, "lost", n_feat, miss, timings, t0,
                               keep_tracks=True)
+        miss = self._rotation_miss(T_kf_c) if epoch[0] == "rops" else ""
+        if miss:
+            return self._fail(frame, left, right, "keyframe", n_feat, miss, timings, t0, keep_tracks=True, lost=False)
         self._record_epoch(frame.t_ns, T_kf_c, epoch)
         is_kf = self._is_keyframe(T_kf_c, n_feat)
         step = Step(int(frame.t_ns), self.T_o_kf, self.cov_kf, T_kf_c, cov_step, is_kf, epoch[3], epoch[4], pairs,

@@ -69,10 +69,21 @@ def normalized_points(p_px: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     return undistort_points(p_px, K, dist, iters=30, eps=1e-12)
 
 
+def _homog(x: np.ndarray) -> np.ndarray:
+    """(N,2) -> (N,3) ``[x, 1]`` (the values of ``np.c_[x, ones]``, without its indexing machinery)."""
+    h = np.empty((len(x), 3))
+    h[:, :2] = x
+    h[:, 2] = 1.0
+    return h
+
+
+_SKEW_E = skew(np.eye(3))      # (3,3,3) cross-product matrices of the unit axes
+
+
 def sampson_residuals(E: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:
     """Signed Sampson distances (N,) of normalized matches to ``x_j^T E x_i = 0``; ``E`` may be
     (K,3,3), then the result is (K,N)."""
-    h_i, h_j = np.c_[x_i, np.ones(len(x_i))], np.c_[x_j, np.ones(len(x_j))]
+    h_i, h_j = _homog(x_i), _homog(x_j)
     Ex_i = np.einsum("...ab,nb->...na", E, h_i)
     Etx_j = np.einsum("...ba,nb->...na", E, h_j)
     den = Ex_i[..., 0] ** 2 + Ex_i[..., 1] ** 2 + Etx_j[..., 0] ** 2 + Etx_j[..., 1] ** 2
@@ -115,9 +126,10 @@ def sampson_jacobian(R, t, B, x_i, x_j) -> tuple[np.ndarray, np.ndarray]:
     ``[dphi (R -> exp(dphi) R), dalpha (t -> t + B dalpha)]``; the distance is invariant to the
     scale of ``E``, so the normalisation of ``t`` drops out. ``r = n / sqrt(d)``,
     ``dr = dn / sqrt(d) - n dd / (2 d^1.5)``."""
-    E = skew(t) @ R
-    G = np.stack([skew(t) @ skew(e) @ R for e in np.eye(3)] + [skew(b) @ R for b in B.T])   # (5,3,3)
-    h_i, h_j = np.c_[x_i, np.ones(len(x_i))], np.c_[x_j, np.ones(len(x_j))]
+    S_t = skew(t)
+    E = S_t @ R
+    G = np.stack([S_t @ S_e @ R for S_e in _SKEW_E] + [S_b @ R for S_b in skew(B.T)])   # (5,3,3)
+    h_i, h_j = _homog(x_i), _homog(x_j)
     Ex, Etx = h_i @ E.T, h_j @ E                                    # (N,3)
     Gx, Gtx = h_i @ G.transpose(0, 2, 1), h_j @ G                  # (5,N,3)
     num = np.sum(h_j * Ex, axis=1)
@@ -199,8 +211,8 @@ def sampson_cov(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) 
 def chirality(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:
     """(N,) bool: the two-view midpoint triangulation of each match (``x_j = R x_i + t`` frames)
     has positive depth in both cameras (at any distance; recoverPose's default caps it at 50 |t|)."""
-    a = np.c_[x_i, np.ones(len(x_i))] @ R.T                         # R h_i
-    b = np.c_[x_j, np.ones(len(x_j))]
+    a = _homog(x_i) @ R.T                                           # R h_i
+    b = _homog(x_j)
     # depths (s_i, s_j) minimising |s_j b - s_i a - t|^2
     aa, bb, ab = np.sum(a * a, 1), np.sum(b * b, 1), np.sum(a * b, 1)
     at, bt = a @ t, b @ t

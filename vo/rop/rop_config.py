@@ -60,8 +60,10 @@ class RopConfig:
     PnP poses) | "velocity" (constant velocity of the estimator's poses); ``moving_step_gate_m`` a ROP
     step farther than this (m) from the track filter's PnP pose fails the frame, which then takes the PnP
     pose; ``moving_prior_gate_m`` that PnP pose stands for a failed frame only within this distance (m)
-    of the prediction (:mod:`vo.rop.estimator`). Experimental (:data:`EXPERIMENTAL`, given as
-    ``experimental.<field>``): ``weights``, ``klt_refine``, ``rop_loss``, ``moving_prior``."""
+    of the prediction (:mod:`vo.rop.estimator`); ``pnp_rotation_gate_deg`` a ROP step whose rotation is farther
+    than this (deg) from that PnP pose's fails the frame likewise (:func:`vo.rop.weak_frame.rotation_miss`).
+    Experimental (:data:`EXPERIMENTAL`, given as ``experimental.<field>``): ``weights``, ``klt_refine``,
+    ``rop_loss``, ``moving_prior``."""
 
     frontend: Literal[FRONTENDS] = "klt"
     ransac_threshold_px: float = knob(1.0, gt=0)
@@ -87,6 +89,7 @@ class RopConfig:
     moving_prior: Literal[MOVING_PRIORS] = "pnp"
     moving_prior_gate_m: float = knob(0.5, gt=0)
     moving_step_gate_m: float = knob(0.3, gt=0)
+    pnp_rotation_gate_deg: float = knob(0.2, gt=0)
 
     def __post_init__(self):
         check_fields(self, EstimatorError, "rop.")

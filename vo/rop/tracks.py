@@ -36,9 +36,8 @@ from vo.errors import VoError
 from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
 from vo.frontend.depth_edge import off_edge
 from vo.frontend.grid import Grid
-from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells
+from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells, stereo_gate
 from vo.frontend.lk_normalized import lk_fb_pyramids
-from vo.frontend.stereo import epipolar_mask
 from vo.rop.relative import normalized_points
 from rigs.geometry.pinhole import to_normalized
 
@@ -145,7 +144,7 @@ class KltFourView:
     def _stereo(self, left, right, p_l, guess=None):
         p_r, ok = lk_fb(left, right, p_l, self.config, guess, self._pyramid)
         if ok.any():
-            ok[ok] &= epipolar_mask(self.rig, p_l[ok], p_r[ok], self.config.epipolar_threshold_px)
+            ok[ok] &= stereo_gate(self.rig, p_l[ok], p_r[ok], self.config)
         return p_r, ok
 
     def keyframe(self, left, right, timings: dict, keep_tracks: bool = True) -> int:
@@ -208,7 +207,7 @@ class KltFourView:
         """Affine refinement of right-image points ``p_right`` against ``template``, then the calibrated
         epipolar check against the left points ``p_left`` -> ``(p_right, A, ok)``."""
         p_right, A, ok = refine_to(template, right, p_right, A)
-        return p_right, A, ok & epipolar_mask(self.rig, p_left, p_right, self.config.epipolar_threshold_px)
+        return p_right, A, ok & stereo_gate(self.rig, p_left, p_right, self.config)
 
     def _templates(self, v: FourView) -> tuple:
         """The keyframe windows of the tracks (``refine="affine"``; else ``(None, None)``): built once per

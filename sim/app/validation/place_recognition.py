@@ -5,8 +5,12 @@ at each a *revisit* is rendered as well: the vehicle 1 m further on, 0.8 m to th
 second pass through the same place, within the width of a lane or path and an ordinary heading difference). Each image is compared with every other by what a loop closure verifies:
 ORB features (OpenCV, 1000 per image), nearest-neighbour matches that pass Lowe's ratio test (0.8), then the
 geometric check a loop closure makes: image A's matched features, back-projected with A's rendered depth, must
-project onto their matches in B under one rigid motion (PnP RANSAC, 2 px). The *similarity* of two images is the
-number of inliers. (A fundamental-matrix check is too weak here: driving along a straight street the epipolar
+project onto their matches in B under one rigid motion (PnP RANSAC, 2 px), in front of B. Each feature of B takes
+one match (its closest), as a loop closure's matcher does. The *similarity* of two images is the number of
+inliers at distinct image places (the smaller count of distinct pixels among A's and among B's inliers), so the
+check is well conditioned: a degenerate fit that projects many points of A onto one point of B (a far-away pose
+that PnP RANSAC accepts, found on the lunar traverse: 49 inliers on 3 pixels of B) counts for what it is, one
+or a few places. (A fundamental-matrix check is too weak here: driving along a straight street the epipolar
 lines are the street's own lines, so matches anywhere along a lane marking pass it.)
 
 Which pairs are distinct places is decided from the exact geometry, not from the route: a pixel grid of image A
@@ -48,6 +52,7 @@ class PlaceConfig:
     grid_px: int = 8
     max_depth_m: float = 80.0
     verify: str = "pnp"          # geometric check: "pnp" (3-D, a rigid motion) or "fundamental" (2-D, epipolar)
+    actor_clear_m: float = 9.0   # actors this close to a view's vehicle are left out of it (a bus: 5.5 m half)
 
     def __post_init__(self):
         if self.verify not in ("pnp", "fundamental"):
@@ -105,9 +110,23 @@ def render_views(config, place: PlaceConfig = PlaceConfig(), progress: bool = Tr
         T_b_c = cam.T_b_c_array
         for T, s in tqdm(list(zip(T_places, arcs)), desc="render places", unit="place", disable=not progress):
             for T_b, out in ((T, places), (revisit_pose(T, place), revisits)):
-                imgs, depth, _ = camera.measure(T_b, actors)
+                imgs, depth, _ = camera.measure(T_b, clear_of_actors(actors, T_b, place.actor_clear_m))
                 out.append(View(imgs[0], np.asarray(depth[0], float), T_b @ T_b_c, K, float(s)))
     return places, revisits
+
+
+def clear_of_actors(actors: dict, T_w_b: np.ndarray, clear_m: float) -> dict:
+    """``actors`` ({body: T_w_actor (4,4)}) with those whose origin is within ``clear_m`` (horizontally) of the
+    vehicle at ``T_w_b`` moved 1 km below the ground: the places are sampled along the route with the actors at
+    the start time, so a place can fall on a vehicle standing in the route's lane (``urban-dynamic``'s own-lane
+    platoon), which would put the camera inside it."""
+    out = {}
+    for name, T in actors.items():
+        T = np.array(T, float)
+        if np.hypot(*(T[:2, 3] - T_w_b[:2, 3])) < clear_m:
+            T[2, 3] -= 1000.0
+        out[name] = T
+    return out
 
 
 def covisible_fraction(a: View, b: View, place: PlaceConfig = PlaceConfig()) -> float:
@@ -134,7 +153,7 @@ def covisible_fraction(a: View, b: View, place: PlaceConfig = PlaceConfig()) -> 
 
 
 class OrbMatcher:
-    """ORB features once per image; :meth:`inliers` = ratio-test matches surviving a fundamental RANSAC."""
+    """ORB features once per image; :meth:`inliers`: the matches a loop closure would verify, in distinct places."""
 
     def __init__(self, place: PlaceConfig = PlaceConfig()):
         import cv2
@@ -150,15 +169,25 @@ class OrbMatcher:
         return self._cache[key]
 
     def inliers(self, fa, fb, return_matches: bool = False, view_a: "View | None" = None):
-        """Ratio-test matches of features ``fa`` -> ``fb`` that survive the geometric check: with ``view_a`` (its
-        depth and intrinsics) a PnP RANSAC of A's back-projected points in B (a rigid motion explains them, as a
-        loop closure's Sim3 / projection check demands), else a fundamental-matrix RANSAC."""
+        """Similarity of features ``fa`` -> ``fb``: ratio-test matches, one per feature of B (the closest; as a
+        loop closure's matcher, ORB-SLAM's ``SearchByBoW``, takes each feature of the candidate once), that
+        survive a well-conditioned geometric check: with ``view_a`` (its depth and intrinsics) a PnP RANSAC of A's
+        back-projected points in B whose inliers lie in front of B (a rigid motion explains them, as a loop
+        closure's Sim3 / projection check demands, ``SearchBySim3`` drops points behind the camera), else a
+        fundamental-matrix RANSAC. The similarity counts distinct image places: inliers at the same pixel of A
+        or of B (ORB's pyramid levels detect one corner several times) count once, ``min`` over A and B, so
+        a degenerate fit that sends many points of A onto one point of B scores 1, not its number of inliers."""
         cv2 = self.cv2
         (pa, da), (pb, db) = fa, fb
         none = (0, np.empty((0, 2)), np.empty((0, 2))) if return_matches else 0
         if da is None or db is None or len(da) < 8 or len(db) < 8:
             return none
-        good = [m[0] for m in self.bf.knnMatch(da, db, k=2) if len(m) == 2 and m[0].distance < self.place.ratio * m[1].distance]
+        good = {}
+        for m in self.bf.knnMatch(da, db, k=2):
+            if len(m) == 2 and m[0].distance < self.place.ratio * m[1].distance:
+                if m[0].trainIdx not in good or m[0].distance < good[m[0].trainIdx].distance:
+                    good[m[0].trainIdx] = m[0]
+        good = sorted(good.values(), key=lambda m: m.queryIdx)
         if len(good) < 8:
             return none
         xa = pa[[m.queryIdx for m in good]]
@@ -172,18 +201,22 @@ class OrbMatcher:
                 return none
             xa, xb, z = xa[ok], xb[ok], z[ok]
             P = (np.linalg.solve(view_a.K, np.vstack([xa.T, np.ones(len(xa))])) * z).T
-            found, _, _, idx = cv2.solvePnPRansac(P.astype(np.float64), xb.astype(np.float64), view_a.K, None,
-                                                  iterationsCount=300, reprojectionError=self.place.ransac_px,
-                                                  confidence=0.999, flags=cv2.SOLVEPNP_EPNP)
+            found, rvec, tvec, idx = cv2.solvePnPRansac(P.astype(np.float64), xb.astype(np.float64), view_a.K, None,
+                                                        iterationsCount=300, reprojectionError=self.place.ransac_px,
+                                                        confidence=0.999, flags=cv2.SOLVEPNP_EPNP)
             keep = np.zeros(len(xa), bool)
             if found and idx is not None:
                 keep[idx.ravel()] = True
+                R = cv2.Rodrigues(rvec)[0]
+                keep &= (P @ R[2] + float(tvec.ravel()[2])) > 0                  # in front of B
         else:
             _, mask = cv2.findFundamentalMat(xa, xb, cv2.FM_RANSAC, self.place.ransac_px, 0.999)
             if mask is None:
                 return none
             keep = mask.ravel() == 1
-        return (int(keep.sum()), xa[keep], xb[keep]) if return_matches else int(keep.sum())
+        xa, xb = xa[keep], xb[keep]
+        n = min(len(np.unique(np.rint(xa).astype(int), axis=0)), len(np.unique(np.rint(xb).astype(int), axis=0)))
+        return (n, xa, xb) if return_matches else n
 
 
 @dataclass(frozen=True)
