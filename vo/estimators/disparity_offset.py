@@ -11,7 +11,7 @@ over a range of depths separates that scale from ``delta`` (a scale error is the
 offset is not). :class:`DisparityOffset` adjusts, once per birth keyframe and when the camera has travelled
 ``min_travel_baselines`` baselines from it, the poses of the frames since then and ``delta`` together on the
 reprojection error of that keyframe's landmarks, each placed at ``f b / (D + delta)`` along its birth ray
-(``scipy.optimize.least_squares``, Huber loss), and averages the keyframes' estimates with their variances.
+(``scipy.optimize.least_squares``, LM, then again without the observations beyond 2 px), and averages the keyframes' estimates with their variances.
 It reports an offset (:attr:`DisparityOffset.delta_px`) only when the average is significant (``significance``
 standard errors of the keyframes' spread) and beyond ``tolerance_px``; otherwise 0, and the estimator using it
 is unchanged. Depths are then corrected along each landmark's birth ray: ``z' = f b / (f b / z + delta)``
@@ -121,7 +121,7 @@ class DisparityOffset:
         ``z_raw`` (M,)) seen on later ``frames`` ((frame, T_o_c0, ids, x_n) each; :meth:`observe` passes at
         most :attr:`max_frames`, evenly spaced up to the current one, which bounds the cost): the offset and the
         poses of those frames
-        adjusted together (reprojection error, Huber loss at 1 px; each landmark at
+        adjusted together (reprojection error, LM, refitted without observations beyond 2 px; each landmark at
         depth ``f b / (D + delta)`` along its birth ray) -> ``(delta, variance)`` or None (fewer than
         ``min_landmarks`` landmarks seen after birth, or no solution)."""
         ids = np.asarray(ids, np.int64)
@@ -177,9 +177,15 @@ class DisparityOffset:
             v0 += [*cv2.Rodrigues(T_c_o[:3, :3])[0].ravel(), *T_c_o[:3, 3]]
         if len(obs_f) * 2 <= len(v0):
             return None
+        # MINPACK's LM (its own QR: no threaded BLAS, whose small SVDs cost much CPU on a loaded machine), then
+        # again without the observations beyond the PnP inlier gate (2 px) of the first fit.
         try:
-            sol = least_squares(residuals, np.array(v0), jac=jacobian, method="trf", loss="huber", f_scale=1.0,
-                                x_scale="jac", max_nfev=30)
+            sol = least_squares(residuals, np.array(v0), jac=jacobian, method="lm", x_scale="jac", max_nfev=50)
+            keep = np.linalg.norm(sol.fun.reshape(-1, 2), axis=1) < 2.0
+            if 2 * keep.sum() <= len(v0) or len(np.unique(obs_l[keep])) < self.config.min_landmarks:
+                return None
+            obs_f, obs_l, obs_x = obs_f[keep], obs_l[keep], obs_x[keep]
+            sol = least_squares(residuals, sol.x, jac=jacobian, method="lm", x_scale="jac", max_nfev=50)
             J = sol.jac
             dof = max(J.shape[0] - J.shape[1], 1)
             s2 = max(float(np.sum(sol.fun ** 2)) / dof, 1.0)
