@@ -42,9 +42,9 @@ def test_ground_axes_pick_the_plane_of_travel():
 def test_bench_real_on_the_kitti_excerpt(tmp_path):
     """The real 98-degree turn (docs/estimators.md, "Real recordings"). ``rop`` measured 1.65 % (5.51 % while its
     moving-object step cross-check failed frames on which the track filter had seen one rigid motion only:
-    this bound catches that); ``klt-pnp`` 3.22 % with its online disparity-offset correction
-    (``vo.estimators.disparity_offset``; 5.57 % without it, 12.81 % without the correction and the close/far
-    split): the bound is ORB-SLAM3's 4.7 % on these frames."""
+    this bound catches that); ``klt-pnp`` 3.00 % with its online disparity-offset correction
+    (``vo.estimators.disparity_offset``; 5.00 % with the close/far split instead, 11.03 % with neither): the
+    bound is ORB-SLAM3's 4.7 % on these frames."""
     seq = REAL / "kitti_turn"
     if not seq.is_dir():
         pytest.skip(f"{seq}: real KITTI excerpt not present")
