@@ -20,6 +20,7 @@ from vo.estimators.pnp_core import PnpConfig, solve_pnp
 
 F, B = 718.0, 0.54
 K = np.array([[F, 0, 620.0], [0, F, 187.0], [0, 0, 1]])
+SPLIT = PnpConfig(near_baselines=40.0)      # the split on (ORB-SLAM2's 40 baselines; off by default)
 W, H = 1241, 376
 T_O_C1 = make_T(rot_y(np.radians(2.5)), np.array([0.2, 0.0, 1.0]))
 
@@ -46,7 +47,7 @@ def _step_ratio(T_o_c1):
     return np.linalg.norm(T_o_c1[:3, 3]) / np.linalg.norm(T_O_C1[:3, 3])
 
 
-def _solve(p_o, x, near, config=PnpConfig()):
+def _solve(p_o, x, near, config=SPLIT):
     """The joint PnP fit, then the split -> ``(T_o_c1, inliers)``."""
     T_o_c1, inl = solve_pnp(p_o, x, K, config, T_o_c0_prior=np.eye(4))
     T_c1_o, inl = refine_on_near(inv_T(T_o_c1), inl, near, (np.zeros_like(p_o), p_o), p_o, x, K, config)
@@ -72,14 +73,14 @@ def test_far_landmarks_set_direction_not_length_under_a_disparity_offset(seed):
 
 def test_exact_landmarks_give_the_true_pose_with_or_without_the_split():
     p_o, x, near, _ = _scene(np.random.default_rng(3), n_near=30, n_far=150, delta=0.0)
-    for cfg in (PnpConfig(), PnpConfig(near_baselines=0)):
+    for cfg in (SPLIT, PnpConfig(near_baselines=0)):
         T, inl = _solve(p_o, x, near, cfg)
         assert np.linalg.norm(T[:3, 3] - T_O_C1[:3, 3]) < 1e-6 and inl.all()
 
 
 def test_too_few_near_landmarks_keep_the_joint_fit():
     p_o, x, near, _ = _scene(np.random.default_rng(4), n_near=8, n_far=150, delta=1.4)
-    cfg = PnpConfig()
+    cfg = SPLIT
     assert near.sum() < cfg.min_near_inliers
     T_o_c1, inl = solve_pnp(p_o, x, K, cfg, T_o_c0_prior=np.eye(4))
     T_c1_o = inv_T(T_o_c1)
@@ -90,7 +91,7 @@ def test_too_few_near_landmarks_keep_the_joint_fit():
 
 def test_gate_needs_a_consistent_disagreement_beyond_the_calibration_tolerance():
     """Limit: 0.5 px at the boundary disparity 718 / 40 = 17.95 px -> far steps more than 2.79 % off."""
-    cfg = PnpConfig()
+    cfg = SPLIT
     gate = NearFarGate(cfg, F, B)
     assert gate.limit == pytest.approx(0.5 * 40 / 718)
     # an exact calibration: the far landmarks' step scatters around the near ones' (+-2 %): never

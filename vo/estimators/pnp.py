@@ -15,9 +15,12 @@ Moving objects (our extension): each frame's PnP takes, among the rigid motions 
 nearest the constant-velocity prediction (``pnp_config.consensus="prior"``, default;
 :mod:`vo.estimators.pnp_core`), not RANSAC's largest consensus, which in traffic is often a car ahead.
 
-Close/far split (``klt-pnp``; ORB-SLAM2's rule, not in seed 003): where near and far landmarks disagree on
-the step length beyond a calibration tolerance (a stereo disparity offset, as on the real KITTI excerpt), the
-pose is refitted with far landmarks as rays (:mod:`vo.estimators.near_far`); otherwise the PnP pose stands.
+Stereo disparity offset (``klt-pnp``; not in seed 003): a calibration whose right principal point is off the
+images' (the real KITTI excerpt: about 1.2-1.4 px) makes far landmarks long and every step long; the offset is
+estimated online from the tracks and, where significant, landmark depths are corrected along their birth rays
+(:mod:`vo.estimators.disparity_offset`); with a consistent calibration nothing changes. The close/far split
+(ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works around the same offset is off by default
+(``pnp_config={near_baselines: 40}`` turns it on).
 
 Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on the
 keyframe where they were born; old key points are not re-matched left-right on later keyframes, since those
@@ -32,6 +35,7 @@ import numpy as np
 
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
+from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 from vo.estimators.near_far import NearFarGate, refine_on_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.frontend.depth_edge import off_edge
@@ -160,12 +164,16 @@ class KltPnpEstimator(_StereoPnpEstimator):
     ``keyframe_adjuster`` (default none: seed 003 without its keyframe optimization), an object with ``reset()``
     and ``adjust(left, right, T_o_c0 (4,4), ids (N,), px (N,2), landmarks {id: p_o (3,)} of the tracked ids) -> (T_o_c0 (4,4),
     landmarks {id: p_o (3,)}, rejected ids)``, called on every keyframe before its new tracks are triangulated
-    (``docs/studies/keyframe_ba.py`` supplies a windowed bundle adjustment)."""
+    (``docs/studies/keyframe_ba.py`` supplies a windowed bundle adjustment). ``disparity_offset``
+    (:class:`OffsetConfig`): the online stereo disparity-offset estimate (:mod:`vo.estimators.disparity_offset`)
+    that corrects landmark depths under an inconsistent calibration; ``offset``, the estimate itself (a
+    :class:`DisparityOffset` or one that behaves as it; default: built from ``disparity_offset``)."""
 
     name = "klt-pnp"
 
     def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", tracker=None,
-                 landmark_source=None, keyframe_adjuster=None, **options):
+                 landmark_source=None, keyframe_adjuster=None, disparity_offset: OffsetConfig | None = None,
+                 offset=None, **options):
         if frontend != "klt":
             raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
         super().__init__(rig, **options)
@@ -178,11 +186,16 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.near: dict = {}             # track id -> (near at birth, birth c_o (3,), birth bearing_o (3,))
         self._next_keyframe = False
         self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]), rig.baseline)
+        offset_config = OffsetConfig.from_option(disparity_offset, f"{self.name}.disparity_offset")
+        self.offset = offset if offset is not None else DisparityOffset(offset_config, float(cam.K[0, 0]), rig.baseline)
+        self._raw: dict = {}             # track id -> p_o (3,) as triangulated (before the offset's correction)
+        self._applied_offset = 0.0
 
     def _initialize(self, left, right, timings) -> int:
         self.tracker.reset()
         self.landmarks.clear()
         self.near.clear()
+        self._raw.clear()
         if self.keyframe_adjuster is not None:
             self.keyframe_adjuster.reset()
         with _timer(timings, "detect"):
@@ -202,12 +215,17 @@ class KltPnpEstimator(_StereoPnpEstimator):
             p_c0, ok = self.landmark_source(left, right, self.tracker.ids[sel], p_l)
             p_o = transform_points(self.T_o_c0, p_c0)
             z_c0 = transform_points(inv_T(self.T_o_c0), p_o)[:, 2]
-            near = z_c0 < self.pnp_config.near_baselines * self.rig.baseline
             cam = self.rig.cameras[0]
             x_n = (undistort_px(p_l, cam) - cam.K[:2, 2]) / np.diag(cam.K)[:2] if len(p_l) else np.zeros((0, 2))
             dir_o = (self.T_o_c0[:3, :3] @ np.c_[x_n, np.ones(len(x_n))].T).T
+            self.offset.add(self.tracker.ids[sel][ok], self.T_o_c0[:3, 3], dir_o[ok], z_c0[ok])
+            if self.offset.delta_px != 0.0:
+                fb = self.offset.fb
+                z_c0 = np.where(ok, fb / (fb / np.where(ok, z_c0, 1.0) + self.offset.delta_px), z_c0)
+            near = z_c0 < self.pnp_config.near_baselines * self.rig.baseline
             for i, p, c, d in zip(self.tracker.ids[sel][ok], p_o[ok], near[ok], dir_o[ok]):
-                self.landmarks[int(i)] = p
+                self._raw[int(i)] = p
+                self.landmarks[int(i)] = self.offset.correct(int(i), p)
                 self.near[int(i)] = (bool(c), self.T_o_c0[:3, 3].copy(), d)
             self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
         return int(ok.sum())
@@ -246,10 +264,10 @@ class KltPnpEstimator(_StereoPnpEstimator):
         if n_feat < self.pnp_config.min_features:
             return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
         p_o = np.array([self.landmarks[int(i)] for i in ids])
-        near = np.array([self.near[int(i)][0] for i in ids], bool)
-        rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
         T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
-        if T_o_c0 is not None:
+        if T_o_c0 is not None and self.pnp_config.near_baselines > 0:
+            near = np.array([self.near[int(i)][0] for i in ids], bool)
+            rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
             T_o_c0, inl = self._near_far(T_o_c0, inl, p_o, near, rays, timings)
         n_inl = int(inl.sum())
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
@@ -263,8 +281,24 @@ class KltPnpEstimator(_StereoPnpEstimator):
             status, msg = "keyframe", f"{n_new} new landmarks"
         self.landmarks = {int(i): self.landmarks[int(i)] for i in self.tracker.ids}
         self.near = {i: self.near[i] for i in self.landmarks}
+        self._update_offset()
         self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
         return self._result(t_ns, status, n_feat, n_inl, msg)
+
+    def _update_offset(self) -> None:
+        """Feed the tracked (inlier) landmarks to the disparity-offset estimate; when the offset it applies
+        changes, move every tracked landmark to its corrected depth."""
+        if not self.offset.config.enabled:
+            return
+        self._raw = {i: self._raw[i] for i in self.landmarks}
+        self.offset.forget(self.landmarks)
+        cam = self.rig.cameras[0]
+        pts = self.tracker.pts
+        x_n = (undistort_px(pts, cam) - cam.K[:2, 2]) / np.diag(cam.K)[:2] if len(pts) else np.zeros((0, 2))
+        self.offset.observe(self.tracker.ids, x_n, self.T_o_c0)
+        if self.offset.delta_px != self._applied_offset:
+            self._applied_offset = self.offset.delta_px
+            self.landmarks = {i: self.offset.correct(i, self._raw[i]) for i in self.landmarks}
 
     def _near_far(self, T_o_c0, inl, p_o, near, rays, timings) -> tuple:
         """The close/far split's pose and inliers (:mod:`vo.estimators.near_far`) where its gate says the

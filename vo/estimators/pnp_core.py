@@ -46,8 +46,9 @@ class PnpConfig:
     ``min_model_fraction`` a motion competes with at least this fraction of the landmarks as inliers;
     ``separation_px`` two motions are different when at least that many landmarks of one lie more than
     this far off the other's reprojection (:func:`separated`); ``near_baselines``, ``min_near_inliers``,
-    ``calib_tolerance_px``: the close/far split of :mod:`vo.estimators.near_far` (``near_baselines`` 0 turns
-    it off)."""
+    ``calib_tolerance_px``: the close/far split of :mod:`vo.estimators.near_far` (``near_baselines`` 0, the
+    default, turns it off: ``klt-pnp`` corrects the disparity offset it guarded against at its cause,
+    :mod:`vo.estimators.disparity_offset`; 40 is ORB-SLAM2's value)."""
 
     method: Literal[tuple(PNP_METHODS)] = "epnp"
     ransac_reproj_px: float = knob(2.0, gt=0)
@@ -63,7 +64,7 @@ class PnpConfig:
     max_models: int = knob(3, ge=1)
     min_model_fraction: float = knob(0.1, ge=0, le=1)
     separation_px: float = knob(4.0, gt=0)
-    near_baselines: float = knob(40.0, ge=0)
+    near_baselines: float = knob(0.0, ge=0)
     min_near_inliers: int = knob(10, ge=6)
     calib_tolerance_px: float = knob(0.5, ge=0)
 

@@ -1,0 +1,226 @@
+"""Online estimate of a stereo disparity offset (a calibration error of the right camera's principal point).
+
+A rectified stereo rig measures depth ``z = f b / d``. When the written calibration puts the right camera's
+principal point ``delta`` px off the images' (the real KITTI excerpt: 1.2-1.4 px, docs/estimators.md), every
+disparity is ``delta`` px short and every depth long by ``delta / d``: far landmarks much more than near ones,
+so a PnP step on them is long (the excerpt: 5-13 %) and no choice of landmarks removes the bias.
+
+The offset is observable from the tracks alone, independently of the (biased) scale of the motion: structure
+from motion fixes the landmarks' depths up to one scale, and ``f b / z = D + delta`` with raw disparities ``D``
+over a range of depths separates that scale from ``delta`` (a scale error is the same factor at every depth, the
+offset is not). :class:`DisparityOffset` adjusts, once per birth keyframe and when the camera has travelled
+``min_travel_baselines`` baselines from it, the poses of the frames since then and ``delta`` together on the
+reprojection error of that keyframe's landmarks, each placed at ``f b / (D + delta)`` along its birth ray
+(``scipy.optimize.least_squares``, LM, then again without the observations beyond 2 px), and averages the keyframes' estimates with their variances.
+It reports an offset (:attr:`DisparityOffset.delta_px`) only when the average is significant (``significance``
+standard errors of the keyframes' spread) and beyond ``tolerance_px``; otherwise 0, and the estimator using it
+is unchanged. Depths are then corrected along each landmark's birth ray: ``z' = f b / (f b / z + delta)``
+(exact on a rectified rig; on an unrectified one the offset of the equivalent rectified pair).
+
+Not in seed 003 (whose KITTI calibration is consistent); it repairs a calibration error, as an online
+stereo self-calibration of the principal-point offset, and reads nothing but the tracks and poses.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.optimize import least_squares
+
+from rigs.geometry import inv_T
+from rigs.typed_config import check_fields, from_mapping, knob
+from vo.errors import EstimatorError
+
+
+@dataclass(frozen=True)
+class OffsetConfig:
+    """``enabled`` estimate and apply the offset; ``min_travel_baselines`` a birth keyframe's landmarks are
+    used once the camera is that many baselines from it (parallax); ``min_landmarks`` landmarks of one
+    keyframe needed for its fit; ``min_keyframes`` fits before an offset is reported; ``tolerance_px`` smallest
+    offset applied (the stereo matcher's own sub-pixel bias stays below it on the simulated rigs);
+    ``significance`` standard errors the mean must exceed."""
+
+    enabled: bool = True
+    min_travel_baselines: float = knob(6.0, gt=0)
+    min_landmarks: int = knob(15, ge=4)
+    min_keyframes: int = knob(3, ge=1)
+    tolerance_px: float = knob(0.5, ge=0)
+    significance: float = knob(3.0, ge=0)
+
+    def __post_init__(self):
+        check_fields(self, EstimatorError, "disparity_offset.")
+
+    @classmethod
+    def from_option(cls, value, where: str = "disparity_offset") -> "OffsetConfig":
+        if isinstance(value, cls):
+            return value
+        return from_mapping(cls, value, EstimatorError, where)
+
+
+class DisparityOffset:
+    """The online offset estimate of one estimator run (module docstring). Landmarks are registered at birth
+    (:meth:`add`), their tracks fed each frame (:meth:`observe`); :attr:`delta_px` is the offset to apply (0
+    until significant) and :meth:`correct` moves a landmark along its birth ray to the corrected depth."""
+
+    max_frames = 4               # frames of one keyframe's adjustment (its cost grows as their square)
+
+    def __init__(self, config: OffsetConfig, f_px: float, baseline_m: float):
+        self.config, self.f, self.fb, self.baseline_m = config, f_px, f_px * baseline_m, baseline_m
+        self.births: dict = {}       # id -> (birth centre (3,), raw depth)
+        self.keyframes: dict = {}    # birth frame -> (centre (3,), ids (N,), rays (N,3), raw depths (N,)) until fitted
+        self.history: list = []      # (frame, T_o_c0 (4,4), ids (N,), normalised points (N,2))
+        self.fits: list = []         # (delta, variance) per fitted keyframe
+        self.delta_px = 0.0
+        self._frame = 0
+
+    def add(self, ids, c_b: np.ndarray, dir_o: np.ndarray, z_raw: np.ndarray) -> None:
+        """Landmarks ``ids`` (N,) born on the current frame at camera centre ``c_b`` (3,), left rays ``dir_o``
+        (N,3) (unit depth in the birth camera) and raw stereo depths ``z_raw`` (N,)."""
+        if not self.config.enabled or len(ids) == 0:
+            return
+        c_b = np.asarray(c_b, float).copy()
+        ids = np.asarray(ids, np.int64)
+        self.keyframes[self._frame] = (c_b, ids, np.asarray(dir_o, float), np.asarray(z_raw, float))
+        for i, z in zip(ids, z_raw):
+            self.births[int(i)] = (c_b, float(z))
+
+    def forget(self, alive_ids) -> None:
+        """Drop landmarks no longer tracked from the depth corrections."""
+        alive = {int(i) for i in alive_ids}
+        self.births = {i: b for i, b in self.births.items() if i in alive}
+
+    def observe(self, ids, x_n: np.ndarray, T_o_c0: np.ndarray) -> None:
+        """The current frame: the estimated pose ``T_o_c0`` (4,4) and the normalised points ``x_n`` (N,2) of the
+        tracked landmarks ``ids`` (N,). Fits the keyframes the camera is now far enough from
+        (:meth:`fit_keyframe`) and updates :attr:`delta_px`."""
+        cfg = self.config
+        if not cfg.enabled:
+            return
+        self._frame += 1
+        self.history.append((self._frame, np.asarray(T_o_c0, float).copy(), np.asarray(ids, np.int64).copy(),
+                             np.asarray(x_n, float).copy()))
+        c_k = T_o_c0[:3, 3]
+        due = [k for k, g in self.keyframes.items()
+               if np.linalg.norm(c_k - g[0]) >= cfg.min_travel_baselines * self.baseline_m]
+        for k in due:
+            g = self.keyframes.pop(k)      # the birth frame itself (pose at c_b) adds nothing
+            later = [h for h in self.history if h[0] > k and np.any(h[1][:3, 3] != g[0])]
+            n_pick = min(len(later), self.max_frames)
+            pick = np.unique(np.round(np.linspace(0, len(later) - 1, n_pick)).astype(int))
+            fit = self.fit_keyframe(*g, [later[j] for j in pick]) if later else None
+            if fit is not None:
+                self.fits.append(fit)
+        oldest = min(self.keyframes, default=self._frame)
+        self.history = [h for h in self.history if h[0] > oldest]
+        if due:
+            self._update()
+
+    def fit_keyframe(self, c_b, ids, dir_b, z_raw, frames) -> tuple | None:
+        """One keyframe's landmarks (``ids`` (M,), birth centre ``c_b``, rays ``dir_b`` (M,3), raw depths
+        ``z_raw`` (M,)) seen on later ``frames`` ((frame, T_o_c0, ids, x_n) each; :meth:`observe` passes at
+        most :attr:`max_frames`, evenly spaced up to the current one, which bounds the cost): the offset and the
+        poses of those frames
+        adjusted together (reprojection error, LM, refitted without observations beyond 2 px; each landmark at
+        depth ``f b / (D + delta)`` along its birth ray) -> ``(delta, variance)`` or None (fewer than
+        ``min_landmarks`` landmarks seen after birth, or no solution)."""
+        ids = np.asarray(ids, np.int64)
+        order = np.argsort(ids)
+        obs_f, obs_l, obs_x = [], [], []
+        for f_i, (_, _, f_ids, f_x) in enumerate(frames):
+            pos = np.minimum(np.searchsorted(ids[order], f_ids), len(ids) - 1)
+            hit = ids[order][pos] == f_ids
+            obs_f.append(np.full(int(hit.sum()), f_i))
+            obs_l.append(order[pos[hit]])
+            obs_x.append(f_x[hit])
+        obs_f, obs_l, obs_x = np.concatenate(obs_f), np.concatenate(obs_l), np.concatenate(obs_x)
+        if len(np.unique(obs_l)) < self.config.min_landmarks:
+            return None
+        d_raw = self.fb / z_raw
+        n_f, fb, f = len(frames), self.fb, self.f
+
+        def model(v):
+            """Per observation: camera-frame point (K,3), d p_c / d rvec (K,3,3), d p_c / d delta (K,3)."""
+            den = np.maximum(d_raw + v[0], 1e-3)
+            p_o = c_b[None, :] + dir_b * (fb / den)[:, None]
+            p_c, dp_r, dp_d = np.empty((len(obs_f), 3)), np.empty((len(obs_f), 3, 3)), np.empty((len(obs_f), 3))
+            for f_i in range(n_f):
+                m = obs_f == f_i
+                R, dR = cv2.Rodrigues(v[1 + 6 * f_i:4 + 6 * f_i].reshape(3, 1))
+                p = p_o[obs_l[m]]
+                p_c[m] = p @ R.T + v[4 + 6 * f_i:7 + 6 * f_i]
+                dp_r[m] = np.einsum("kij,nj->nik", dR.reshape(3, 3, 3), p)
+                dp_d[m] = (dir_b[obs_l[m]] @ R.T) * (-fb / den[obs_l[m]] ** 2)[:, None]
+            return p_c, dp_r, dp_d
+
+        def residuals(v):
+            p_c = model(v)[0]
+            return f * (p_c[:, :2] / np.maximum(p_c[:, 2:3], 1e-6) - obs_x).ravel()
+
+        def jacobian(v):
+            p_c, dp_r, dp_d = model(v)
+            z = np.maximum(p_c[:, 2], 1e-6)
+            P = np.zeros((len(z), 2, 3))                 # d pixel / d p_c
+            P[:, 0, 0] = P[:, 1, 1] = f / z
+            P[:, :, 2] = -f * p_c[:, :2] / z[:, None] ** 2
+            J = np.zeros((len(z), 2, 1 + 6 * n_f))
+            J[:, :, 0] = np.einsum("nij,nj->ni", P, dp_d)
+            rows = np.arange(len(z))
+            for k in range(3):
+                J[rows, :, 1 + 6 * obs_f + k] = np.einsum("nij,nj->ni", P, dp_r[:, :, k])
+                J[rows, :, 4 + 6 * obs_f + k] = P[:, :, k]
+            return J.reshape(2 * len(z), -1)
+
+        v0 = [0.0]
+        for _, T_o_c, _, _ in frames:
+            T_c_o = inv_T(T_o_c)
+            v0 += [*cv2.Rodrigues(T_c_o[:3, :3])[0].ravel(), *T_c_o[:3, 3]]
+        if len(obs_f) * 2 <= len(v0):
+            return None
+        # MINPACK's LM (its own QR: no threaded BLAS, whose small SVDs cost much CPU on a loaded machine), then
+        # again without the observations beyond the PnP inlier gate (2 px) of the first fit.
+        try:
+            sol = least_squares(residuals, np.array(v0), jac=jacobian, method="lm", x_scale="jac", max_nfev=50)
+            keep = np.linalg.norm(sol.fun.reshape(-1, 2), axis=1) < 2.0
+            if 2 * keep.sum() <= len(v0) or len(np.unique(obs_l[keep])) < self.config.min_landmarks:
+                return None
+            obs_f, obs_l, obs_x = obs_f[keep], obs_l[keep], obs_x[keep]
+            sol = least_squares(residuals, sol.x, jac=jacobian, method="lm", x_scale="jac", max_nfev=50)
+            J = sol.jac
+            dof = max(J.shape[0] - J.shape[1], 1)
+            s2 = max(float(np.sum(sol.fun ** 2)) / dof, 1.0)
+            var = s2 * float(np.linalg.inv(J.T @ J)[0, 0])
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        if not (sol.success and np.isfinite(sol.x[0]) and np.isfinite(var) and var > 0):
+            return None
+        return float(sol.x[0]), var
+
+    def _update(self) -> None:
+        cfg = self.config
+        if len(self.fits) < cfg.min_keyframes:
+            return
+        d = np.array([f[0] for f in self.fits])
+        w = 1.0 / np.array([max(f[1], 1e-6) for f in self.fits])
+        mean = float(np.sum(w * d) / np.sum(w))
+        # standard error from the keyframes' spread (their variances ignore the chain's rotation errors)
+        se = float(np.sqrt(np.sum(w * (d - mean) ** 2) / np.sum(w) / max(len(d) - 1, 1)))
+        significant = abs(mean) > cfg.tolerance_px and abs(mean) > cfg.significance * se
+        self.delta_px = mean if significant else 0.0
+
+    @property
+    def estimate_px(self) -> float:
+        """The weighted mean of the keyframes' fits so far (nan before any), applied or not."""
+        if not self.fits:
+            return float("nan")
+        w = 1.0 / np.array([max(f[1], 1e-6) for f in self.fits])
+        return float(np.sum(w * np.array([f[0] for f in self.fits])) / np.sum(w))
+
+    def correct(self, i: int, p_raw_o: np.ndarray) -> np.ndarray:
+        """Landmark ``i``'s raw position ``p_raw_o`` (3,) moved along its birth ray to the depth the offset
+        :attr:`delta_px` gives (unchanged while it is 0 or the landmark unknown)."""
+        b = self.births.get(int(i))
+        if self.delta_px == 0.0 or b is None:
+            return p_raw_o
+        z_new = self.fb / (self.fb / b[1] + self.delta_px)
+        return b[0] + (p_raw_o - b[0]) * (z_new / b[1])
