@@ -34,6 +34,7 @@ from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
 from vo.estimators.near_far import NearFarGate, refine_on_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
+from vo.estimators.rigidity import RigidityConfig, refine_pose, rigid_subset
 from vo.frontend.depth_edge import off_edge
 from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
 from vo.frontend.grid import Grid
@@ -155,12 +156,15 @@ class KltPnpEstimator(_StereoPnpEstimator):
     """Seed 003's optical-flow stereo VO. Options: ``klt_config`` (:class:`KltConfig`), ``pnp_config``.
     Collaborators (default: the product's): ``tracker``, a :class:`KltTracker` (or one that behaves as it);
     ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks
-    in the current left camera (default: stereo KLT, the depth-edge test, triangulation)."""
+    in the current left camera (default: stereo KLT, the depth-edge test, triangulation). ``rigidity``
+    (:class:`~vo.estimators.rigidity.RigidityConfig`, or its fields): the distance-invariance test across frames
+    (seed 001 eq. 2) on each frame's PnP inliers, their birth positions against a fresh stereo match; the
+    flagged landmarks leave the inliers and the pose is refined without them."""
 
     name = "klt-pnp"
 
     def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", tracker=None,
-                 landmark_source=None, **options):
+                 landmark_source=None, rigidity=None, **options):
         if frontend != "klt":
             raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
         super().__init__(rig, **options)
@@ -172,6 +176,8 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.near: dict = {}             # track id -> (near at birth, birth c_o (3,), birth bearing_o (3,))
         self._next_keyframe = False
         self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]), rig.baseline)
+        self.rigidity = RigidityConfig.from_option(rigidity, f"{self.name}.rigidity")
+        self._rigidity_rng = np.random.default_rng(self.rigidity.seed)   # partner draws
 
     def _initialize(self, left, right, timings) -> int:
         self.tracker.reset()
@@ -221,6 +227,8 @@ class KltPnpEstimator(_StereoPnpEstimator):
         near = np.array([self.near[int(i)][0] for i in ids], bool)
         rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
         T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
+        if T_o_c0 is not None and self.rigidity.enabled:
+            T_o_c0, inl = self._rigid(left, right, T_o_c0, inl, p_o, rays[0], timings)
         if T_o_c0 is not None:
             T_o_c0, inl = self._near_far(T_o_c0, inl, p_o, near, rays, timings)
         n_inl = int(inl.sum())
@@ -237,6 +245,29 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.near = {i: self.near[i] for i in self.landmarks}
         self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
         return self._result(t_ns, status, n_feat, n_inl, msg)
+
+    def _rigid(self, left, right, T_o_c0, inl, p_o, c_o, timings) -> tuple:
+        """The rigidity test (:mod:`vo.estimators.rigidity`) on the PnP inliers: birth positions ``p_o`` (N,3)
+        seen from their keyframes' centres ``c_o`` (N,3) against this frame's stereo points; flagged inliers
+        become outliers (dropped from the tracks) and the pose is refined on the rest. Inliers without a stereo
+        match this frame stay untested."""
+        cam, c = self.rig.cameras[0], self.pnp_config
+        with _timer(timings, "stereo"):
+            idx = np.flatnonzero(inl)
+            p_l = self.tracker.pts[idx]
+            p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid)
+            p_c, ok_t = triangulate(self.rig, p_l, p_r, c.max_depth, c.max_triangulation_px)
+            sel = idx[ok & ok_t]
+            keep = rigid_subset(p_o[sel], c_o[sel], p_c[ok & ok_t], np.zeros(3), float(cam.K[0, 0]),
+                                self.rig.baseline, self.rigidity, self._rigidity_rng)
+        drop = sel[~keep]
+        inl_kept = inl.copy()
+        inl_kept[drop] = False
+        if len(drop) == 0 or inl_kept.sum() < c.min_pnp_inliers:
+            return T_o_c0, inl
+        with _timer(timings, "pnp"):
+            T_c0_o = refine_pose(inv_T(T_o_c0), p_o[inl_kept], undistort_px(self.tracker.pts[inl_kept], cam), cam.K)
+        return inv_T(T_c0_o), inl_kept
 
     def _near_far(self, T_o_c0, inl, p_o, near, rays, timings) -> tuple:
         """The close/far split's pose and inliers (:mod:`vo.estimators.near_far`) where its gate says the
