@@ -130,3 +130,48 @@ def test_config_from_option():
         RigidityConfig.from_option({"partner": 8})
     with pytest.raises(VoError, match="chi2_gate"):
         RigidityConfig(chi2_gate=0)
+
+
+def _four_view(seed, n=200, n_slide=30):
+    """Exact four-view tracks (paper002 rig, keyframe = frame 0 = o, current frame 1 m ahead, 1 deg yaw) of a
+    static world; ``n_slide`` of its points slide 0.6 m sideways between the epochs (occlusion-edge corners).
+    -> (rig, FourView, slid (N,) bool)."""
+    from rigs.geometry import inv_T, make_T, rot_y, transform_points
+    from rigs.geometry.pinhole import project
+    from rigs.presets import get_rig
+    from vo.rop.tracks import FourView
+    rig = get_rig("paper002")
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(5, 30, n)
+    p_o = np.c_[rng.uniform(-0.5, 0.5, n) * z, rng.uniform(-0.3, 0.3, n) * z, z]
+    slid = np.zeros(n, bool)
+    slid[rng.choice(n, n_slide, replace=False)] = True
+    world_3 = p_o + slid[:, None] * np.array([0.6, 0.0, 0.0])
+    T_o_c3 = make_T(rot_y(np.radians(1.0)), np.array([0.0, 0.0, 1.0]))
+    T_c1_c0 = inv_T(rig.T_c0_c1)
+    px = lambda p_c, cam: project(p_c, rig.cameras[cam].K)                                   # noqa: E731
+    p_c3 = transform_points(inv_T(T_o_c3), world_3)
+    pts = [px(p_o, 0), px(transform_points(T_c1_c0, p_o), 1), px(p_c3, 0), px(transform_points(T_c1_c0, p_c3), 1)]
+    pts = [p + rng.normal(0, 0.1, p.shape) for p in pts]                # sub-pixel matching noise
+    xs = [np.linalg.solve(rig.cameras[0].K, np.c_[p, np.ones(n)].T).T[:, :2] for p in pts]
+    return rig, FourView(*pts, *xs, np.ones(n, bool)), slid
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_rop_drops_the_sliding_tracks(seed):
+    """``rop`` with ``rigidity`` on: the four-view tracks whose stereo point slid 0.6 m (nearer than 12 m, where
+    the range sigma is below 0.13 m): >= 70 % leave the view (pairs along the view direction do not see a sideways slide), <= 1 % of the static tracks do; off, the view is untouched."""
+    from vo.rop.estimator import RopEstimator
+    rig, view, slid = _four_view(seed)
+    est = RopEstimator(rig, rigidity={"enabled": True})
+    est.klt.view = view
+    kept = est._rigid_tracks(view, {"track": 0.0})
+    ids = {tuple(p) for p in np.round(kept.p1, 9)}
+    was_kept = np.array([tuple(p) in ids for p in np.round(view.p1, 9)])
+    disparity = view.p1[:, 0] - view.p2[:, 0]
+    near = disparity > 460 * 0.5 / 12
+    assert (slid & near).sum() >= 5 and was_kept[slid & near].mean() <= 0.3
+    assert (~was_kept[~slid]).mean() <= 0.01
+    assert est.klt.view is kept
+    off = RopEstimator(rig)
+    assert off._rigid_tracks(view, {"track": 0.0}) is view

@@ -159,12 +159,13 @@ class KltPnpEstimator(_StereoPnpEstimator):
     in the current left camera (default: stereo KLT, the depth-edge test, triangulation). ``rigidity``
     (:class:`~vo.estimators.rigidity.RigidityConfig`, or its fields): the distance-invariance test across frames
     (seed 001 eq. 2) on each frame's PnP inliers, their birth positions against a fresh stereo match; the
-    flagged landmarks leave the inliers and the pose is refined without them."""
+    flagged landmarks leave the inliers and the pose is refined without them; ``rigidity_observer(px (M,2),
+    kept (M,) bool)`` (studies) receives the left pixels of the inliers it tested and its verdict."""
 
     name = "klt-pnp"
 
     def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", tracker=None,
-                 landmark_source=None, rigidity=None, **options):
+                 landmark_source=None, rigidity=None, rigidity_observer=None, **options):
         if frontend != "klt":
             raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
         super().__init__(rig, **options)
@@ -178,6 +179,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self._gate = NearFarGate(self.pnp_config, float(cam.K[0, 0]), rig.baseline)
         self.rigidity = RigidityConfig.from_option(rigidity, f"{self.name}.rigidity")
         self._rigidity_rng = np.random.default_rng(self.rigidity.seed)   # partner draws
+        self.rigidity_observer = rigidity_observer
 
     def _initialize(self, left, right, timings) -> int:
         self.tracker.reset()
@@ -260,6 +262,8 @@ class KltPnpEstimator(_StereoPnpEstimator):
             sel = idx[ok & ok_t]
             keep = rigid_subset(p_o[sel], c_o[sel], p_c[ok & ok_t], np.zeros(3), float(cam.K[0, 0]),
                                 self.rig.baseline, self.rigidity, self._rigidity_rng)
+        if self.rigidity_observer is not None:
+            self.rigidity_observer(self.tracker.pts[sel].copy(), keep.copy())
         drop = sel[~keep]
         inl_kept = inl.copy()
         inl_kept[drop] = False
