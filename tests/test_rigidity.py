@@ -10,8 +10,13 @@ landmarks flagged) has a wide margin; it allows for the partners sharing the lan
 import numpy as np
 import pytest
 
+from rigs.geometry import inv_T, make_T, rot_y, transform_points
+from rigs.geometry.pinhole import project
+from rigs.presets import get_rig
 from vo.errors import VoError
 from vo.estimators.rigidity import RigidityConfig, refine_pose, rigid_subset, stereo_covariances
+from vo.rop.estimator import RopEstimator
+from vo.rop.tracks import FourView
 
 F, B, CX, CY = 460.0, 0.5, 320.0, 200.0
 
@@ -136,10 +141,6 @@ def _four_view(seed, n=200, n_slide=30):
     """Exact four-view tracks (paper002 rig, keyframe = frame 0 = o, current frame 1 m ahead, 1 deg yaw) of a
     static world; ``n_slide`` of its points slide 0.6 m sideways between the epochs (occlusion-edge corners).
     -> (rig, FourView, slid (N,) bool)."""
-    from rigs.geometry import inv_T, make_T, rot_y, transform_points
-    from rigs.geometry.pinhole import project
-    from rigs.presets import get_rig
-    from vo.rop.tracks import FourView
     rig = get_rig("paper002")
     rng = np.random.default_rng(seed)
     z = rng.uniform(5, 30, n)
@@ -160,8 +161,8 @@ def _four_view(seed, n=200, n_slide=30):
 @pytest.mark.parametrize("seed", [0, 1])
 def test_rop_drops_the_sliding_tracks(seed):
     """``rop`` with ``rigidity`` on: the four-view tracks whose stereo point slid 0.6 m (nearer than 12 m, where
-    the range sigma is below 0.13 m): >= 70 % leave the view (pairs along the view direction do not see a sideways slide), <= 1 % of the static tracks do; off, the view is untouched."""
-    from vo.rop.estimator import RopEstimator
+    the range sigma is below 0.13 m): >= 70 % leave the view (pairs along the view direction do not see a
+    sideways slide), <= 1 % of the static tracks do; off, the view is untouched."""
     rig, view, slid = _four_view(seed)
     est = RopEstimator(rig, rigidity={"enabled": True})
     est.klt.view = view
