@@ -6,7 +6,8 @@ from rigs.model import Camera, Rig
 from rigs.records import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, frame_class
-from vo.estimators.pnp import KltPnpEstimator, OrbPnpEstimator
+from vo.estimators.orb_pnp import OrbPnpEstimator
+from vo.estimators.pnp import KltPnpEstimator
 from vo.estimators.pnp_core import PnpConfig
 from helpers.synthetic import box_scene, render
 from rigs.geometry import inv_T, make_T, rot_y, rotation_angle

@@ -2,9 +2,8 @@
 
 ``KltPnpEstimator`` ("klt-pnp"): KLT tracks (grid detection, LK forward-backward, epipolar check), new
 landmarks from empty cells on keyframes, seed 003's empty-cell / inlier keyframe criterion (the *next* frame
-becomes a keyframe, as in the paper). ``OrbPnpEstimator`` ("orb-pnp"; ``frontend="sift"`` too): descriptor
-matching of each left image against the current keyframe's landmarks; the current frame becomes the new
-keyframe when the same criterion fires on its PnP inliers.
+becomes a keyframe, as in the paper). ``StereoPnpEstimator`` is the frame loop it shares with
+``orb-pnp`` (:mod:`vo.estimators.orb_pnp`).
 
 Failure handling: too few tracked landmarks -> status ``few_features`` ("N tracked < M"), PnP failure ->
 ``lost``; the pose is coasted (constant velocity for ``max_coast_frames``, then held) and the next frame with
@@ -38,18 +37,17 @@ from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
 from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 from vo.estimators.near_far import NearFarGate, refine_on_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
+from vo.estimators.rigidity import RigidityConfig, refine_pose, rigid_subset
 from vo.frontend.depth_edge import off_edge
-from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
-from vo.frontend.grid import Grid
 from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
-from vo.frontend.stereo import epipolar_mask, triangulate, undistort_px
+from vo.frontend.stereo import triangulate, undistort_px
 from vo.frontend.stereo_prior import disparity_guess, landmark_refs
 from rigs.geometry import inv_T, transform_points
 
 
 @contextmanager
-def _timer(timings: dict, key: str):
+def timed(timings: dict, key: str):
     t0 = time.perf_counter()
     try:
         yield
@@ -57,7 +55,7 @@ def _timer(timings: dict, key: str):
         timings[key] = timings.get(key, 0.0) + (time.perf_counter() - t0) * 1e3
 
 
-class _StereoPnpEstimator(Estimator):
+class StereoPnpEstimator(Estimator):
     """Common frame loop: (re)initialisation, coasting on failure, timings. Subclasses implement
     ``_initialize(left, right, timings) -> (n_landmarks, message)`` and ``_step(left, right, timings)``.
 
@@ -131,7 +129,7 @@ class _StereoPnpEstimator(Estimator):
     def _pnp(self, p_o, px_raw, timings):
         px_raw = np.asarray(px_raw)
         keep = None if self.pnp_select is None else np.asarray(self.pnp_select(px_raw), bool)
-        with _timer(timings, "pnp"):
+        with timed(timings, "pnp"):
             cam = self.rig.cameras[0]
             if keep is None:
                 T, inl = solve_pnp(p_o, undistort_px(px_raw, cam), cam.K, self.pnp_config,
@@ -156,7 +154,7 @@ class _StereoPnpEstimator(Estimator):
                            pose_class=pose_class)
 
 
-class KltPnpEstimator(_StereoPnpEstimator):
+class KltPnpEstimator(StereoPnpEstimator):
     """Seed 003's optical-flow stereo VO. Options: ``klt_config`` (:class:`KltConfig`), ``pnp_config``.
     Collaborators (default: the product's): ``tracker``, a :class:`KltTracker` (or one that behaves as it);
     ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks
@@ -167,13 +165,18 @@ class KltPnpEstimator(_StereoPnpEstimator):
     (``docs/studies/keyframe_ba.py`` supplies a windowed bundle adjustment). ``disparity_offset``
     (:class:`OffsetConfig`): the online stereo disparity-offset estimate (:mod:`vo.estimators.disparity_offset`)
     that corrects landmark depths under an inconsistent calibration; ``offset``, the estimate itself (a
-    :class:`DisparityOffset` or one that behaves as it; default: built from ``disparity_offset``)."""
+    :class:`DisparityOffset` or one that behaves as it; default: built from ``disparity_offset``). ``rigidity``
+    (:class:`~vo.estimators.rigidity.RigidityConfig`, or its fields; off by default, measured in
+    ``docs/estimators.md``): the distance-invariance test across frames (seed 001 eq. 2) on each frame's PnP
+    inliers, their birth positions against a fresh stereo match; the flagged landmarks leave the inliers and the
+    pose is refined without them; ``rigidity_observer(px (M,2), kept (M,) bool)`` (studies) receives the left
+    pixels of the inliers it tested and its verdict."""
 
     name = "klt-pnp"
 
     def __init__(self, rig, klt_config: KltConfig | None = None, frontend: str = "klt", tracker=None,
                  landmark_source=None, keyframe_adjuster=None, disparity_offset: OffsetConfig | None = None,
-                 offset=None, **options):
+                 offset=None, rigidity=None, rigidity_observer=None, **options):
         if frontend != "klt":
             raise EstimatorError(f"klt-pnp: frontend {frontend!r} not supported; valid: klt (use orb-pnp for orb, sift)")
         super().__init__(rig, **options)
@@ -190,6 +193,9 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.offset = offset if offset is not None else DisparityOffset(offset_config, float(cam.K[0, 0]), rig.baseline)
         self._raw: dict = {}             # track id -> p_o (3,) as triangulated (before the offset's correction)
         self._applied_offset = 0.0
+        self.rigidity = RigidityConfig.from_option(rigidity, f"{self.name}.rigidity")
+        self._rigidity_rng = np.random.default_rng(self.rigidity.seed)   # partner draws
+        self.rigidity_observer = rigidity_observer
 
     def _initialize(self, left, right, timings) -> int:
         self.tracker.reset()
@@ -198,7 +204,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self._raw.clear()
         if self.keyframe_adjuster is not None:
             self.keyframe_adjuster.reset()
-        with _timer(timings, "detect"):
+        with timed(timings, "detect"):
             new_ids = self.tracker.detect(left)
         n = self._add_landmarks(left, right, new_ids, timings)
         self._next_keyframe = False
@@ -207,9 +213,9 @@ class KltPnpEstimator(_StereoPnpEstimator):
     def _add_landmarks(self, left, right, new_ids, timings) -> int:
         """Stereo-match the tracks ``new_ids``, triangulate, keep those with a landmark; returns the count added."""
         if self.keyframe_adjuster is not None:
-            with _timer(timings, "ba"):
+            with timed(timings, "ba"):
                 self._adjust_keyframe(left, right)
-        with _timer(timings, "stereo"):
+        with timed(timings, "stereo"):
             sel = np.isin(self.tracker.ids, new_ids)
             p_l = self.tracker.pts[sel]
             p_c0, ok = self.landmark_source(left, right, self.tracker.ids[sel], p_l)
@@ -256,7 +262,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         return p_c0, ok & ok_t
 
     def _step(self, t_ns, left, right, timings) -> FrameResult:
-        with _timer(timings, "track"):
+        with timed(timings, "track"):
             self.tracker.track(left)
             ids = self.tracker.ids
             self.landmarks = {int(i): self.landmarks[int(i)] for i in ids}
@@ -265,9 +271,12 @@ class KltPnpEstimator(_StereoPnpEstimator):
             return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
         p_o = np.array([self.landmarks[int(i)] for i in ids])
         T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
-        if T_o_c0 is not None and self.pnp_config.near_baselines > 0:
+        if T_o_c0 is not None and (self.pnp_config.near_baselines > 0 or self.rigidity.enabled):
             near = np.array([self.near[int(i)][0] for i in ids], bool)
             rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
+            if self.rigidity.enabled:
+                T_o_c0, inl = self._rigid(left, right, T_o_c0, inl, p_o, rays[0], timings)
+        if T_o_c0 is not None and self.pnp_config.near_baselines > 0:
             T_o_c0, inl = self._near_far(T_o_c0, inl, p_o, near, rays, timings)
         n_inl = int(inl.sum())
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
@@ -275,7 +284,7 @@ class KltPnpEstimator(_StereoPnpEstimator):
         self.tracker.keep(inl)
         status, msg = "ok", ""
         if self._next_keyframe:
-            with _timer(timings, "detect"):
+            with timed(timings, "detect"):
                 new_ids = self.tracker.detect(left)
             n_new = self._add_landmarks(left, right, new_ids, timings)
             status, msg = "keyframe", f"{n_new} new landmarks"
@@ -300,11 +309,36 @@ class KltPnpEstimator(_StereoPnpEstimator):
             self._applied_offset = self.offset.delta_px
             self.landmarks = {i: self.offset.correct(i, self._raw[i]) for i in self.landmarks}
 
+    def _rigid(self, left, right, T_o_c0, inl, p_o, c_o, timings) -> tuple:
+        """The rigidity test (:mod:`vo.estimators.rigidity`) on the PnP inliers: birth positions ``p_o`` (N,3)
+        seen from their keyframes' centres ``c_o`` (N,3) against this frame's stereo points; flagged inliers
+        become outliers (dropped from the tracks) and the pose is refined on the rest. Inliers without a stereo
+        match this frame stay untested."""
+        cam, c = self.rig.cameras[0], self.pnp_config
+        with timed(timings, "stereo"):
+            idx = np.flatnonzero(inl)
+            p_l = self.tracker.pts[idx]
+            p_r, ok = stereo_klt(left, right, p_l, self.rig, self.klt_config, self.tracker.pyramid)
+            p_c, ok_t = triangulate(self.rig, p_l, p_r, c.max_depth, c.max_triangulation_px)
+            sel = idx[ok & ok_t]
+            keep = rigid_subset(p_o[sel], c_o[sel], p_c[ok & ok_t], np.zeros(3), float(cam.K[0, 0]),
+                                self.rig.baseline, self.rigidity, self._rigidity_rng)
+        if self.rigidity_observer is not None:
+            self.rigidity_observer(self.tracker.pts[sel].copy(), keep.copy())
+        drop = sel[~keep]
+        inl_kept = inl.copy()
+        inl_kept[drop] = False
+        if len(drop) == 0 or inl_kept.sum() < c.min_pnp_inliers:
+            return T_o_c0, inl
+        with timed(timings, "pnp"):
+            T_c0_o = refine_pose(inv_T(T_o_c0), p_o[inl_kept], undistort_px(self.tracker.pts[inl_kept], cam), cam.K)
+        return inv_T(T_c0_o), inl_kept
+
     def _near_far(self, T_o_c0, inl, p_o, near, rays, timings) -> tuple:
         """The close/far split's pose and inliers (:mod:`vo.estimators.near_far`) where its gate says the
         calibration is inconsistent (near landmarks that only the joint fit, pulled by the far ones, rejects
         then stay tracks), else the joint fit's: with a consistent calibration the estimator is unchanged."""
-        with _timer(timings, "pnp"):
+        with timed(timings, "pnp"):
             cam = self.rig.cameras[0]
             T_c0_o = inv_T(T_o_c0)
             T_c0_o_split, inl_split = refine_on_near(T_c0_o, inl, near, rays, p_o,
@@ -315,62 +349,3 @@ class KltPnpEstimator(_StereoPnpEstimator):
             use = self._gate.use_split(float(np.linalg.norm(T_o_c0[:3, 3] - c_prev)),
                                        float(np.linalg.norm(T_split[:3, 3] - c_prev)))
         return (T_split, inl_split) if use else (T_o_c0, inl)
-
-
-class OrbPnpEstimator(_StereoPnpEstimator):
-    """Descriptor stereo VO (seed 003's baseline). Options: ``frontend`` "orb" | "sift",
-    ``descriptor_config`` (:class:`DescriptorConfig`), ``klt_config`` (grid / keyframe thresholds), ``pnp_config``,
-    ``keyframe_criterion``: "inliers" (default; seed 003 section 6: the descriptor pipeline selects keyframes by
-    key point number, i.e. PnP inliers < ``min_inliers``) or "grid" (also the empty-cell fraction; descriptor
-    key points cluster on strong corners, so this makes nearly every frame a keyframe)."""
-
-    name = "orb-pnp"
-
-    def __init__(self, rig, frontend: str = "orb", descriptor_config: DescriptorConfig | None = None,
-                 klt_config: KltConfig | None = None, keyframe_criterion: str = "inliers", **options):
-        if frontend not in ("orb", "sift"):
-            raise EstimatorError(f"orb-pnp: frontend {frontend!r} not supported; valid: orb, sift")
-        if keyframe_criterion not in ("inliers", "grid"):
-            raise EstimatorError(f"orb-pnp: keyframe_criterion {keyframe_criterion!r} unknown; valid: inliers, grid")
-        self.keyframe_criterion = keyframe_criterion
-        super().__init__(rig, **options)
-        self.frontend = frontend
-        self.desc_config = descriptor_config or DescriptorConfig()
-        self.klt_config = KltConfig.from_option(klt_config, f"{self.name}.klt_config")
-        cam = rig.cameras[0]
-        self.grid = Grid(cam.width, cam.height, self.klt_config.cell)
-        self.kf_p_o = np.zeros((0, 3))
-        self.kf_desc = None
-
-    def _initialize(self, left, right, timings, left_features=None) -> int:
-        with _timer(timings, "detect"):
-            p_l, d_l = left_features or detect_and_describe(left, self.frontend, self.desc_config)
-            p_r, d_r = detect_and_describe(right, self.frontend, self.desc_config)
-        with _timer(timings, "stereo"):
-            ij = match_descriptors(d_l, d_r, self.frontend, self.desc_config)
-            pl, pr = p_l[ij[:, 0]], p_r[ij[:, 1]]
-            ok = epipolar_mask(self.rig, pl, pr, self.desc_config.epipolar_threshold_px) if len(ij) else np.zeros(0, bool)
-            p_o, ok_t = self._triangulate_o(pl, pr)
-            ok &= ok_t
-            self.kf_p_o, self.kf_desc = p_o[ok], d_l[ij[ok, 0]]
-        return int(ok.sum())
-
-    def _step(self, t_ns, left, right, timings) -> FrameResult:
-        with _timer(timings, "detect"):
-            p_l, d_l = detect_and_describe(left, self.frontend, self.desc_config)
-        with _timer(timings, "track"):
-            ij = match_descriptors(self.kf_desc, d_l, self.frontend, self.desc_config)
-        n_feat = len(ij)
-        if n_feat < self.pnp_config.min_features:
-            return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
-        T_o_c0, inl = self._pnp(self.kf_p_o[ij[:, 0]], p_l[ij[:, 1]], timings)
-        n_inl = int(inl.sum())
-        if T_o_c0 is None or not self._accept_pose(T_o_c0):
-            return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} matched")
-        empty = self.grid.empty_fraction(p_l[ij[inl, 1]]) if self.keyframe_criterion == "grid" else 0.0
-        if not is_keyframe(empty, n_inl, self.klt_config):
-            return self._result(t_ns, "ok", n_feat, n_inl)
-        n_new = self._initialize(left, right, timings, left_features=(p_l, d_l))
-        if n_new < self.pnp_config.min_init_landmarks:
-            self._need_init = True
-        return self._result(t_ns, "keyframe", n_feat, n_inl, f"{n_new} landmarks")

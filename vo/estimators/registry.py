@@ -14,7 +14,7 @@ from vo.estimators.external import ExternalCommand, ExternalCommandError  # noqa
 ESTIMATORS = {
     "rop": "vo.rop.estimator:RopEstimator",
     "klt-pnp": "vo.estimators.pnp:KltPnpEstimator",
-    "orb-pnp": "vo.estimators.pnp:OrbPnpEstimator",
+    "orb-pnp": "vo.estimators.orb_pnp:OrbPnpEstimator",
     "vins": "vo.vins.estimator:VinsEstimator",
 }
 # names that are a registered estimator with fixed options: seed 002's VINS configurations are ``vins`` with its

@@ -52,6 +52,7 @@ from rigs.records import StereoFrame
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
 from vo.estimators.pnp_core import PnpConfig
+from vo.estimators.rigidity import RigidityConfig, rigid_subset
 from rigs.image import to_gray
 from vo.rop import matching
 from vo.rop.adjustment import AdjustmentConfig, adjust_rops
@@ -66,6 +67,7 @@ from vo.rop.rotation_only import rotation_only
 from vo.rop.tracks import KltFourView
 from vo.rop.uncertainty import Step, UncertaintyModel
 from vo.rop.weak_frame import rotation_miss, weak_frame_pose
+from vo.frontend.stereo import triangulate
 
 MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MIN_COAST_PNP_INLIERS = 20  # PnP inliers of the track filter's motion for it to give a failed frame's pose
@@ -79,12 +81,15 @@ class RopEstimator(Estimator):
     the four-view tracker of the KLT front-end (``keyframe`` / ``track`` / ``normalize`` / ``view`` of
     :class:`~vo.rop.tracks.KltFourView`, the default built from ``klt_config`` and ``klt_refine``), e.g. a
     validation's exact tracks; ``step_observer(pairs, R_1_3, priors)`` is called with the inputs of each
-    frame's ROP solve (studies: what a step was solved from)."""
+    frame's ROP solve (studies: what a step was solved from); ``rigidity``
+    (:class:`~vo.estimators.rigidity.RigidityConfig`, or its fields) the distance-invariance test across frames
+    (seed 001 eq. 2) on the four-view tracks the track filter kept: keyframe stereo points against the current
+    frame's; flagged tracks leave the view."""
 
     name = "rop"
 
     def __init__(self, rig, config: RopConfig | None = None, uncertainty: UncertaintyModel | None = None,
-                 tracker=None, step_observer=None, **options):
+                 tracker=None, step_observer=None, rigidity=None, **options):
         super().__init__(rig, **options)
         if config is not None and options:
             raise EstimatorError(f"rop: give either config or options, not both (options {sorted(options)})")
@@ -103,6 +108,8 @@ class RopEstimator(Estimator):
         self.klt = (tracker if tracker is not None else KltFourView(rig, c.klt_config, c.klt_refine)
                     ) if c.frontend == "klt" else None
         self.step_observer = step_observer
+        self.rigidity = RigidityConfig.from_option(rigidity, "rop.rigidity")
+        self._rigidity_rng = np.random.default_rng(self.rigidity.seed)   # partner draws
         self.track_filter_config = PnpConfig(ransac_reproj_px=c.moving_reproj_px, min_model_fraction=c.moving_min_fraction)
         self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
         self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
@@ -127,7 +134,7 @@ class RopEstimator(Estimator):
         """-> ({pair: (x_i, x_j)}, usable features, median keyframe disparity (px), FourView or None)."""
         if self.klt is not None:
             v = self.klt.track(left, right, timings)
-            v = self._static_tracks(v, timings)
+            v = self._rigid_tracks(self._static_tracks(v, timings), timings)
             disp = np.median(np.linalg.norm(v.x1 - v.x2, axis=1)) * self.focal if len(v) else 0.0
             return {p: v.pair(p) for p in PAIRS}, int(v.ok4.sum()), float(disp), v
         t0 = time.perf_counter()
@@ -152,6 +159,25 @@ class RopEstimator(Estimator):
         self._filter = f = filter_tracks(v, self.rig, self._prior(), self.track_filter_config)
         if f.keep is not None:          # fewer than min_matches left: a failed frame (coasts), not the car's motion
             v = self.klt.view = v.subset(f.keep)
+        timings["track"] += (time.perf_counter() - t0) * 1e3
+        return v
+
+    def _rigid_tracks(self, v, timings):
+        """With ``rigidity.enabled``: drop the four-view tracks whose keyframe and current stereo points break the
+        distance invariance with most partners (:mod:`vo.estimators.rigidity`); the kept view replaces the
+        tracker's. Tracks without a current right point, or that do not triangulate, stay untested."""
+        if not self.rigidity.enabled or len(v) == 0:
+            return v
+        t0 = time.perf_counter()
+        c = self.track_filter_config
+        p_a, ok_a = triangulate(self.rig, v.p1, v.p2, c.max_depth, c.max_triangulation_px)
+        p_b, ok_b = triangulate(self.rig, v.p3, v.p4, c.max_depth, c.max_triangulation_px)
+        sel = np.flatnonzero(v.ok4 & ok_a & ok_b)
+        keep = np.ones(len(v), bool)
+        keep[sel] = rigid_subset(p_a[sel], np.zeros(3), p_b[sel], np.zeros(3), self.focal, self.baseline,
+                                 self.rigidity, self._rigidity_rng)
+        if not keep.all():
+            v = self.klt.view = v.subset(keep)
         timings["track"] += (time.perf_counter() - t0) * 1e3
         return v
 
