@@ -1,32 +1,12 @@
 """LK accuracy, forward-backward rejection, epipolar check, illumination-invariant LK."""
 import cv2
 import numpy as np
-from scipy.ndimage import fourier_shift
 
-from rigs.model import Camera, Rig
 from vo.frontend.correspondences import correspondences
 from vo.frontend.klt import KltConfig, KltTracker, lk, track_fb
 from vo.frontend.lk_invariant import lk_illumination_invariant
 from vo.frontend.stereo import epipolar_mask, triangulate
-from rigs.geometry import make_T
-
-R_B_C = np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])
-
-
-def texture(seed=0, h=240, w=320, lo=20, hi=235, blur=2.0):
-    rng = np.random.default_rng(seed)
-    t = cv2.GaussianBlur(rng.random((h, w)), (0, 0), blur)
-    return lo + (hi - lo) * (t - t.min()) / (t.max() - t.min())
-
-
-def shifted(img_f, du, dv):
-    """Exact (band-limited, periodic) sub-pixel shift: out(x + du, y + dv) = img(x, y)."""
-    return np.real(np.fft.ifft2(fourier_shift(np.fft.fft2(img_f), (dv, du))))
-
-
-def grid_points(h, w, step=40, margin=40):
-    return np.array([[u, v] for v in range(margin, h - margin + 1, step) for u in range(margin, w - margin + 1, step)], float)
-
+from helpers.stereo_pair import grid_points, shifted, stereo_rig, texture
 
 def test_lk_recovers_subpixel_translation():
     f0 = texture(1)
@@ -53,12 +33,6 @@ def test_forward_backward_rejects_changed_region():
     assert np.abs(p1[left] - p0[left] - [2, 1]).max() < 0.05
     # new random content: LK converges somewhere but the round trip does not come back within 1 px
     assert ok[right].mean() < 0.3, ok[right].mean()
-
-
-def stereo_rig(width=320, height=240):
-    cams = tuple(Camera(n, width, height, 300, 300, (width - 1) / 2, (height - 1) / 2, T_b_c=make_T(R_B_C, [0, y, 1]))
-                 for n, y in (("cam0", 0.1), ("cam1", -0.1)))
-    return Rig("test", cams)
 
 
 def test_epipolar_check_rejects_off_line_point():
