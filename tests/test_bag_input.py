@@ -80,6 +80,11 @@ def test_run_on_the_bag_gives_the_folders_trajectory(campus_short, tmp_path):
         assert r.returncode == 0, r.stderr
     a, b = read_tum(tmp_path / "folder/trajectory_tum.txt"), read_tum(tmp_path / "bag/trajectory_tum.txt")
     assert len(a) == len(b) == 40 and np.array_equal(a.t_ns, b.t_ns)
-    # The bag carries the extrinsics as quaternions (T_b_c back within 2e-16); the solvers' iterations turn
-    # that into at most 6e-8 m / 6e-8 of a rotation entry over these 40 frames (measured): 1e-6 bounds it.
-    np.testing.assert_allclose(b.T, a.T, rtol=0, atol=1e-6)
+    # The bag carries the extrinsics as quaternions (T_b_c back within 2e-16). Where no discrete decision of
+    # the estimator flips, the solvers' iterations turn that into at most 6e-8 m / 6e-8 of a rotation entry over
+    # these 40 frames; a flipped decision (one track more or fewer in a RANSAC consensus, measured on the
+    # dataset-version 0.4.0 images from frame 23 on, with this and the previous klt-pnp alike) moves a pose by
+    # a fraction of its per-frame noise: 5e-5 m / 2e-4 measured. 1e-3 bounds that; data read wrongly (another
+    # camera's distortion, a swapped pair, a shifted image) moves the poses by centimetres. Timestamps: exact.
+    np.testing.assert_allclose(b.T[:, :3, :3], a.T[:, :3, :3], rtol=0, atol=1e-3)
+    np.testing.assert_allclose(b.T[:, :3, 3], a.T[:, :3, 3], rtol=0, atol=1e-3)
