@@ -22,7 +22,7 @@ from scipy.optimize import least_squares
 
 from rigs.geometry import make_T, transform_points
 from rigs.geometry.pinhole import project
-from vo.estimators.pnp_core import PnpConfig, _residuals
+from vo.estimators.pnp_core import PnpConfig, reprojection_errors
 
 
 def _far_residuals(T_c0_o: np.ndarray, origin_o: np.ndarray, dir_o: np.ndarray, bearing: np.ndarray, f: float):
@@ -67,7 +67,7 @@ def refine_on_near(T_c0_o: np.ndarray, inl: np.ndarray, near: np.ndarray | None,
 
     T = T_c0_o
     for gate in (2.0 * config.ransac_reproj_px, config.ransac_reproj_px):
-        sel_n = near & (_residuals(T, p_o, x, K) < gate)
+        sel_n = near & (reprojection_errors(T, p_o, x, K) < gate)
         if sel_n.sum() < config.min_near_inliers:
             return T_c0_o, inl
         pn, xn = p_o[sel_n], x[sel_n]
@@ -83,7 +83,7 @@ def refine_on_near(T_c0_o: np.ndarray, inl: np.ndarray, near: np.ndarray | None,
             return T_c0_o, inl
         if not np.all(np.isfinite(T)):
             return T_c0_o, inl
-    return T, sel_f | (near & (_residuals(T, p_o, x, K) < config.ransac_reproj_px))
+    return T, sel_f | (near & (reprojection_errors(T, p_o, x, K) < config.ransac_reproj_px))
 
 
 class NearFarGate:

@@ -101,7 +101,7 @@ def _fit(obj: np.ndarray, img: np.ndarray, K: np.ndarray, sel: np.ndarray, confi
     return T_c0_o if np.all(np.isfinite(T_c0_o)) else None
 
 
-def _residuals(T_c0_o: np.ndarray, p_o: np.ndarray, x: np.ndarray, K: np.ndarray) -> np.ndarray:
+def reprojection_errors(T_c0_o: np.ndarray, p_o: np.ndarray, x: np.ndarray, K: np.ndarray) -> np.ndarray:
     """(N,) reprojection error in px (inf behind the camera)."""
     p_c = transform_points(T_c0_o, p_o)
     err = np.full(len(p_o), np.inf)
@@ -112,7 +112,7 @@ def _residuals(T_c0_o: np.ndarray, p_o: np.ndarray, x: np.ndarray, K: np.ndarray
 
 def _inliers(T_c0_o: np.ndarray, p_o: np.ndarray, x: np.ndarray, K: np.ndarray, thr: float) -> np.ndarray:
     """(N,) bool: in front of the camera and reprojected within ``thr`` px."""
-    return _residuals(T_c0_o, p_o, x, K) < thr
+    return reprojection_errors(T_c0_o, p_o, x, K) < thr
 
 
 def _exclusive_refit(chosen: tuple, others: list, p_o, x, K, config: PnpConfig) -> tuple:
@@ -120,10 +120,10 @@ def _exclusive_refit(chosen: tuple, others: list, p_o, x, K, config: PnpConfig) 
     of a moving car that also fall inside the chosen motion's gate (near the focus of expansion) would
     otherwise pull the LM fit. Returns ``(T_c0_o, inliers)``; the chosen fit when too few points remain."""
     T, inl = chosen
-    err = _residuals(T, p_o, x, K)
+    err = reprojection_errors(T, p_o, x, K)
     own = inl.copy()
     for T_other, inl_other in others:
-        own &= ~(inl_other & (_residuals(T_other, p_o, x, K) < err))
+        own &= ~(inl_other & (reprojection_errors(T_other, p_o, x, K) < err))
     if own.sum() < max(6, config.min_pnp_inliers):
         return chosen
     obj = np.ascontiguousarray(p_o[own], dtype=np.float64).reshape(-1, 1, 3)
@@ -195,8 +195,8 @@ def separated(a: tuple, b: tuple, p_o, x, K, config: PnpConfig, need: float) -> 
     ``urban-dynamic`` seed 1 frame."""
     (T_a, inl_a), (T_b, inl_b) = a, b
     thr = config.separation_px
-    return bool(np.sum(inl_b & (_residuals(T_a, p_o, x, K) > thr)) >= need
-                or np.sum(inl_a & (_residuals(T_b, p_o, x, K) > thr)) >= need)
+    return bool(np.sum(inl_b & (reprojection_errors(T_a, p_o, x, K) > thr)) >= need
+                or np.sum(inl_a & (reprojection_errors(T_b, p_o, x, K) > thr)) >= need)
 
 
 def choose_motion(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: PnpConfig,

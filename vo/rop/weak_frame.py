@@ -2,10 +2,10 @@
 
 Our extension (seed 000 has no failure policy). When a frame has too few four-view tracks for the
 essential matrices (before a texture-poor wall, a fast turn) and the track filter
-(:mod:`vo.rop.moving`) had too few triangulated tracks for its own PnP fit, the estimator used to
-take the rotation of a rotation-only fit (:mod:`vo.rop.rotation_only`) of the left tracks. That fit
-explains the translational flow as rotation: with 11-19 tracks bunched in one part of the image
-it was 0.3-0.5 deg off in a fast indoor turn and 2.0 deg off on the campus route (15 tracks), errors
+(:mod:`vo.rop.moving`) had too few triangulated tracks for its own PnP fit, the remaining fallback is the
+rotation of a rotation-only fit (:mod:`vo.rop.rotation_only`) of the left tracks. That fit explains the
+translational flow as rotation: with 11-19 tracks bunched in one part of the image it is 0.3-0.5 deg off in
+a fast indoor turn and 2.0 deg off on the campus route (15 tracks), errors
 no covariance of the fit reveals (it is a model error, not noise).
 
 Here the keyframe's stereo tracks ``(p1, p2)`` are triangulated and their current left points
@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 
 from rigs.geometry import inv_T, make_T, rotation_angle
-from rigs.geometry.pinhole import project as project_pinhole
+from vo.estimators.pnp_core import reprojection_errors
 from vo.frontend.stereo import triangulate, undistort_px
 
 MIN_POINTS = 8                 # PnP inliers needed (a 6-dof fit with redundancy)
@@ -44,14 +44,6 @@ class WeakFramePose:
     rotation_sigma_deg: float
     ok: bool
     why: str = ""
-
-
-def _residuals(T_c_kf: np.ndarray, p_kf: np.ndarray, x_px: np.ndarray, K: np.ndarray) -> np.ndarray:
-    p_c = p_kf @ T_c_kf[:3, :3].T + T_c_kf[:3, 3]
-    err = np.full(len(p_kf), np.inf)
-    front = p_c[:, 2] > 1e-6
-    err[front] = np.linalg.norm(project_pinhole(p_c[front], K) - x_px[front], axis=1)
-    return err
 
 
 def weak_frame_pose(view, rig, T_kf_c_prior: np.ndarray, reproj_px: float,
@@ -83,7 +75,7 @@ def weak_frame_pose(view, rig, T_kf_c_prior: np.ndarray, reproj_px: float,
     T_c_kf = make_T(cv2.Rodrigues(rvec)[0], tvec.reshape(3))
     if not np.all(np.isfinite(T_c_kf)):
         return None
-    res = _residuals(T_c_kf, obj, img, K)
+    res = reprojection_errors(T_c_kf, obj, img, K)
     inl = np.flatnonzero(res < reproj_px)
     if len(inl) < MIN_POINTS:
         return None
