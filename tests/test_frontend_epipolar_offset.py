@@ -7,7 +7,8 @@ its calibrated epipolar line, as under a rectification error of ``dy``.
 import numpy as np
 import pytest
 
-from vo.frontend.epipolar_offset import estimate_row_offset, offset_epipolar_mask, signed_epipolar_distances
+from vo.frontend.epipolar_offset import estimate_row_offset, offset_epipolar_mask
+from vo.frontend.stereo import signed_epipolar_distances
 from vo.frontend.klt import KltConfig, stereo_klt
 from vo.frontend.stereo import epipolar_distances, fundamental_from_rig
 from helpers.stereo_pair import grid_points, shifted, stereo_rig, texture

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vo.frontend.stereo import fundamental_from_rig, undistort_px
+from vo.frontend.stereo import fundamental_from_rig, signed_epipolar_distances, undistort_px
 
 MAD_TO_SIGMA = 1.4826      # Gaussian std / median absolute deviation
 
@@ -42,20 +42,6 @@ class RowOffset:
     spread: float
     n: int
     used: bool
-
-
-def signed_epipolar_distances(F: np.ndarray, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
-    """(N,) signed symmetric epipolar distance (px) of undistorted pixel pairs ``x0`` (left), ``x1``
-    (right): ``x1^T F x0`` over the smaller of the two lines' normal lengths, so that its magnitude is
-    the larger of the two point-to-line distances (:func:`vo.frontend.stereo.epipolar_distances`)."""
-    if len(x0) == 0:
-        return np.zeros(0)
-    h0 = np.column_stack([x0, np.ones(len(x0))])
-    h1 = np.column_stack([x1, np.ones(len(x1))])
-    l1, l0 = h0 @ F.T, h1 @ F
-    num = np.sum(h1 * l1, axis=1)
-    norm = np.minimum(np.hypot(l1[:, 0], l1[:, 1]), np.hypot(l0[:, 0], l0[:, 1]))
-    return num / np.maximum(norm, 1e-12)
 
 
 def estimate_row_offset(r: np.ndarray, min_matches: int = 10, max_offset_px: float = 3.0,

@@ -40,18 +40,23 @@ def fundamental_from_rig(rig) -> np.ndarray:
     return np.linalg.inv(K1).T @ E @ np.linalg.inv(K0)
 
 
-def epipolar_distances(F: np.ndarray, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
-    """(N,) symmetric epipolar distance in px: max of (x1 to line F x0) and (x0 to line F^T x1)."""
+def signed_epipolar_distances(F: np.ndarray, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+    """(N,) signed symmetric epipolar distance (px) of undistorted pixel pairs ``x0`` (left), ``x1``
+    (right): ``x1^T F x0`` over the smaller of the two lines' normal lengths, so that its magnitude is
+    the larger of the two point-to-line distances (:func:`epipolar_distances`)."""
     if len(x0) == 0:
         return np.zeros(0)
     h0 = np.column_stack([x0, np.ones(len(x0))])
     h1 = np.column_stack([x1, np.ones(len(x1))])
-    l1 = h0 @ F.T          # lines in the right image
-    l0 = h1 @ F            # lines in the left image
-    num = np.abs(np.sum(h1 * l1, axis=1))
-    d1 = num / np.maximum(np.hypot(l1[:, 0], l1[:, 1]), 1e-12)
-    d0 = num / np.maximum(np.hypot(l0[:, 0], l0[:, 1]), 1e-12)
-    return np.maximum(d0, d1)
+    l1, l0 = h0 @ F.T, h1 @ F
+    num = np.sum(h1 * l1, axis=1)
+    norm = np.minimum(np.hypot(l1[:, 0], l1[:, 1]), np.hypot(l0[:, 0], l0[:, 1]))
+    return num / np.maximum(norm, 1e-12)
+
+
+def epipolar_distances(F: np.ndarray, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+    """(N,) symmetric epipolar distance in px: max of (x1 to line F x0) and (x0 to line F^T x1)."""
+    return np.abs(signed_epipolar_distances(F, x0, x1))
 
 
 def epipolar_mask(rig, p_left_px: np.ndarray, p_right_px: np.ndarray, threshold_px: float = 1.0) -> np.ndarray:
