@@ -194,7 +194,10 @@ class DisparityOffset:
             return None
         if not (sol.success and np.isfinite(sol.x[0]) and np.isfinite(var) and var > 0):
             return None
-        return float(sol.x[0]), var
+        # To 9 significant digits: the fit's last bits depend on the memory alignment of its arrays (the BLAS
+        # and numpy reductions take aligned and unaligned paths), which differs from process to process; the
+        # estimate feeds discrete decisions, so those bits would make two runs of one dataset differ.
+        return float(f"{sol.x[0]:.9g}"), float(f"{var:.9g}")
 
     def _update(self) -> None:
         cfg = self.config
