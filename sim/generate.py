@@ -260,7 +260,7 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
     timer = timer or NO_TIMER
     n = len(setup.frame_t_ns)
     devices, ids_written = [], not c.segmentation
-    t0, first_s = time.perf_counter(), 0.0
+    t0, first_s, first_worker_s = time.perf_counter(), 0.0, 0.0
     png = PngOptions.of(c.render) if c.format == "euroc" else None    # EuRoC images: encoded by the workers
     with ChunkSource(c, workers, resolve, scheduler, egl_devices, png) as source, \
             FrameLoop(n, "render", threads, progress, start, timer) as loop:
@@ -277,6 +277,10 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
                 first_s = time.perf_counter() - t0
                 timer.add("first chunk", first_s)
                 timer.add("first chunk frames", len(chunk.frames))
+            if not chunk.here and not first_worker_s:
+                first_worker_s = time.perf_counter() - t0
+                timer.add("first worker chunk", first_worker_s)
+            timer.add("frames here", len(chunk.frames) if chunk.here else 0)
             for name, seconds in chunk.stage_s.items():
                 timer.add(name, seconds)
             timer.add_max("worker peak MB", chunk.peak_rss_mb)

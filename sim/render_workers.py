@@ -16,6 +16,9 @@ rolling shutter, vignetting, shot + read noise) is per frame and splits.
 Start-up: the local processes do not each build the scene. :class:`ChunkSource` builds the world once,
 here, and saves it (:mod:`sim.world_handoff`: MuJoCo's binary model and the distortion maps); each
 process loads it for the chunks of the same configuration and creates only its GL context. The processes
+are started while the world is built (they resolve the config meanwhile and wait for the world), and this
+process renders chunks itself with the world it built, from the first frame on, whenever the next chunk
+in order has not come in: the start-up is off the critical path (:class:`ChunkSource`). The processes
 are forked from a ``forkserver`` process that has imported the generator once (a fresh interpreter: no GL
 context or thread of this process is inherited), so they do not import it each either. The forkserver
 lives as long as this process and serves its later runs too; its environment is this process's at its
@@ -30,6 +33,7 @@ it (:func:`device_label`); ``metadata.yaml`` records them under ``rendering``.
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 import resource
 import shutil
@@ -37,6 +41,7 @@ import tempfile
 import threading
 import time
 from collections import deque
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, field
 
 from sim.errors import SimError
@@ -44,7 +49,7 @@ from sim.rng import indexed_stream
 from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
 from sim.stage_timer import StageTimer
 from sim.world import build_world
-from sim.world_handoff import load_world, save_world
+from sim.world_handoff import WorldFiles, load_world, save_world
 from sim.writers.common import EncodedPng, encode_png
 
 CHUNK_FRAMES = 16           # frames per task: the unit of progress, of scheduling and of memory in flight
@@ -63,6 +68,7 @@ class RenderedChunk:
     device: str
     stage_s: dict = field(default_factory=dict)
     peak_rss_mb: float = 0.0                   # the worker process's peak resident memory so far
+    here: bool = False                         # rendered by the writing process (ChunkSource), not a worker
 
 
 def check_splittable(config) -> None:
@@ -89,17 +95,22 @@ _HANDOFF: dict = {}                 # this worker process's saved world (sim.wor
 
 
 class _WorkerState:
-    """A worker's scene, trajectory and camera for one config (built on first use, kept for the next chunk)."""
+    """A worker's scene, trajectory and camera for one config (built on first use, kept for the next chunk).
+    ``world`` / ``setup``: the writing process's own (it renders chunks too, :meth:`ChunkSource.chunks`);
+    None: resolved here and the world loaded from the handoff, once the writing process has saved it.
+    ``startup``: the stage name of this state's making."""
 
-    def __init__(self, config, resolve):
+    def __init__(self, config, resolve, world=None, setup=None, startup: str = "start-up"):
         t0, c0 = time.perf_counter(), time.process_time()
         self.timer = StageTimer()
         self.key = config.config_hash()
-        self.setup = setup = resolve(config)
+        self.setup = setup = setup if setup is not None else resolve(config)
         c = config
         self.T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
         files = _HANDOFF.get("files")
-        world = load_world(files, setup.scene, setup.rig) if files is not None and files.key == self.key else None
+        if world is None and files is not None and files.key == self.key:
+            _wait_for_world()
+            world = load_world(files, setup.scene, setup.rig)
         self.camera = StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth,
                                    segmentation=c.segmentation, supersample=setup.supersample, rgb=c.rgb,
                                    timer=self.timer, world=world)
@@ -107,27 +118,43 @@ class _WorkerState:
                                     setup.image_noise, noisy=not c.ideal) if c.camera.image_effects else None
         self.geom_names = self.camera.geom_names() if c.segmentation else []
         self.device = device_label(self.camera.gl_renderer)
-        self.timer.add("start-up", time.perf_counter() - t0)
-        self.timer.add("start-up CPU", time.process_time() - c0)
+        self.reported: dict = {}               # stage totals already returned with a chunk
+        self.timer.add(startup, time.perf_counter() - t0)
+        self.timer.add(startup + " CPU", time.process_time() - c0)
+
+    def unreported(self) -> dict:
+        """Stage seconds since the last call (a chunk carries its own, and the start-up that preceded it)."""
+        now = self.timer.totals()
+        out = {name: sec - self.reported.get(name, 0.0) for name, sec in now.items()}
+        self.reported = now
+        return out
 
     def close(self) -> None:
         self.camera.close()
 
 
-def render_chunk(config, a: int, b: int, resolve, png=None) -> RenderedChunk:
-    """Frames ``a .. b-1`` of ``config`` with noise and effects (module docstring); any process, any order.
-    ``resolve``: config -> setup (scene, rig, trajectory, frame times): :func:`sim.generate.resolve`, passed in
-    (pickled by reference) so that this module does not import the generator that imports it. With ``png``
-    (:class:`sim.writers.common.PngOptions`) the images come back PNG-encoded (:class:`EncodedPng`, as the
-    EuRoC writer encodes them), so that encoding is spread over the processes too."""
-    check_splittable(config)
-    state, before = getattr(_LOCAL, "state", None), {}
+def _wait_for_world() -> None:
+    """Block until the writing process has saved the world (its ``ready`` event), checking that it lives."""
+    ready, pid = _HANDOFF.get("ready"), _HANDOFF.get("parent")
+    while ready is not None and not ready.wait(1.0):
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            raise SimError("render worker: the writing process is gone before its world was saved") from None
+
+
+def _state_for(config, resolve) -> _WorkerState:
+    """This thread's :class:`_WorkerState` for ``config`` (made, or remade for another config, here)."""
+    state = getattr(_LOCAL, "state", None)
     if state is None or state.key != config.config_hash():
         if state is not None:
             state.close()
-        state = _LOCAL.state = _WorkerState(config, resolve)     # its start-up counts in this chunk
-    else:
-        before = state.timer.totals()
+        state = _LOCAL.state = _WorkerState(config, resolve)     # its start-up counts in the next chunk
+    return state
+
+
+def _render_range(state: _WorkerState, config, a: int, b: int, png=None) -> RenderedChunk:
+    """Frames ``a .. b-1`` of ``config`` rendered by ``state``, noise and effects applied (:func:`render_chunk`)."""
     s, frames, timer = state.setup, [], state.timer
     pose_at = lambda t_ns: s.trajectory.states(t_ns).T_w_b  # noqa: E731
     for k in range(a, b):
@@ -146,41 +173,87 @@ def render_chunk(config, a: int, b: int, resolve, png=None) -> RenderedChunk:
             with timer.stage("encode"):
                 images = [EncodedPng(encode_png(img, True, png)) for img in images]
         frames.append((images, depth, seg))
-    stage_s = {name: sec - before.get(name, 0.0) for name, sec in timer.totals().items()}
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    return RenderedChunk(a, frames, state.geom_names, state.device, stage_s, peak)
+    return RenderedChunk(a, frames, state.geom_names, state.device, state.unreported(), peak)
 
 
-def _init_process(devices, counter, world_files=None) -> None:
-    """Worker process start: keep ``world_files`` (the world saved by :class:`ChunkSource`, or None), take the
-    next EGL device of ``devices`` (if any) before any GL is touched; OpenCV
+def render_chunk(config, a: int, b: int, resolve, png=None) -> RenderedChunk:
+    """Frames ``a .. b-1`` of ``config`` with noise and effects (module docstring); any process, any order.
+    ``resolve``: config -> setup (scene, rig, trajectory, frame times): :func:`sim.generate.resolve`, passed in
+    (pickled by reference) so that this module does not import the generator that imports it. With ``png``
+    (:class:`sim.writers.common.PngOptions`) the images come back PNG-encoded (:class:`EncodedPng`, as the
+    EuRoC writer encodes them), so that encoding is spread over the processes too."""
+    check_splittable(config)
+    return _render_range(_state_for(config, resolve), config, a, b, png)
+
+
+def _claim(counter) -> int:
+    """The next unclaimed chunk index of ``counter`` (shared by the writing process and its workers)."""
+    with counter.get_lock():
+        j = counter.value
+        counter.value += 1
+    return j
+
+
+def _prepare(config, resolve) -> None:
+    """A worker's start-up task, queued while the writing process builds the world: resolve the config, then
+    (once the world is saved) load it and make the GL context."""
+    _state_for(config, resolve)
+
+
+def render_claimed(config, ranges, resolve, png=None) -> RenderedChunk:
+    """The next unclaimed range of ``ranges`` (shared counter, :func:`_claim`) rendered as :func:`render_chunk`;
+    a chunk with no frames (``start = -1``, its stage seconds only) when every range is claimed already."""
+    state = _state_for(config, resolve)
+    j = _claim(_HANDOFF["claims"])
+    if j >= len(ranges):
+        return RenderedChunk(-1, [], state.geom_names, state.device, state.unreported())
+    return _render_range(state, config, *ranges[j], png)
+
+
+def _init_process(devices, counter, world_files=None, claims=None, ready=None, parent=None) -> None:
+    """Worker process start: keep ``world_files`` (where :class:`ChunkSource` saves the world, or None), the
+    shared chunk ``claims`` counter, the ``ready`` event (set once the world is saved) and the writing
+    process's id ``parent``; take the next EGL device of ``devices`` (if any) before any GL is touched; OpenCV
     on one thread, since the processes already share out the cores. (In one process the pipeline leaves
     OpenCV's pool alone: the render thread's lens-distortion remap uses it; capping it to one thread took the
     render stage from 3.1 to 9.6 thread-ms per pair and the end-to-end rate from 198 to 80 pairs/s: an H100
     machine without the cap, an H200 machine with it, render-only 368 and 321 pairs/s.)"""
     import cv2
     cv2.setNumThreads(1)
-    _HANDOFF["files"] = world_files
+    _HANDOFF.update(files=world_files, claims=claims, ready=ready, parent=parent)
     os.environ.setdefault("MUJOCO_GL", "egl")
     if devices:
-        with counter.get_lock():
-            i = counter.value
-            counter.value += 1
-        os.environ["MUJOCO_EGL_DEVICE_ID"] = str(devices[i % len(devices)])
+        os.environ["MUJOCO_EGL_DEVICE_ID"] = str(devices[_claim(counter) % len(devices)])
 
 
 class ChunkSource:
-    """Chunks of ``config`` rendered by ``workers`` local processes (each builds its setup with ``resolve``) or by the Dask cluster at ``scheduler``,
-    yielded in frame order by :meth:`chunks`, at most ``2 x workers`` in flight. Use as a context manager."""
+    """Chunks of ``config`` rendered by ``workers`` local processes and this one, or by the Dask cluster at
+    ``scheduler``, yielded in frame order by :meth:`chunks`, at most ``2 x workers`` in flight. Use as a
+    context manager.
 
-    def __init__(self, config, workers: int, resolve, scheduler: str | None = None, egl_devices=(), png=None):
+    Local start-up, off the critical path: entering starts the worker processes from a thread (each resolves
+    the config, then waits for the world) while this thread builds the world and saves it; the workers then
+    load it and make their GL contexts. Chunks are *claimed* in order from one counter shared with the
+    workers (:func:`render_claimed`), and whenever the next chunk in order is not in yet this process claims
+    the next unclaimed one and renders it itself with the world it built (:attr:`here` frames): it renders
+    from the first frame on while the workers start, and beside them after. Which process renders which
+    chunk changes nothing in the bytes."""
+
+    def __init__(self, config, workers: int, resolve, scheduler: str | None = None, egl_devices=(), png=None,
+                 render_here: bool = True):
         check_splittable(config)
+        self.render_here = bool(render_here)   # False: the workers render every chunk (local processes only)
         self._png = png                        # PngOptions: images come back encoded (render_chunk)
         self._resolve = resolve                # sim.generate.resolve: config -> setup, run in each worker
         self.config, self.workers, self.scheduler = config, max(1, int(workers)), scheduler
         self.egl_devices = tuple(str(d) for d in egl_devices)
-        self._pool = self._client = self._world_dir = None
+        self._pool = self._client = self._world_dir = self._starter = self._ready = self._claims = None
+        self._world = self._setup = self._here = None
+        self._prepared: list = []              # the workers' start-up futures
+        self._carry: dict = {}                 # stage seconds of chunks without frames, passed on
         self.build_s = self.build_cpu_s = 0.0  # elapsed and CPU seconds spent here building and saving the world
+        self.here = 0                          # frames rendered by this process
 
     def __enter__(self):
         if self.scheduler:
@@ -193,52 +266,121 @@ class ChunkSource:
             except (OSError, TimeoutError) as exc:
                 raise SimError(f"--scheduler {self.scheduler!r}: cannot connect ({exc})") from None
             self.workers = max(self.workers, len(self._client.scheduler_info().get("workers", {})) or 1)
-        else:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor
-            from multiprocessing import forkserver
-            os.environ.setdefault("MUJOCO_GL", "egl")
-            ctx = multiprocessing.get_context("forkserver")
-            ctx.set_forkserver_preload([__name__, getattr(self._resolve, "__module__", __name__)])
-            forkserver.ensure_running()        # it imports the generator while the world is built here
-            files = self._build_world()
-            self._pool = ProcessPoolExecutor(self.workers, mp_context=ctx, initializer=_init_process,
-                                             initargs=(self.egl_devices, ctx.Value("i", 0), files))
+            return self
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+        os.environ.setdefault("MUJOCO_GL", "egl")
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload([__name__, getattr(self._resolve, "__module__", __name__)])
+        self._world_dir = tempfile.mkdtemp(prefix="vo-testbed-world-")
+        files = WorldFiles(self._world_dir, self.config.config_hash())
+        self._claims, self._ready = ctx.Value("i", 0), ctx.Event()
+        self._pool = ProcessPoolExecutor(self.workers, mp_context=ctx, initializer=_init_process,
+                                         initargs=(self.egl_devices, ctx.Value("i", 0), files, self._claims,
+                                                   self._ready, os.getpid()))
+        self._starter = threading.Thread(target=self._start_workers, name="render-workers-start", daemon=True)
+        self._starter.start()
+        try:
+            self._build_world(files)
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
+        finally:
+            self._ready.set()
         return self
 
-    def _build_world(self):
-        """Build this config's world once and save it for the worker processes (:mod:`sim.world_handoff`)."""
-        t0, c0 = time.perf_counter(), time.process_time()
-        setup = self._resolve(self.config)
-        world = build_world(setup.scene, setup.rig, vehicle=self.config.vehicle)
-        self._world_dir = tempfile.mkdtemp(prefix="vo-testbed-world-")
-        files = save_world(world, self._world_dir, self.config.config_hash())
-        self.build_s, self.build_cpu_s = time.perf_counter() - t0, time.process_time() - c0
-        return files
+    def _start_workers(self) -> None:
+        """Queue one start-up task per worker (each submit starts a process, once the forkserver has imported
+        the generator: that wait is this thread's, not the world build's)."""
+        try:
+            for _ in range(self.workers):
+                self._prepared.append(self._pool.submit(_prepare, self.config, self._resolve))
+        except RuntimeError:                   # the pool was shut down meanwhile (an error here)
+            pass
 
-    def _submit(self, a: int, b: int):
-        if self._client is not None:
-            return self._client.submit(render_chunk, self.config, a, b, self._resolve, self._png, pure=False)
-        return self._pool.submit(render_chunk, self.config, a, b, self._resolve, self._png)
+    def _build_world(self, files) -> None:
+        """Build this config's world once, here, and save it for the worker processes (:mod:`sim.world_handoff`)."""
+        t0, c0 = time.perf_counter(), time.process_time()
+        self._setup = self._resolve(self.config)
+        self._world = build_world(self._setup.scene, self._setup.rig, vehicle=self.config.vehicle)
+        save_world(self._world, files.folder, files.key)
+        self.build_s, self.build_cpu_s = time.perf_counter() - t0, time.process_time() - c0
+
+    def _render_here(self, a: int, b: int) -> RenderedChunk:
+        """Frames ``a .. b-1`` rendered by this process with the world it built (images not PNG-encoded: the
+        writer's threads encode them); its GL context is made on the first call."""
+        if self._here is None:
+            self._here = _WorkerState(self.config, self._resolve, world=self._world, setup=self._setup,
+                                      startup="start-up here")
+        self.here += b - a
+        return dataclasses.replace(_render_range(self._here, self.config, a, b), here=True)
 
     def chunks(self, start: int, stop: int, size: int = CHUNK_FRAMES):
         """Yield the :class:`RenderedChunk` of ``start .. stop-1`` in order; chunks of ``size`` frames, fewer
         on a short route (at least two chunks per worker)."""
         size = max(1, min(size, -(-(stop - start) // (2 * self.workers))))
-        todo, pending = deque(chunk_ranges(start, stop, size)), deque()
+        if self._client is not None:
+            yield from self._dask_chunks(chunk_ranges(start, stop, size))
+            return
+        ranges = chunk_ranges(start, stop, size)
+        index = {a: j for j, (a, _) in enumerate(ranges)}
+        with self._claims.get_lock():
+            self._claims.value = 0
+        done, pending, submitted, i = {}, set(), 0, 0
+        while i < len(ranges):
+            while submitted < len(ranges) and len(pending) + len(done) < 2 * self.workers:
+                pending.add(self._pool.submit(render_claimed, self.config, ranges, self._resolve, self._png))
+                submitted += 1
+            for future in [f for f in pending if f.done()]:
+                pending.discard(future)
+                chunk = future.result()
+                if chunk.frames:
+                    done[index[chunk.start]] = chunk
+                else:
+                    _add_stages(self._carry, chunk.stage_s)
+            if i in done:
+                chunk = done.pop(i)
+                _add_stages(chunk.stage_s, self._carry)
+                self._carry = {}
+                yield chunk
+                i += 1
+            elif self.render_here and (j := _claim(self._claims)) < len(ranges):
+                done[j] = self._render_here(*ranges[j])
+            elif pending:
+                wait(pending, return_when=FIRST_COMPLETED)
+            else:
+                raise SimError(f"render workers: chunk {ranges[i]} was claimed but never came back")
+
+    def _dask_chunks(self, ranges):
+        todo, pending = deque(ranges), deque()
         while todo or pending:
             while todo and len(pending) < 2 * self.workers:
-                pending.append(self._submit(*todo.popleft()))
+                a, b = todo.popleft()
+                pending.append(self._client.submit(render_chunk, self.config, a, b, self._resolve, self._png,
+                                                   pure=False))
             future = pending.popleft()
             yield future.result()
-            if self._client is not None:
-                future.release()
+            future.release()
 
     def __exit__(self, *exc):
+        if self._ready is not None:
+            self._ready.set()                  # no worker waits for a world that will not come
+        if self._starter is not None:
+            self._starter.join()
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
+            for future in self._prepared:      # a worker's start-up error surfaced already with its chunk
+                if not future.cancelled():
+                    future.exception()
+        if self._here is not None:
+            self._here.close()
         if self._client is not None:
             self._client.close()
         if self._world_dir is not None:
             shutil.rmtree(self._world_dir, ignore_errors=True)
         return False
+
+
+def _add_stages(into: dict, more: dict) -> None:
+    for name, sec in more.items():
+        into[name] = into.get(name, 0.0) + sec

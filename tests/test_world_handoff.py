@@ -59,3 +59,24 @@ def test_a_saved_world_refuses_another_rig_and_missing_files(tmp_path):
     world = load_world(files, s.scene, s.rig)
     built = build_world(s.scene, s.rig, vehicle=CFG.vehicle)
     assert world.model.ngeom == built.model.ngeom > 10 and world.camera_ids == built.camera_ids
+
+
+@pytest.mark.slow
+def test_worker_rendered_chunks_equal_the_writing_process_render(tmp_path):
+    """ChunkSource with the writing process kept out of rendering (render_here=False): every chunk comes from
+    the two worker processes (which load the saved world once it is ready) and equals, frame for frame, the
+    chunk rendered in this process from a freshly built world (the serial path and the writing process's own)."""
+    from sim.render_workers import ChunkSource, render_chunk
+    cfg = CFG.with_overrides(["depth=true", "segmentation=true", "camera.vignetting=0.3"])
+    n = len(resolve(cfg).frame_t_ns)
+    with ChunkSource(cfg, 2, resolve, render_here=False) as source:
+        chunks = list(source.chunks(0, n, size=4))
+    assert source.here == 0 and not any(c.here for c in chunks)
+    assert n == 11 and [c.start for c in chunks] == [0, 3, 6, 9]       # at least two chunks per worker
+    here = render_chunk(cfg, 0, n, resolve)
+    got = [f for c in chunks for f in c.frames]
+    assert len(got) == n == len(here.frames) > 5 and chunks[0].geom_names == here.geom_names
+    for (imgs, depth, seg), (imgs0, depth0, seg0) in zip(got, here.frames):
+        assert all(np.array_equal(a, b) for a, b in zip(imgs, imgs0))
+        assert np.array_equal(np.asarray(depth), np.asarray(depth0)) and np.array_equal(np.asarray(seg), np.asarray(seg0))
+        assert np.asarray(depth).size and np.asarray(seg).size

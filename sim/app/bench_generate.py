@@ -149,7 +149,9 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
     if workers > 1 and not scheduler:
         startup = {"world_build": tot.get("world build", 0.0), "worker_mean": tot.get("start-up", 0.0) / workers,
                    "first_chunk": tot.get("first chunk", 0.0), "world_build_cpu": tot.get("world build CPU", 0.0),
-                   "worker_mean_cpu": tot.get("start-up CPU", 0.0) / workers}
+                   "worker_mean_cpu": tot.get("start-up CPU", 0.0) / workers,
+                   "first_worker_chunk": tot.get("first worker chunk", 0.0),
+                   "frames_here": int(tot.get("frames here", 0.0)), "here_startup": tot.get("start-up here", 0.0)}
     r = config.render
     png = f"level {r.png_compression}, {r.png_strategy}, {r.png_filter} filter"
     return GenerateBench(scenario, n, threads, workers, png, n / best_render[0],
@@ -232,7 +234,9 @@ def format_bench(b: GenerateBench) -> str:
                 f"{b.after_start_pairs_per_s / b.render_pairs_per_s:.2f})"] if b.after_start_pairs_per_s else []),
              *([f"start-up      world build here {b.startup_s['world_build']:.2f} s (CPU "
                 f"{b.startup_s['world_build_cpu']:.2f}), per worker {b.startup_s['worker_mean']:.2f} s (CPU "
-                f"{b.startup_s['worker_mean_cpu']:.2f}, mean), first chunk in after {b.startup_s['first_chunk']:.2f} s"]
+                f"{b.startup_s['worker_mean_cpu']:.2f}, mean), first chunk in after {b.startup_s['first_chunk']:.2f} s, "
+                f"a worker's after {b.startup_s['first_worker_chunk']:.2f} s; {b.startup_s['frames_here']} frames "
+                f"rendered here (GL context {b.startup_s['here_startup']:.2f} s)"]
                if b.startup_s else []),
              "stage ms/pair " + "  ".join(f"{s} {b.stage_ms[s]:.1f}" for s in STAGES),
              f"peak memory   {b.peak_rss_mb:7.0f} MB" + (f" (largest worker process {b.peak_rss_children_mb:.0f} MB)"
