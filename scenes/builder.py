@@ -53,12 +53,12 @@ class _Mesh:
 
     def tri(self, p, uv, n_out):
         p = [np.asarray(q, float) for q in p]
-        if np.dot(np.cross(p[1] - p[0], p[2] - p[0]), n_out) < 0:
+        (a0, a1, a2), (b0, b1, b2) = (p[1] - p[0]).tolist(), (p[2] - p[0]).tolist()   # np.cross's bits, faster:
+        if np.dot([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], n_out) < 0:
             p, uv = [p[0], p[2], p[1]], [uv[0], uv[2], uv[1]]
-        k = len(self.v)
+        self.f.append([len(self.v), len(self.v) + 1, len(self.v) + 2])
         self.v += p
         self.uv += list(uv)
-        self.f.append([k, k + 1, k + 2])
 
     def quad(self, p, uv, n_out):
         self.tri(p[:3], uv[:3], n_out)

@@ -12,6 +12,7 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before the first mujoco import (headless)
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from typing import Callable, Optional
 
@@ -163,8 +164,10 @@ def build_world(scene: Scene, rig: Rig, vehicle: str = "cart",
     """
     spec = mujoco.MjSpec()
     spec.modelname = f"{getattr(scene, 'name', '') or 'scene'}_{rig.name}"
-    scene.add_to_spec(spec, textures=textures if textures is not None else texture_store())
-    render_rig, maps = _render_rig(rig, distort)
+    with ThreadPoolExecutor(1, thread_name_prefix="distortion-maps") as pool:
+        maps_job = pool.submit(_render_rig, rig, distort)   # OpenCV and numpy's bulk work: beside the scene's build
+        scene.add_to_spec(spec, textures=textures if textures is not None else texture_store())
+        render_rig, maps = maps_job.result()
     handles = add_vehicle(spec, render_rig, kind=vehicle)
     if extra is not None:
         extra(spec)
