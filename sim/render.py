@@ -229,6 +229,17 @@ class StereoRenderer:
         return lut[np.clip(segid, 0, scn.ngeom)]
 
 
+def warm_up_gl() -> None:
+    """Initialise the GL back-end's device display ahead of the first renderer, from any thread: with
+    ``MUJOCO_GL=egl`` MuJoCo opens the EGL device display once per process (its driver's start-up) when
+    the first context is made; making and freeing one context here does that, so that a later
+    :class:`StereoRenderer` only makes its own context. Other back-ends: nothing."""
+    if os.environ.get("MUJOCO_GL", "").lower() != "egl":
+        return
+    from mujoco.gl_context import GLContext
+    GLContext(1, 1).free()
+
+
 def _gl_renderer() -> str:
     """``GL_RENDERER`` of the current context: the device that draws (PyOpenGL, which MuJoCo's EGL and
     OSMesa back-ends use themselves)."""

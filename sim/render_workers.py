@@ -45,6 +45,7 @@ from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, field
 
 from sim.errors import SimError
+from sim.render import warm_up_gl
 from sim.rng import indexed_stream
 from sim.sensors.camera import FrameExposer, StereoCamera, add_noise
 from sim.stage_timer import StageTimer
@@ -102,18 +103,24 @@ class _WorkerState:
 
     def __init__(self, config, resolve, world=None, setup=None, startup: str = "start-up"):
         t0, c0 = time.perf_counter(), time.process_time()
-        self.timer = StageTimer()
+        self.timer = timer = StageTimer()
         self.key = config.config_hash()
-        self.setup = setup = setup if setup is not None else resolve(config)
+        with timer.stage(startup + ": resolve"):
+            self.setup = setup = setup if setup is not None else resolve(config)
+            self.T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
         c = config
-        self.T_w_b = setup.trajectory.states(setup.frame_t_ns).T_w_b
         files = _HANDOFF.get("files")
         if world is None and files is not None and files.key == self.key:
-            _wait_for_world()
-            world = load_world(files, setup.scene, setup.rig)
-        self.camera = StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth,
-                                   segmentation=c.segmentation, supersample=setup.supersample, rgb=c.rgb,
-                                   timer=self.timer, world=world)
+            with timer.stage(startup + ": GL display"):
+                warm_up_gl()                   # the driver's start-up, while the world is being built
+            with timer.stage(startup + ": wait for the world"):
+                _wait_for_world()
+            with timer.stage(startup + ": world load"):
+                world = load_world(files, setup.scene, setup.rig)
+        with timer.stage(startup + ": renderer"):      # GL context, MuJoCo's render context (textures)
+            self.camera = StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth,
+                                       segmentation=c.segmentation, supersample=setup.supersample, rgb=c.rgb,
+                                       timer=self.timer, world=world)
         self.exposer = FrameExposer(self.camera, setup.rig, c.camera, 1.0 / setup.rig.camera_rate_hz, c.seed,
                                     setup.image_noise, noisy=not c.ideal) if c.camera.image_effects else None
         self.geom_names = self.camera.geom_names() if c.segmentation else []
@@ -290,8 +297,13 @@ class ChunkSource:
         return self
 
     def _start_workers(self) -> None:
-        """Queue one start-up task per worker (each submit starts a process, once the forkserver has imported
-        the generator: that wait is this thread's, not the world build's)."""
+        """Open this process's GL display (:func:`sim.render.warm_up_gl`), then queue one start-up task per
+        worker (each submit starts a process, once the forkserver has imported the generator): this thread's
+        waits, beside the world build."""
+        try:
+            warm_up_gl()
+        except Exception:                      # noqa: BLE001 (the renderer made later reports the back-end's error)
+            pass
         try:
             for _ in range(self.workers):
                 self._prepared.append(self._pool.submit(_prepare, self.config, self._resolve))

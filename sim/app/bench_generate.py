@@ -151,7 +151,9 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
                    "first_chunk": tot.get("first chunk", 0.0), "world_build_cpu": tot.get("world build CPU", 0.0),
                    "worker_mean_cpu": tot.get("start-up CPU", 0.0) / workers,
                    "first_worker_chunk": tot.get("first worker chunk", 0.0),
-                   "frames_here": int(tot.get("frames here", 0.0)), "here_startup": tot.get("start-up here", 0.0)}
+                   "frames_here": int(tot.get("frames here", 0.0)), "here_startup": tot.get("start-up here", 0.0),
+                   "parts": {name: sec / (1 if name.startswith("start-up here") else workers)
+                             for name, sec in tot.items() if name.startswith("start-up") and ": " in name}}
     r = config.render
     png = f"level {r.png_compression}, {r.png_strategy}, {r.png_filter} filter"
     return GenerateBench(scenario, n, threads, workers, png, n / best_render[0],
@@ -238,6 +240,9 @@ def format_bench(b: GenerateBench) -> str:
                 f"a worker's after {b.startup_s['first_worker_chunk']:.2f} s; {b.startup_s['frames_here']} frames "
                 f"rendered here (GL context {b.startup_s['here_startup']:.2f} s)"]
                if b.startup_s else []),
+             *([f"start-up parts (s, mean per worker; 'here': this process) " + ", ".join(
+                 f"{k.replace('start-up', '').strip(': ') or 'worker'}: {v:.2f}" for k, v in b.startup_s["parts"].items())]
+               if b.startup_s.get("parts") else []),
              "stage ms/pair " + "  ".join(f"{s} {b.stage_ms[s]:.1f}" for s in STAGES),
              f"peak memory   {b.peak_rss_mb:7.0f} MB" + (f" (largest worker process {b.peak_rss_children_mb:.0f} MB)"
                                                      if b.workers > 1 else ""),
