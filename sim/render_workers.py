@@ -276,6 +276,7 @@ class ChunkSource:
             return self
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
+        self._t0 = time.perf_counter(), time.process_time()       # the build's time counts from here
         os.environ.setdefault("MUJOCO_GL", "egl")
         ctx = multiprocessing.get_context("forkserver")
         ctx.set_forkserver_preload([__name__, getattr(self._resolve, "__module__", __name__)])
@@ -312,7 +313,7 @@ class ChunkSource:
 
     def _build_world(self, files) -> None:
         """Build this config's world once, here, and save it for the worker processes (:mod:`sim.world_handoff`)."""
-        t0, c0 = time.perf_counter(), time.process_time()
+        t0, c0 = self._t0
         self._setup = self._resolve(self.config)
         self._world = build_world(self._setup.scene, self._setup.rig, vehicle=self.config.vehicle)
         save_world(self._world, files.folder, files.key)
