@@ -143,11 +143,13 @@ class World:
         return mjcam.T_w_c_from_mj(self.data.cam_xpos[i], self.data.cam_xmat[i])
 
 
-def _render_rig(rig: Rig, distort: bool) -> tuple:
-    """(render_rig, maps): distorted cameras replaced by their pinhole canvases (if ``distort``)."""
+def _render_rig(rig: Rig, distort: bool, pool=None) -> tuple:
+    """(render_rig, maps): distorted cameras replaced by their pinhole canvases (if ``distort``); ``pool``: an
+    executor that makes the cameras' maps side by side (None: one after the other)."""
     if not distort:
         return rig, (None,) * len(rig.cameras)
-    maps = tuple(DistortionMap(c) if c.has_distortion else None for c in rig.cameras)
+    make = lambda c: DistortionMap(c) if c.has_distortion else None  # noqa: E731
+    maps = tuple(pool.map(make, rig.cameras) if pool is not None else map(make, rig.cameras))
     cams = tuple(m.canvas_camera if m is not None else c for c, m in zip(rig.cameras, maps))
     return replace(rig, cameras=cams), maps
 
@@ -164,8 +166,8 @@ def build_world(scene: Scene, rig: Rig, vehicle: str = "cart",
     """
     spec = mujoco.MjSpec()
     spec.modelname = f"{getattr(scene, 'name', '') or 'scene'}_{rig.name}"
-    with ThreadPoolExecutor(1, thread_name_prefix="distortion-maps") as pool:
-        maps_job = pool.submit(_render_rig, rig, distort)   # OpenCV and numpy's bulk work: beside the scene's build
+    with ThreadPoolExecutor(len(rig.cameras) + 1, thread_name_prefix="distortion-maps") as pool:
+        maps_job = pool.submit(_render_rig, rig, distort, pool)   # numpy and OpenCV: beside the scene's build
         scene.add_to_spec(spec, textures=textures if textures is not None else texture_store())
         render_rig, maps = maps_job.result()
     handles = add_vehicle(spec, render_rig, kind=vehicle)
