@@ -28,6 +28,7 @@ from scenes.actor_sheets import add_sheets, sheet_uv
 from scenes.actor_textures import cell_uv
 from scenes.bus_shapes import draw_bus_body
 from scenes.car_shapes import draw_body
+from scenes.urban_actor_poses import ActorPoser
 
 ACTOR_SCOPE = "urban/actor_"
 GEOM_PREFIX = "dyn/"
@@ -170,8 +171,16 @@ def _with_moving(a: Actor, moving: bool) -> Actor:
 
 
 def actor_poses(actors, t_ns: int) -> dict:
-    """``{body name: (4,4) T_w_actor}`` of every actor at one time (the renderer's dynamic state)."""
-    return {a.body_name: a.poses([t_ns])[0] for a in actors}
+    """``{body name: (4,4) T_w_actor}`` of every actor at one time (the renderer's dynamic state): as
+    ``{a.body_name: a.poses([t_ns])[0]}``, all actors in one pass (:class:`scenes.urban_actor_poses.ActorPoser`,
+    kept for the last ``actors`` tuple seen)."""
+    poser = _POSER.get("last")
+    if poser is None or poser.actors is not actors:
+        poser = _POSER["last"] = ActorPoser(actors, T_REF_NS)
+    return poser.at(t_ns)
+
+
+_POSER: dict = {}
 
 
 def footprint_overlap(T_a, half_a, T_b, half_b) -> np.ndarray:

@@ -348,3 +348,19 @@ def test_buses_are_each_a_bus_of_their_own(built):
         assert abs(v[:, 2].min()) < 1e-9                 # on the ground; tyres 5 cm proud of the side
         heights.append(v[:, 2].max())
     assert min(heights) < 3.9 < max(heights)                  # single- and double-deckers
+
+
+@pytest.mark.parametrize("seed,density", [(0, 1.0), (5, 0.3)])
+def test_batched_actor_states_are_the_per_actor_poses_bit_for_bit(seed, density):
+    """scene.actor_states (all actors in one pass, scenes.urban_actor_poses) against each Actor.poses, byte for
+    byte, at times before the start, at the time origin and over 20 s; every motion law occurs."""
+    from scenes.urban_actor_poses import ActorPoser
+    from scenes.urban_actors import T_REF_NS
+    sc = urban(seed, density)
+    laws = {law for _, law, *_ in ActorPoser(sc.actors, T_REF_NS).groups}
+    assert laws == {"line", "shuttle", "from rest"} and any(not a.moving for a in sc.actors) == (density < 1)
+    for t_ns in [0, T_REF_NS, T_REF_NS + 1, *np.linspace(T_REF_NS, T_REF_NS + 20e9, 23).astype(np.int64)]:
+        batched = sc.actor_states(int(t_ns))
+        assert list(batched) == [a.body_name for a in sc.actors]
+        for a in sc.actors:
+            assert batched[a.body_name].tobytes() == a.poses([int(t_ns)])[0].tobytes()
