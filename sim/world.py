@@ -110,7 +110,10 @@ class World:
         """Set many mocap bodies ``{name: T_w_x}`` at once (one batched rotation conversion: scenes with
         hundreds of actors pose them every frame)."""
         names = list(poses)
-        mids = np.array([self._mocap_index(n) for n in names])
+        batch = self.__dict__.get("_mocap_batch")
+        if batch is None or batch[0] != names:             # the same bodies every frame: look them up once
+            batch = self._mocap_batch = (names, np.array([self._mocap_index(n) for n in names]))
+        mids = batch[1]
         T = np.asarray([poses[n] for n in names], dtype=float).reshape(-1, 4, 4)
         self.data.mocap_pos[mids] = T[:, :3, 3]
         self.data.mocap_quat[mids] = quat_wxyz_from_R(T[:, :3, :3])
