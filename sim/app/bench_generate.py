@@ -38,7 +38,7 @@ import yaml
 from rigs.image_noise import add_image_noise, add_quantized_noise
 from sim.frame_pipeline import default_threads
 from sim.generate import generate, resolve
-from sim.generate_config import PNG_FILTERS, PNG_STRATEGIES
+from sim.generate_config import PNG_FILTERS, PNG_STRATEGIES, PNG_STRATEGY
 from sim.render_workers import device_label
 from sim.rng import indexed_stream
 from sim.scenarios import get_scenario
@@ -166,7 +166,7 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
 def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -> list:
     """``[{strategy, level, filter, kb_per_image, encode_ms_per_image}]`` for every zlib strategy
     (``render.png_strategy``) and level 0-9 (``render.png_compression``) with all row filters, then every
-    row filter (``render.png_filter``) at level 1, ``rle``, on ``frames`` frames of
+    row filter (``render.png_filter``) at level 1 with the default strategy, on ``frames`` frames of
     ``scenario`` spread over its route, noisy unless ``ideal``; encoding time is CPU time (one thread)."""
     setup = resolve(frames_config(scenario, None, overrides))
     c = setup.config
@@ -178,7 +178,7 @@ def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -
             imgs, _, _ = camera.measure(T_w_b[j], setup.scene.actor_states(int(setup.frame_t_ns[k])))
             images += add_noise(imgs, setup.image_noise, indexed_stream(c.seed, "image_noise", int(k)))
     settings = [PngOptions(level, strategy, "all") for strategy in PNG_STRATEGIES for level in range(10)]
-    settings += [PngOptions(1, "rle", f) for f in PNG_FILTERS]
+    settings += [PngOptions(1, PNG_STRATEGY, f) for f in PNG_FILTERS]
     rows = []
     for png in settings:
         t0 = time.process_time()
