@@ -9,8 +9,10 @@ One run of :func:`bench_generate` on a scenario's first ``frames`` frames, side 
   render only the GL context's creation); with ``workers > 1`` the frames are rendered by that many
   processes (:mod:`sim.render_workers`), their start-up included (the world built once in this process,
   ``startup_s['world_build']``, then each process loads it and makes its GL context, ``start-up`` in the
-  stage figures and ``startup_s['worker_mean']``, elapsed and CPU seconds); *after start-up* is the
-  end-to-end rate from the arrival of the first rendered chunk to the end, the rate a long route approaches. The workers' stage times come back
+  stage figures and ``startup_s['worker_mean']``, elapsed and CPU seconds, its parts in ``startup_s['parts']``);
+  the writing process renders chunks too while the workers start (``startup_s['frames_here']``,
+  ``first_worker_chunk``); *after start-up* is the end-to-end rate from the arrival of the first rendered
+  chunk (of any renderer) to the end, the rate a long route approaches. The workers' stage times come back
   with each chunk and are summed over the processes; the render-only run stays one process.
 
 ``repeat`` alternates the two and keeps each one's best run (the machine may be shared). Per-stage
