@@ -262,7 +262,8 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
     devices, ids_written = [], not c.segmentation
     t0, first_s, first_worker_s = time.perf_counter(), 0.0, 0.0
     png = PngOptions.of(c.render) if c.format == "euroc" else None    # EuRoC images: encoded by the workers
-    with ChunkSource(c, workers, resolve, scheduler, egl_devices, png) as source, \
+    resolved = dataclasses.replace(setup, rig=c.rig)          # as resolve(c) made it: the rig the workers load
+    with ChunkSource(c, workers, resolve, scheduler, egl_devices, png, setup=resolved) as source, \
             FrameLoop(n, "render", threads, progress, start, timer) as loop:
         for name, seconds in (("world build", source.build_s), ("world build CPU", source.build_cpu_s),
                               ("frame loop", source.build_s), ("frame loop CPU", source.build_cpu_s)):

@@ -248,15 +248,16 @@ class ChunkSource:
     chunk changes nothing in the bytes."""
 
     def __init__(self, config, workers: int, resolve, scheduler: str | None = None, egl_devices=(), png=None,
-                 render_here: bool = True):
+                 render_here: bool = True, setup=None):
         check_splittable(config)
+        self._setup = setup                    # resolve(config) if the caller has it (else made here)
         self.render_here = bool(render_here)   # False: the workers render every chunk (local processes only)
         self._png = png                        # PngOptions: images come back encoded (render_chunk)
         self._resolve = resolve                # sim.generate.resolve: config -> setup, run in each worker
         self.config, self.workers, self.scheduler = config, max(1, int(workers)), scheduler
         self.egl_devices = tuple(str(d) for d in egl_devices)
         self._pool = self._client = self._world_dir = self._starter = self._ready = self._claims = None
-        self._world = self._setup = self._here = None
+        self._world = self._here = None
         self._prepared: list = []              # the workers' start-up futures
         self._carry: dict = {}                 # stage seconds of chunks without frames, passed on
         self.build_s = self.build_cpu_s = 0.0  # elapsed and CPU seconds spent here building and saving the world
@@ -314,7 +315,7 @@ class ChunkSource:
     def _build_world(self, files) -> None:
         """Build this config's world once, here, and save it for the worker processes (:mod:`sim.world_handoff`)."""
         t0, c0 = self._t0
-        self._setup = self._resolve(self.config)
+        self._setup = self._setup or self._resolve(self.config)
         self._world = build_world(self._setup.scene, self._setup.rig, vehicle=self.config.vehicle)
         save_world(self._world, files.folder, files.key)
         self.build_s, self.build_cpu_s = time.perf_counter() - t0, time.process_time() - c0
