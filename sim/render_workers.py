@@ -222,10 +222,8 @@ def _init_process(devices, counter, world_files=None, claims=None, ready=None, p
     """Worker process start: keep ``world_files`` (where :class:`ChunkSource` saves the world, or None), the
     shared chunk ``claims`` counter, the ``ready`` event (set once the world is saved) and the writing
     process's id ``parent``; take the next EGL device of ``devices`` (if any) before any GL is touched; OpenCV
-    on one thread, since the processes already share out the cores. (In one process the pipeline leaves
-    OpenCV's pool alone: the render thread's lens-distortion remap uses it; capping it to one thread took the
-    render stage from 3.1 to 9.6 thread-ms per pair and the end-to-end rate from 198 to 80 pairs/s: an H100
-    machine without the cap, an H200 machine with it, render-only 368 and 321 pairs/s.)"""
+    on one thread, as the processes share out the cores (one process leaves OpenCV's pool to the render
+    thread's remap: docs/simulator.md, *On a GPU machine*)."""
     import cv2
     cv2.setNumThreads(1)
     _HANDOFF.update(files=world_files, claims=claims, ready=ready, parent=parent)
@@ -337,19 +335,21 @@ class ChunkSource:
             yield from self._dask_chunks(chunk_ranges(start, stop, size))
             return
         ranges = chunk_ranges(start, stop, size)
-        index = {a: j for j, (a, _) in enumerate(ranges)}
         with self._claims.get_lock():
             self._claims.value = 0
         done, pending, submitted, i = {}, set(), 0, 0
+        if not self.render_here:
+            self._starter.join()
         while i < len(ranges):
-            while submitted < len(ranges) and len(pending) + len(done) < 2 * self.workers:
+            while (not self._starter.is_alive() and submitted < len(ranges)    # a submit waits while the starter
+                   and len(pending) + len(done) < 2 * self.workers):          # spawns processes: render here
                 pending.add(self._pool.submit(render_claimed, self.config, ranges, self._resolve, self._png))
                 submitted += 1
             for future in [f for f in pending if f.done()]:
                 pending.discard(future)
                 chunk = future.result()
                 if chunk.frames:
-                    done[index[chunk.start]] = chunk
+                    done[(chunk.start - start) // size] = chunk
                 else:
                     _add_stages(self._carry, chunk.stage_s)
             if i in done:
