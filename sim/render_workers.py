@@ -325,7 +325,7 @@ class ChunkSource:
             self._here = _WorkerState(self.config, self._resolve, world=self._world, setup=self._setup,
                                       startup="start-up here")
         self.here += b - a
-        return dataclasses.replace(_render_range(self._here, self.config, a, b), here=True)
+        return dataclasses.replace(_render_range(self._here, self.config, a, b), here=True, peak_rss_mb=0.0)
 
     def chunks(self, start: int, stop: int, size: int = CHUNK_FRAMES):
         """Yield the :class:`RenderedChunk` of ``start .. stop-1`` in order; chunks of ``size`` frames, fewer
