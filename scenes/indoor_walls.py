@@ -6,7 +6,8 @@ along the wall over its whole length, ``v`` from the floor to the ceiling, at :d
 appears twice, and two sides never share a pattern. What a side carries is what real indoor walls have, and
 they are mostly plain: paint with a faint shade variation (plaster: blotches, hairline cracks and speckle at the
 density of :func:`scenes.textures.make_texture`'s plaster), board seams, a skirting board, scuffs above it, light
-switches and room plates beside the doors, notices and signs, sockets, nail holes and the faint outline of something that hung there.
+switches and room plates beside the doors, notices and signs, sockets, nail holes and the faint outline of
+something that hung there.
 
 Styles: ``"plaster"`` (its detail at the scene's ``richness``) and ``"white"`` (the texture-poor near-white walls:
 paint detail at a fixed low contrast (0.3, as ``SceneBuilder.poor_material``), fittings at ``richness``).
