@@ -7,8 +7,10 @@ room N1 (x < 6) and north-east room N2.  The route starts in S1 heading east, tu
 y = 10.2 along a texture-poor white wall (the north wall, 1.8 m away; the N1/N2 partition ahead is plaster):
 as in the paper, P03 lies next to a texture-poor white wall < 2 m away, which also fills the view
 while the cart drives north towards it.
-Those walls use a near-white, very low-contrast plaster at every ``texture_richness`` (a perfectly
-blank surface would give zero features, which no real wall does; seed 000 reports fewer, not none).
+Those walls are near-white with very low-contrast paint at every ``texture_richness`` (a perfectly
+blank surface would give zero features, which no real wall does; seed 000 reports fewer, not none), and,
+as real walls, a skirting board, sockets, switches and a few notices. Every wall side has a texture of its
+own drawn at its full extent (:mod:`scenes.indoor_walls`): no pattern repeats within a wall or between walls.
 
 Doorways are 2.2 m high, so the free corridor checked around the route is 1 m each side up to
 ``corridor_height_m = 2.1`` m (the paper's cart and cameras are below 1.5 m).
