@@ -72,11 +72,11 @@ class IndoorScene(BuiltScene):
         for k, (x, y) in enumerate(((3, 2.5), (12, 2.5), (4, 6.25), (10, 6.25), (9, 9.8), (13.5, 9.8))):
             b.box(f"ceiling_light{k}", (x, y, CEILING - 0.01), (0.6, 0.3, 0.01),
                   b.flat_material("lamp", (1, 1, 0.95, 1), emission=0.8), category="ceiling")
-        self._walls(b, rng)
+        self._walls(b)
         self._furniture(b, rng)
         self._decor(b, rng)
 
-    def _walls(self, b, rng):
+    def _walls(self, b):
         W, H = ROOM
         h = WALL_T / 2
         frame = b.material("wood", variant=3)

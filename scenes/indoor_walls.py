@@ -60,7 +60,7 @@ def _row(z_m: float, height_m: float) -> int:
     return int(round((height_m - z_m) * PX_PER_M))
 
 
-def _plate(rng, img, mask, y, x, h, w, col, detail):
+def _plate(img, mask, y, x, h, w, col, detail):
     """A small plastic plate (switch, socket, room plate) with a shadow line and its ``detail`` callable."""
     _wrap_rect(img, y + 1, x + 1, h, w, col * 0.55, 0.6)                       # shadow below / right
     _wrap_rect(img, y, x, h, w, col)
@@ -93,11 +93,11 @@ def _fittings(rng, img, mask, length_m, height_m, doors, skirting_col):
         side = rng.integers(0, 2)
         t = (a - rng.uniform(0.15, 0.3) - 0.08) if side == 0 else (c + rng.uniform(0.15, 0.3))
         if 0.1 < t < length_m - 0.2 and rng.random() < 0.85:
-            _plate(rng, img, mask, _row(rng.uniform(1.05, 1.2), height_m), int(t * PX_PER_M), s, s, plate, rocker)
+            _plate(img, mask, _row(rng.uniform(1.05, 1.2), height_m), int(t * PX_PER_M), s, s, plate, rocker)
         t = (c + rng.uniform(0.1, 0.3)) if side == 0 else (a - rng.uniform(0.1, 0.3) - 0.15)
         if 0.1 < t < length_m - 0.3 and rng.random() < 0.6:                    # and a room plate
             col = np.clip(rng.uniform(0.3, 0.95, 3), 0, 1)
-            _plate(rng, img, mask, _row(rng.uniform(1.45, 1.6), height_m), int(t * PX_PER_M), s, int(1.8 * s), col,
+            _plate(img, mask, _row(rng.uniform(1.45, 1.6), height_m), int(t * PX_PER_M), s, int(1.8 * s), col,
                    glyphs)
     for _ in range(rng.poisson(length_m / 2.5)):                               # notices, signs, a thermostat
         h, w = (np.array([0.3, 0.21]) * rng.uniform(0.4, 1.4)).clip(0.06) * PX_PER_M
@@ -112,13 +112,13 @@ def _fittings(rng, img, mask, length_m, height_m, doors, skirting_col):
                 x0 = x + 2 + int(rng.integers(0, 3))
                 _wrap_rect(img, y + r, x0, 1 + (r == 2), int(rng.uniform(0.3, 0.95) * (ww - 5)), ink)
 
-        _plate(rng, img, mask, _row(rng.uniform(1.3, 1.9), height_m), int(rng.uniform(0, length_m) * PX_PER_M),
+        _plate(img, mask, _row(rng.uniform(1.3, 1.9), height_m), int(rng.uniform(0, length_m) * PX_PER_M),
                int(h), int(w), paper, text)
     for _ in range(rng.poisson(length_m / 3.0)):                               # sockets, single or double
         t = rng.uniform(0.2, length_m - 0.4)
         if any(a - 0.3 < t < c + 0.1 for a, c in doors):
             continue
-        _plate(rng, img, mask, _row(rng.uniform(0.25, 0.4), height_m), int(t * PX_PER_M), s,
+        _plate(img, mask, _row(rng.uniform(0.25, 0.4), height_m), int(t * PX_PER_M), s,
                s * int(rng.integers(1, 3)), plate, holes)
 
 
