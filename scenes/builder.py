@@ -235,14 +235,14 @@ class SceneBuilder:
         self.footprints.append(footprint)
         return name
 
-    def box(self, part, center, half, material, yaw=0.0, tile_m=1.0, category="object") -> str:
-        """Axis-aligned (then yawed) box, ``center`` (3,) world, ``half`` (3,) half sizes (m)."""
-        half = np.asarray(half, float)
-        center = np.asarray(center, float)
+    def box(self, part, center, half, material, yaw=0.0, tile_m=1.0, category="object", uv_off=None) -> str:
+        """Axis-aligned (then yawed) box, ``center`` (3,) world, ``half`` (3,) half sizes (m); ``tile_m``: world size
+        of one texture repeat, or its (u, v) pair; ``uv_off`` (2,): texture offset (m), default from the centre."""
+        half, center, (tu, tv) = np.asarray(half, float), np.asarray(center, float), np.broadcast_to(tile_m, 2)
         if np.any(half <= 0):
             raise SceneError(f"box {part!r}: half sizes must be positive, got {tuple(half)}")
         R = _yaw_R(yaw)
-        off = np.array([center[0] + center[1], center[2]])        # UV offset: continuity-ish
+        off = np.array([center[0] + center[1], center[2]]) if uv_off is None else np.asarray(uv_off, float)
         mesh = _Mesh()
         for ax, (ua, va) in ((0, (1, 2)), (1, (0, 2)), (2, (0, 1))):
             for sgn in (1.0, -1.0):
@@ -251,8 +251,7 @@ class SceneBuilder:
                     p = np.zeros(3)
                     p[ax], p[ua], p[va] = sgn * half[ax], cu * half[ua], cv * half[va]
                     pts.append(R @ p)
-                    uvs.append(((p[ua] * (sgn if ax != 2 else 1) + off[0]) / tile_m,
-                                -(p[va] + off[1]) / tile_m))
+                    uvs.append(((p[ua] * (sgn if ax != 2 else 1) + off[0]) / tu, -(p[va] + off[1]) / tv))
                 n = np.zeros(3)
                 n[ax] = sgn
                 mesh.quad(pts, uvs, R @ n)

@@ -7,8 +7,10 @@ room N1 (x < 6) and north-east room N2.  The route starts in S1 heading east, tu
 y = 10.2 along a texture-poor white wall (the north wall, 1.8 m away; the N1/N2 partition ahead is plaster):
 as in the paper, P03 lies next to a texture-poor white wall < 2 m away, which also fills the view
 while the cart drives north towards it.
-Those walls use a near-white, very low-contrast plaster at every ``texture_richness`` (a perfectly
-blank surface would give zero features, which no real wall does; seed 000 reports fewer, not none).
+Those walls are near-white with very low-contrast paint at every ``texture_richness`` (a perfectly
+blank surface would give zero features, which no real wall does; seed 000 reports fewer, not none), and,
+as real walls, a skirting board, sockets, switches and a few notices. Every wall side has a texture of its
+own drawn at its full extent (:mod:`scenes.indoor_walls`): no pattern repeats within a wall or between walls.
 
 Doorways are 2.2 m high, so the free corridor checked around the route is 1 m each side up to
 ``corridor_height_m = 2.1`` m (the paper's cart and cameras are below 1.5 m).
@@ -19,6 +21,7 @@ import numpy as np
 
 from scenes.base import GcpSite, Route
 from scenes.built import BuiltScene
+from scenes.indoor_walls import add_wall
 from scenes.routes import point_at, resample, rounded_polyline
 
 ROOM = (16.0, 12.0)
@@ -69,46 +72,27 @@ class IndoorScene(BuiltScene):
         for k, (x, y) in enumerate(((3, 2.5), (12, 2.5), (4, 6.25), (10, 6.25), (9, 9.8), (13.5, 9.8))):
             b.box(f"ceiling_light{k}", (x, y, CEILING - 0.01), (0.6, 0.3, 0.01),
                   b.flat_material("lamp", (1, 1, 0.95, 1), emission=0.8), category="ceiling")
-        self._walls(b, rng)
+        self._walls(b)
         self._furniture(b, rng)
         self._decor(b, rng)
 
-    def _wall(self, b, name, p0, p1, mat, doors=(), tile_m=3.0):
-        """Wall of thickness WALL_T from p0 to p1 (x-y), with door gaps (t0, t1) in metres along it."""
-        p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
-        L = np.linalg.norm(p1 - p0)
-        u = (p1 - p0) / L
-        yaw = float(np.arctan2(u[1], u[0]))
-        cuts = [0.0] + [t for d in doors for t in d] + [L]
-        for k in range(0, len(cuts), 2):
-            a, c = cuts[k], cuts[k + 1]
-            if c - a > 1e-6:
-                ctr = p0 + u * (a + c) / 2
-                b.box(f"{name}/seg{k // 2}", (*ctr, CEILING / 2), ((c - a) / 2, WALL_T / 2, CEILING / 2), mat,
-                      yaw=yaw, tile_m=tile_m, category="wall")
-        for k, (a, c) in enumerate(doors):
-            ctr = p0 + u * (a + c) / 2
-            b.box(f"{name}/lintel{k}", (*ctr, (DOOR_H + CEILING) / 2), ((c - a) / 2, WALL_T / 2, (CEILING - DOOR_H) / 2),
-                  mat, yaw=yaw, tile_m=tile_m, category="wall")
-            for j, t in enumerate((a, c)):
-                q = p0 + u * t
-                b.box(f"{name}/frame{k}_{j}", (*q, DOOR_H / 2), (0.04, WALL_T / 2 + 0.02, DOOR_H / 2),
-                      b.material("wood", variant=3), yaw=yaw, tile_m=1.0, category="wall")
-
-    def _walls(self, b, rng):
+    def _walls(self, b):
         W, H = ROOM
         h = WALL_T / 2
-        white = b.poor_material("white_wall")
-        plaster = [b.material("plaster", variant=k) for k in range(3)]
-        self._wall(b, "wall/south", (-2 * h, -h), (W + 2 * h, -h), plaster[0])
-        self._wall(b, "wall/west", (-h, 0), (-h, H), plaster[1])
-        self._wall(b, "wall/east", (W + h, 0), (W + h, H), plaster[1])
-        self._wall(b, "wall/north_n1", (-2 * h, H + h), (6.0, H + h), plaster[2])
-        self._wall(b, "wall/north_n2", (6.0, H + h), (W + 2 * h, H + h), white)        # near P03
-        self._wall(b, "wall/corridor_s", (0, 5.0), (W, 5.0), plaster[2], doors=((4.95, 7.55), (12.0, 13.2)))
-        self._wall(b, "wall/corridor_n", (0, 7.5), (W, 7.5), plaster[0], doors=((2.0, 3.2), (10.7, 13.3)))
-        self._wall(b, "wall/s1_s2", (8.0, 0.0), (8.0, 5.0 - h), plaster[1], doors=((1.5, 2.7),))
-        self._wall(b, "wall/n1_n2", (6.0, 7.5 + h), (6.0, H), plaster[0])               # ahead at the end
+        frame = b.material("wood", variant=3)
+
+        def wall(name, p0, p1, left="plaster", right="plaster", doors=()):
+            add_wall(b, name, p0, p1, {"left": left, "right": right}, CEILING, WALL_T, DOOR_H, frame, doors)
+
+        wall("wall/south", (-2 * h, -h), (W + 2 * h, -h), right=None)             # outer walls: one side seen
+        wall("wall/west", (-h, 0), (-h, H), left=None)
+        wall("wall/east", (W + h, 0), (W + h, H), right=None)
+        wall("wall/north_n1", (-2 * h, H + h), (6.0, H + h), left=None)
+        wall("wall/north_n2", (6.0, H + h), (W + 2 * h, H + h), left=None, right="white")    # near P03
+        wall("wall/corridor_s", (0, 5.0), (W, 5.0), doors=((4.95, 7.55), (12.0, 13.2)))
+        wall("wall/corridor_n", (0, 7.5), (W, 7.5), doors=((2.0, 3.2), (10.7, 13.3)))
+        wall("wall/s1_s2", (8.0, 0.0), (8.0, 5.0 - h), doors=((1.5, 2.7),))
+        wall("wall/n1_n2", (6.0, 7.5 + h), (6.0, H))                                      # ahead at the end
 
     def _desk(self, b, part, xy, yaw, rng):
         top = b.material("wood", variant=int(rng.integers(4, 7)))

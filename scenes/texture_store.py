@@ -9,7 +9,7 @@ that determines its bytes:
 - the exact state of the random stream it is drawn from (``bit_generator.state`` of a fresh generator
   of that stream key: the stream's identity, whatever seed and key made it),
 - the texture's parameters (kind, richness, size, weathering),
-- the source of the drawing code (:data:`_CODE_FILES`: ``scenes/textures.py``, ``scenes/lunar.py``, the actor
+- the source of the drawing code (:data:`_CODE_FILES`: ``scenes/textures.py``, ``scenes/lunar.py``, ``scenes/indoor_walls.py``, the actor
   atlases' modules) and numpy's version,
 
 so a hit gives the very bytes a fresh draw would give. Files are written atomically
@@ -32,7 +32,7 @@ import numpy as np
 from rigs.atomic_io import atomic_write_bytes
 
 _CODE_FILES = ("textures.py", "lunar.py", "builder.py", "actor_textures.py", "actor_sheets.py", "bus_shapes.py",
-               "car_shapes.py", "urban_actors.py")
+               "car_shapes.py", "urban_actors.py", "indoor_walls.py")
 
 
 def _code_digest() -> str:

@@ -5,7 +5,11 @@ at each a *revisit* is rendered as well: the vehicle 1 m further on, 0.8 m to th
 second pass through the same place, within the width of a lane or path and an ordinary heading difference). Each image is compared with every other by what a loop closure verifies:
 ORB features (OpenCV, 1000 per image), nearest-neighbour matches that pass Lowe's ratio test (0.8), then the
 geometric check a loop closure makes: image A's matched features, back-projected with A's rendered depth, must
-project onto their matches in B under one rigid motion (PnP RANSAC, 2 px), in front of B. Each feature of B takes
+project onto their matches in B under one rigid motion (PnP RANSAC, 2 px), in front of B. The RANSAC draws 300
+minimal samples (AP3P: 3 points and one to choose among its solutions), as ORB-SLAM2's ``Sim3Solver`` draws 3
+points for each of at most 300 hypotheses; EPnP's 5-point samples found the motion of a revisit whose matches
+were 26 % right (65 of 254: a view filled by the calibration board's corners) in 30 % of runs (1 - (1 - 0.26^5)^300),
+AP3P's in 75 %. Each feature of B takes
 one match (its closest), as a loop closure's matcher does. The *similarity* of two images is the number of
 inliers at distinct image places (the smaller count of distinct pixels among A's and among B's inliers), so the
 check is well conditioned: a degenerate fit that projects many points of A onto one point of B (a far-away pose
@@ -201,9 +205,10 @@ class OrbMatcher:
                 return none
             xa, xb, z = xa[ok], xb[ok], z[ok]
             P = (np.linalg.solve(view_a.K, np.vstack([xa.T, np.ones(len(xa))])) * z).T
+            # minimal samples (AP3P: 3 points + 1 to choose), as ORB-SLAM2's 3-point Sim3 RANSAC (300 iterations)
             found, rvec, tvec, idx = cv2.solvePnPRansac(P.astype(np.float64), xb.astype(np.float64), view_a.K, None,
                                                         iterationsCount=300, reprojectionError=self.place.ransac_px,
-                                                        confidence=0.999, flags=cv2.SOLVEPNP_EPNP)
+                                                        confidence=0.999, flags=cv2.SOLVEPNP_AP3P)
             keep = np.zeros(len(xa), bool)
             if found and idx is not None:
                 keep[idx.ravel()] = True
