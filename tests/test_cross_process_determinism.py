@@ -67,22 +67,31 @@ def test_two_processes_give_the_same_trajectory_bytes(campus_short, estimator):
     _assert_same_bytes(campus_short, estimator, 30)
 
 
+# heap salts of the perturbed processes on the real turn: a layout flips an alignment-sensitive decision with
+# some probability (about 1 in 4 layouts for the rank-deficient offset fit once there), so several are tried
+REAL_SALTS = (2, 5, 100, 257)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("estimator", ["rop", "klt-pnp"])
 def test_two_processes_give_the_same_trajectory_bytes_on_the_real_turn(estimator):
-    """The real KITTI turn (every frame a keyframe, the disparity offset applied: where the processes once
-    differed), its first 20 frames."""
+    """The whole real KITTI turn (51 frames, every frame a keyframe, the disparity offset applied: where the
+    processes once differed) in a plain process and in perturbed ones with :data:`REAL_SALTS` heap layouts."""
     seq = REAL / "kitti_turn"
     if not seq.is_dir():
         pytest.skip(f"{seq}: real KITTI excerpt not present")
-    _assert_same_bytes(seq, estimator, 20)
+    plain = run_in_process(seq, estimator, 51, PLAIN)
+    assert plain.split()[0] == "51"
+    for salt in REAL_SALTS:
+        other = run_in_process(seq, estimator, 51, (salt, *PERTURBED[1:]))
+        assert other == plain, f"{estimator}, heap salt {salt}: the trajectories differ across processes:\n{plain}\n{other}"
 
 
 @pytest.mark.slow
 def test_the_runs_see_their_inputs():
-    """The hash follows the run: a different frame count gives a different one. (Against the code before
-    ``klt-pnp``'s offset fit was rounded, the real-turn test above fails: over 20 frames the plain process gave
-    one hash twice, the perturbed one two other hashes.)"""
+    """The hash follows the run: a different frame count gives a different one. (The real-turn test above fails
+    against the code before ``klt-pnp``'s offset fit was rounded, and against the code before it left out frames
+    that see fewer than 3 landmarks: heap salts 2 and 100, or 5, 7, 10 and 22 of 0-24, gave another trajectory.)"""
     seq = REAL / "kitti_turn"
     if not seq.is_dir():
         pytest.skip(f"{seq}: real KITTI excerpt not present")
