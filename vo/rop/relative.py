@@ -185,6 +185,12 @@ def refine_essential(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndar
     robust loss instead, by iteratively reweighted LM (:func:`_loss`); ``cov5`` is then that of the least-squares fit at the
     solution, over all the points given (:func:`sampson_cov`: pass the inliers for a meaningful one).
     ``R, t`` in OpenCV's convention (``x_j = R x_i + t``)."""
+    R, t, r, J = _sampson_lm(R, t, x_i, x_j, iters, robust)
+    return R, t, _ls_cov5(r, J)
+
+
+def _sampson_lm(R, t, x_i, x_j, iters: int, robust: Optional[tuple]) -> tuple:
+    """:func:`refine_essential`'s LM -> ``(R, t, residuals (N,), Jacobian (N,5))`` at the solution."""
     t = t.ravel() / np.linalg.norm(t)
     lam = 1e-3
     B = tangent_basis(t)
@@ -209,7 +215,7 @@ def refine_essential(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndar
             lam *= 10.0
             if lam > 1e6:
                 break
-    return R, t, _ls_cov5(r, J)
+    return R, t, r, J
 
 
 def _ls_cov5(r: np.ndarray, J: np.ndarray) -> np.ndarray:
@@ -354,10 +360,12 @@ def estimate_rop_normalized(x_i: np.ndarray, x_j: np.ndarray, focal: float, seed
             R, t, cov5 = _refine_robust(R, t, x_i, x_j, thr, min_inliers, loss)
             inliers = _inliers_of(R, t, x_i, x_j, thr)
         else:
-            R, t, cov5 = refine_essential(R, t, x_i[inliers], x_j[inliers])
+            R, t, r, J = _sampson_lm(R, t, x_i[inliers], x_j[inliers], 8, None)
             inliers = _inliers_of(R, t, x_i, x_j, thr)
             if int(inliers.sum()) >= min_inliers:
                 R, t, cov5 = refine_essential(R, t, x_i[inliers], x_j[inliers], iters=3)
+            else:                                  # the first fit's covariance only when no second fit replaces it
+                cov5 = _ls_cov5(r, J)
     n_good = int(inliers.sum())
     reason = _fail_reason(n, int(n_good), _spread(x_i[inliers]) * focal, min_inliers, R, t)
     if reason or cov5 is None:
