@@ -58,6 +58,14 @@ class OffsetConfig:
         return from_mapping(cls, value, EstimatorError, where)
 
 
+# Landmarks a later frame must see to enter a keyframe's adjustment: with fewer, its pose (6 parameters) is
+# undetermined, the normal matrix is singular, and whether the fit then fails or returns an arbitrary offset
+# follows the last bits of the arithmetic (which differ with the arrays' memory alignment from process to
+# process: on the real KITTI turn one keyframe's fit had a frame with 1 landmark, J of rank 21 of 25, and two
+# heap layouts gave two trajectories).
+MIN_FRAME_LANDMARKS = 3
+
+
 class DisparityOffset:
     """The online offset estimate of one estimator run (module docstring). Landmarks are registered at birth
     (:meth:`add`), their tracks fed each frame (:meth:`observe`); :attr:`delta_px` is the offset to apply (0
@@ -126,14 +134,17 @@ class DisparityOffset:
         ``min_landmarks`` landmarks seen after birth, or no solution)."""
         ids = np.asarray(ids, np.int64)
         order = np.argsort(ids)
-        obs_f, obs_l, obs_x = [], [], []
-        for f_i, (_, _, f_ids, f_x) in enumerate(frames):
-            pos = np.minimum(np.searchsorted(ids[order], f_ids), len(ids) - 1)
-            hit = ids[order][pos] == f_ids
-            obs_f.append(np.full(int(hit.sum()), f_i))
-            obs_l.append(order[pos[hit]])
-            obs_x.append(f_x[hit])
-        obs_f, obs_l, obs_x = np.concatenate(obs_f), np.concatenate(obs_l), np.concatenate(obs_x)
+        seen = []                                    # (frame, landmark indices, their points) of the usable frames
+        for fr in frames:
+            pos = np.minimum(np.searchsorted(ids[order], fr[2]), len(ids) - 1)
+            hit = ids[order][pos] == fr[2]
+            if hit.sum() >= MIN_FRAME_LANDMARKS:
+                seen.append((fr, order[pos[hit]], fr[3][hit]))
+        if not seen:
+            return None
+        frames = [fr for fr, _, _ in seen]
+        obs_f = np.concatenate([np.full(len(lm), f_i) for f_i, (_, lm, _) in enumerate(seen)])
+        obs_l, obs_x = np.concatenate([lm for _, lm, _ in seen]), np.concatenate([x for _, _, x in seen])
         if len(np.unique(obs_l)) < self.config.min_landmarks:
             return None
         d_raw = self.fb / z_raw
@@ -182,7 +193,8 @@ class DisparityOffset:
         try:
             sol = least_squares(residuals, np.array(v0), jac=jacobian, method="lm", x_scale="jac", max_nfev=50)
             keep = np.linalg.norm(sol.fun.reshape(-1, 2), axis=1) < 2.0
-            if 2 * keep.sum() <= len(v0) or len(np.unique(obs_l[keep])) < self.config.min_landmarks:
+            if 2 * keep.sum() <= len(v0) or len(np.unique(obs_l[keep])) < self.config.min_landmarks \
+                    or np.bincount(obs_f[keep], minlength=n_f).min() < MIN_FRAME_LANDMARKS:
                 return None
             obs_f, obs_l, obs_x = obs_f[keep], obs_l[keep], obs_x[keep]
             sol = least_squares(residuals, sol.x, jac=jacobian, method="lm", x_scale="jac", max_nfev=50)

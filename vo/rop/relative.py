@@ -126,18 +126,31 @@ def sampson_jacobian(R, t, B, x_i, x_j) -> tuple[np.ndarray, np.ndarray]:
     ``[dphi (R -> exp(dphi) R), dalpha (t -> t + B dalpha)]``; the distance is invariant to the
     scale of ``E``, so the normalisation of ``t`` drops out. ``r = n / sqrt(d)``,
     ``dr = dn / sqrt(d) - n dd / (2 d^1.5)``."""
+    h_i, h_j = _homog(x_i), _homog(x_j)
+    r, terms = _sampson_terms(R, t, h_i, h_j)
+    return r, _sampson_jac(R, B, h_i, h_j, terms)
+
+
+def _sampson_terms(R, t, h_i, h_j) -> tuple:
+    """Residuals (N,) of :func:`sampson_jacobian` from homogeneous points ``h_i``, ``h_j`` (N,3), and the
+    intermediate terms its Jacobian reuses (:func:`_sampson_jac`)."""
     S_t = skew(t)
     E = S_t @ R
-    G = np.stack([S_t @ S_e @ R for S_e in _SKEW_E] + [S_b @ R for S_b in skew(B.T)])   # (5,3,3)
-    h_i, h_j = _homog(x_i), _homog(x_j)
     Ex, Etx = h_i @ E.T, h_j @ E                                    # (N,3)
-    Gx, Gtx = h_i @ G.transpose(0, 2, 1), h_j @ G                  # (5,N,3)
     num = np.sum(h_j * Ex, axis=1)
     den = np.maximum(Ex[:, 0] ** 2 + Ex[:, 1] ** 2 + Etx[:, 0] ** 2 + Etx[:, 1] ** 2, 1e-300)
+    sd = np.sqrt(den)
+    return num / sd, (S_t, Ex, Etx, num, den, sd)
+
+
+def _sampson_jac(R, B, h_i, h_j, terms: tuple) -> np.ndarray:
+    """(N,5) Jacobian of :func:`sampson_jacobian` from :func:`_sampson_terms`' terms at ``(R, t)``."""
+    S_t, Ex, Etx, num, den, sd = terms
+    G = np.stack([S_t @ S_e @ R for S_e in _SKEW_E] + [S_b @ R for S_b in skew(B.T)])   # (5,3,3)
+    Gx, Gtx = h_i @ G.transpose(0, 2, 1), h_j @ G                  # (5,N,3)
     dnum = np.sum(h_j * Gx, axis=2)
     dden = 2.0 * (Ex[:, 0] * Gx[..., 0] + Ex[:, 1] * Gx[..., 1] + Etx[:, 0] * Gtx[..., 0] + Etx[:, 1] * Gtx[..., 1])
-    sd = np.sqrt(den)
-    return num / sd, (dnum / sd - num * dden / (2.0 * den * sd)).T
+    return (dnum / sd - num * dden / (2.0 * den * sd)).T
 
 
 def tangent_basis(t: np.ndarray) -> np.ndarray:
@@ -172,20 +185,29 @@ def refine_essential(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndar
     robust loss instead, by iteratively reweighted LM (:func:`_loss`); ``cov5`` is then that of the least-squares fit at the
     solution, over all the points given (:func:`sampson_cov`: pass the inliers for a meaningful one).
     ``R, t`` in OpenCV's convention (``x_j = R x_i + t``)."""
+    R, t, r, J = _sampson_lm(R, t, x_i, x_j, iters, robust)
+    return R, t, _ls_cov5(r, J)
+
+
+def _sampson_lm(R, t, x_i, x_j, iters: int, robust: Optional[tuple]) -> tuple:
+    """:func:`refine_essential`'s LM -> ``(R, t, residuals (N,), Jacobian (N,5))`` at the solution."""
     t = t.ravel() / np.linalg.norm(t)
     lam = 1e-3
     B = tangent_basis(t)
-    r, J = sampson_jacobian(R, t, B, x_i, x_j)
+    h_i, h_j = _homog(x_i), _homog(x_j)            # the points' homogeneous form, once for every iteration
+    r, terms = _sampson_terms(R, t, h_i, h_j)
+    J = _sampson_jac(R, B, h_i, h_j, terms)
     cost, w = _loss(r, robust)
     for _ in range(iters):
         H, g = J.T @ (w[:, None] * J), J.T @ (w * r)
         dz = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-30), g)
         R_n, t_n = _unpack(R, t, B, dz)
-        B_n = tangent_basis(t_n)
-        r_n, J_n = sampson_jacobian(R_n, t_n, B_n, x_i, x_j)
+        r_n, terms_n = _sampson_terms(R_n, t_n, h_i, h_j)
         c_n, w_n = _loss(r_n, robust)
-        if c_n <= cost:
+        if c_n <= cost:                            # the tangent basis and the Jacobian of accepted steps only
             done = cost - c_n <= 1e-6 * cost
+            B_n = tangent_basis(t_n)
+            J_n = _sampson_jac(R_n, B_n, h_i, h_j, terms_n)
             R, t, B, r, J, cost, w, lam = R_n, t_n, B_n, r_n, J_n, c_n, w_n, lam * 0.1
             if done:
                 break
@@ -193,7 +215,7 @@ def refine_essential(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndar
             lam *= 10.0
             if lam > 1e6:
                 break
-    return R, t, _ls_cov5(r, J)
+    return R, t, r, J
 
 
 def _ls_cov5(r: np.ndarray, J: np.ndarray) -> np.ndarray:
@@ -211,10 +233,14 @@ def sampson_cov(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) 
 def chirality(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:
     """(N,) bool: the two-view midpoint triangulation of each match (``x_j = R x_i + t`` frames)
     has positive depth in both cameras (at any distance; recoverPose's default caps it at 50 |t|)."""
-    a = _homog(x_i) @ R.T                                           # R h_i
     b = _homog(x_j)
+    return _in_front(_homog(x_i) @ R.T, b, np.sum(b * b, 1), t)
+
+
+def _in_front(a: np.ndarray, b: np.ndarray, bb: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """:func:`chirality` from the rays ``a = R h_i``, ``b = h_j`` (N,3) and ``bb = |b|^2`` (N,)."""
     # depths (s_i, s_j) minimising |s_j b - s_i a - t|^2
-    aa, bb, ab = np.sum(a * a, 1), np.sum(b * b, 1), np.sum(a * b, 1)
+    aa, ab = np.sum(a * a, 1), np.sum(a * b, 1)
     at, bt = a @ t, b @ t
     det = aa * bb - ab ** 2
     s_i = (ab * bt - bb * at) / np.maximum(det, 1e-300)
@@ -225,11 +251,15 @@ def chirality(R: np.ndarray, t: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) ->
 def decompose(E: np.ndarray, x_i: np.ndarray, x_j: np.ndarray, mask: np.ndarray):
     """The one of E's four ``(R, t)`` with most masked points in front -> ``(R, t, front (N,))``."""
     R1, R2, t = cv2.decomposeEssentialMat(E)
+    h_i, b = _homog(x_i), _homog(x_j)              # shared by the four candidates (:func:`chirality`'s terms)
+    bb = np.sum(b * b, 1)
     best = None
-    for R, tt in ((R1, t), (R1, -t), (R2, t), (R2, -t)):
-        front = chirality(R, tt.ravel(), x_i, x_j) & mask
-        if best is None or front.sum() > best[2].sum():
-            best = (R, tt.ravel(), front)
+    for R in (R1, R2):                             # candidates (R1, t), (R1, -t), (R2, t), (R2, -t)
+        a = h_i @ R.T
+        for tt in (t, -t):
+            front = _in_front(a, b, bb, tt.ravel()) & mask
+            if best is None or front.sum() > best[2].sum():
+                best = (R, tt.ravel(), front)
     return best
 
 
@@ -330,10 +360,12 @@ def estimate_rop_normalized(x_i: np.ndarray, x_j: np.ndarray, focal: float, seed
             R, t, cov5 = _refine_robust(R, t, x_i, x_j, thr, min_inliers, loss)
             inliers = _inliers_of(R, t, x_i, x_j, thr)
         else:
-            R, t, cov5 = refine_essential(R, t, x_i[inliers], x_j[inliers])
+            R, t, r, J = _sampson_lm(R, t, x_i[inliers], x_j[inliers], 8, None)
             inliers = _inliers_of(R, t, x_i, x_j, thr)
             if int(inliers.sum()) >= min_inliers:
                 R, t, cov5 = refine_essential(R, t, x_i[inliers], x_j[inliers], iters=3)
+            else:                                  # the first fit's covariance only when no second fit replaces it
+                cov5 = _ls_cov5(r, J)
     n_good = int(inliers.sum())
     reason = _fail_reason(n, int(n_good), _spread(x_i[inliers]) * focal, min_inliers, R, t)
     if reason or cov5 is None:
