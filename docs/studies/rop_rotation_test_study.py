@@ -38,8 +38,14 @@ class TestRecorder(RopEstimator):
                                        f.max_triangulation_px)
             if C is not None:
                 self.records.append((int(self._t_kf), int(self._t_now), T_kf_c[:3, :3].copy(),
-                                     np.asarray(cov_step)[:3, :3].copy(), T_pnp[:3, :3].copy(), C))
+                                     np.asarray(cov_step)[:3, :3].copy(), T_pnp[:3, :3].copy(), C,
+                                     None if self._apost is None else self._apost[:3, :3].copy()))
         return super()._rotation_miss(T_kf_c, cov_step)
+
+    def _adjust(self, ropset, timings):
+        out = super()._adjust(ropset, timings)
+        self._apost = None if out[2] is None or out[2][4] is None else out[2][4].cov_apost
+        return out
 
     def process(self, frame):
         self._t_now = int(frame.t_ns)
@@ -62,19 +68,21 @@ def main(argv):
     run_estimator("rop_rotation_test_study:TestRecorder", ds, options, progress=False,
                   on_frame=lambda frame, r, est: est_ref.__setitem__(slice(None), [est]))
     out = []
-    for t_kf, t, R, C_rop, R_pnp, C_pnp in est_ref[0].records:
+    for t_kf, t, R, C_rop, R_pnp, C_pnp, C_apost in est_ref[0].records:
         Rt = (np.linalg.inv(gt[times.index(t_kf)]) @ gt[times.index(t)])[:3, :3]
         test = rotation_test(R, C_rop, R_pnp, C_pnp, 0.99)
         e_rop, e_pnp = so3_log(Rt.T @ R), so3_log(Rt.T @ R_pnp)          # right perturbations
         C_rop_r = R.T @ C_rop @ R
         out.append((test.angle_deg, test.d2, np.degrees(np.sqrt(np.trace(C_rop_r) / 3)),
                     np.degrees(np.sqrt(np.trace(C_pnp) / 3)), np.degrees(np.linalg.norm(e_rop)),
-                    np.degrees(np.linalg.norm(e_pnp)), _maha(e_rop, C_rop_r), _maha(e_pnp, C_pnp)))
+                    np.degrees(np.linalg.norm(e_pnp)), _maha(e_rop, C_rop_r), _maha(e_pnp, C_pnp),
+                    np.degrees(np.sqrt(np.trace(C_apost) / 3)), _maha(e_rop, R.T @ C_apost @ R)))
         if rows:
             print(f"{t / 1e9:8.2f} " + " ".join(f"{v:8.3f}" for v in out[-1]))
     A = np.array(out)
     names = ("angle deg", "d2", "sigma_rop deg", "sigma_pnp deg", "rop err deg", "pnp err deg",
-             "rop err d2 (own cov)", "pnp err d2 (own cov)")
+             "rop err d2 (own cov)", "pnp err d2 (own cov)",
+             "sigma_rop a-post deg", "rop err d2 (a-post)")
     print(f"{len(A)} ROP steps with a PnP pose; chi2_3(0.99) = {chi2_threshold(0.99):.2f}; "
           f"d2 above it on {np.mean(A[:, 1] > chi2_threshold(0.99)):.1%}")
     for i, n in enumerate(names):

@@ -366,8 +366,10 @@ class RopEstimator(Estimator):
             return self._fail(frame, left, right, "lost", n_feat, miss, timings, t0,
                               keep_tracks=True)
         miss = self._rotation_miss(T_kf_c, cov_step) if epoch[0] == "rops" else ""
-        T_fix = readjusted_step(epoch[3], epoch[4], self._pnp_pose()[:3, :3], self.adjustment_config) \
-            if miss and self.config.pnp_rotation_action == "rotation" else None
+        act = self.config.pnp_rotation_action
+        T_fix = readjusted_step(epoch[3], epoch[4], self._pnp_pose()[:3, :3], self.adjustment_config,
+                                self._pnp_pose()[:3, 3] if act == "direction" else None) \
+            if miss and act != "pose" else None
         if miss and T_fix is None:
             return self._fail(frame, left, right, "keyframe", n_feat, miss, timings, t0, keep_tracks=True, lost=False)
         if miss:

@@ -25,7 +25,7 @@ COVS = ("propagated", "chain_bootstrap")      # vo.rop.cov_models.make_uncertain
 MOVING = ("prior", "none")                    # vo.rop.moving
 MOVING_PRIORS = ("pnp", "velocity")           # vo.rop.estimator: prediction that selects the motion
 ROTATION_TESTS = ("chi2", "degrees")          # vo.rop.rotation_test | vo.rop.weak_frame.rotation_miss
-ROTATION_ACTIONS = ("rotation", "pose")       # a failed ROP rotation: PnP rotation + re-adjusted translation | PnP pose
+ROTATION_ACTIONS = ("direction", "rotation", "pose")       # a failed ROP rotation: PnP rotation + re-adjusted translation | PnP pose
 # measured, non-default alternatives, given as ``experimental.<field>`` (vo.estimators.experimental); the
 # decision and the study behind each: docs/estimators.md, "Experimental options"
 EXPERIMENTAL = frozenset({"weights", "klt_refine", "rop_loss", "moving_prior"})
@@ -98,7 +98,7 @@ class RopConfig:
     moving_step_gate_m: float = knob(0.3, gt=0)
     pnp_rotation_test: Literal[ROTATION_TESTS] = "chi2"
     pnp_rotation_prob: float = knob(0.99, gt=0, lt=1)
-    pnp_rotation_action: Literal[ROTATION_ACTIONS] = "rotation"
+    pnp_rotation_action: Literal[ROTATION_ACTIONS] = "direction"
     pnp_rotation_gate_deg: float = knob(0.2, gt=0)
 
     def __post_init__(self):

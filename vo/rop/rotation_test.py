@@ -22,6 +22,7 @@ Seed 000 speaks to neither covariance's use here; the test and its probability a
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.stats import chi2
@@ -49,6 +50,7 @@ class RotationTest:
         return bool(self.d2 > self.threshold)
 
 
+@lru_cache(maxsize=8)
 def chi2_threshold(prob: float) -> float:
     """``chi2_3`` quantile at ``prob`` (e.g. 11.34 at 0.99)."""
     return float(chi2.ppf(prob, DOF))
@@ -161,7 +163,8 @@ class RotationTester:
                 f"variance factor {s2:.2f} > chi2_3({self.prob}) {t.threshold:.2f}")
 
 
-def readjusted_step(ropset, result, R_kf_c: np.ndarray, config: AdjustmentConfig) -> np.ndarray | None:
+def readjusted_step(ropset, result, R_kf_c: np.ndarray, config: AdjustmentConfig,
+                    t_direction: np.ndarray | None = None) -> np.ndarray | None:
     """``T_kf_c`` (4,4) with the rotation ``R_kf_c`` (3,3; the PnP fit's, where the test failed the ROP rotation) and
     the translation of seed 000's step 2 (eqs. 2-3, :func:`vo.rop.adjustment.adjust_translations`) re-solved with that
     rotation as its fixed coefficient, from the ROPs ``ropset`` and the adjustment ``result``'s positions. The PnP
@@ -169,4 +172,9 @@ def readjusted_step(ropset, result, R_kf_c: np.ndarray, config: AdjustmentConfig
     scale, which rests on the calibrated baseline alone. None when the re-solve diverges."""
     R = np.asarray(R_kf_c, float)
     tra = adjust_translations(ropset, R, result.T_c1_c3[:3, 3], result.T_c1_c4[:3, 3], config)
-    return make_T(R, tra.x[:3]) if np.all(np.isfinite(tra.x)) else None
+    if not np.all(np.isfinite(tra.x)):
+        return None
+    t = tra.x[:3]
+    if t_direction is not None and np.linalg.norm(t_direction) > 0:
+        t = np.linalg.norm(t) * np.asarray(t_direction, float) / np.linalg.norm(t_direction)
+    return make_T(R, t)
