@@ -18,10 +18,13 @@ Our extensions (each documented in its module, figures in docs/estimators.md):
   (``moving_objects``, :mod:`vo.rop.moving`). The prior is the constant-velocity prediction of the track
   filter's own PnP poses (``moving_prior="pnp"``), so that one wrong ROP step does not move the prediction
   onto a car. A ROP step more than ``moving_step_gate_m`` from the PnP pose of the same tracks fails the
-  frame, which then takes that PnP pose; so does a ROP step whose rotation is more than
-  ``pnp_rotation_gate_deg`` from that PnP pose's (:func:`vo.rop.weak_frame.rotation_miss`: the ROP adjustment's
-  covariance does not reveal its bad steps; that frame becomes a keyframe, not a lost one). The pose of every
-  other frame comes from the ROPs.
+  frame, which then takes that PnP pose. A ROP step whose rotation fails the test against that PnP pose's
+  (``pnp_rotation_test``: "chi2", the difference in the metric of both fits' covariances with the run's
+  variance factor, :mod:`vo.rop.rotation_test`; "degrees", more than ``pnp_rotation_gate_deg``,
+  :func:`vo.rop.weak_frame.rotation_miss`) takes, with ``pnp_rotation_action="direction"``, the PnP rotation and
+  translation direction and the length of seed 000's translation step re-solved for that rotation
+  (:func:`vo.rop.rotation_test.readjusted_step`); ``"rotation"`` keeps the re-solved translation; ``"pose"`` takes
+  the PnP pose and a new keyframe (a keyframe, not a lost frame). The pose of every other frame comes from the ROPs.
 * Standstill: a rotation-only fit gives the parallax (:mod:`vo.rop.rotation_only`); below
   ``min_parallax_px`` the epoch is "no translation" (``T_kf_c = (R_1_3, 0)``, status ``ok``).
 * ROP gates and the rotation consensus (:mod:`vo.rop.consensus`); >= 3 ROPs are needed.

@@ -25,7 +25,7 @@ COVS = ("propagated", "chain_bootstrap")      # vo.rop.cov_models.make_uncertain
 MOVING = ("prior", "none")                    # vo.rop.moving
 MOVING_PRIORS = ("pnp", "velocity")           # vo.rop.estimator: prediction that selects the motion
 ROTATION_TESTS = ("chi2", "degrees")          # vo.rop.rotation_test | vo.rop.weak_frame.rotation_miss
-ROTATION_ACTIONS = ("direction", "rotation", "pose")       # a failed ROP rotation: PnP rotation + re-adjusted translation | PnP pose
+ROTATION_ACTIONS = ("direction", "rotation", "pose")   # vo.rop.rotation_test.readjusted_step | PnP pose
 # measured, non-default alternatives, given as ``experimental.<field>`` (vo.estimators.experimental); the
 # decision and the study behind each: docs/estimators.md, "Experimental options"
 EXPERIMENTAL = frozenset({"weights", "klt_refine", "rop_loss", "moving_prior"})
@@ -66,8 +66,9 @@ class RopConfig:
     differs from that PnP pose's fails the frame likewise: "chi2" when the difference's Mahalanobis distance in
     the sum of both fits' covariances exceeds the ``chi2_3(pnp_rotation_prob)`` quantile
     (:mod:`vo.rop.rotation_test`), "degrees" when it exceeds ``pnp_rotation_gate_deg``
-    (:func:`vo.rop.weak_frame.rotation_miss`); ``pnp_rotation_action`` what such a step becomes: "rotation" the PnP
-    rotation with seed 000's translation step re-solved for it (:func:`vo.rop.rotation_test.readjusted_step`),
+    (:func:`vo.rop.weak_frame.rotation_miss`); ``pnp_rotation_action`` what such a step becomes: "direction" the PnP
+    rotation and translation direction with the length of seed 000's translation step re-solved for that rotation,
+    "rotation" the PnP rotation with that re-solved translation (:func:`vo.rop.rotation_test.readjusted_step`),
     "pose" the PnP pose and a new keyframe.
     Experimental (:data:`EXPERIMENTAL`, given as ``experimental.<field>``): ``weights``, ``klt_refine``,
     ``rop_loss``, ``moving_prior``."""

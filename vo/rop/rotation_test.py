@@ -17,7 +17,10 @@ unbiased with these covariances and independent, ``d2`` is chi-square with 3 deg
 fires with probability ``1 - prob`` on a correct pair (checked against exact truth in
 ``tests/test_rop_rotation_test.py``). The two fits share the image noise of the same tracks; positively
 correlated errors make the sum of covariances larger than that of the difference, and the test conservative.
-Seed 000 speaks to neither covariance's use here; the test and its probability are beyond the paper.
+The first-order covariances are optimistic by a factor common to a recording (:class:`RotationTester` estimates
+it from the run, as seed 000's a-posteriori variance factor rescales its adjustment). Seed 000 speaks to neither
+covariance's use here; the test, its probability, the variance factor and what a failed step becomes
+(:func:`readjusted_step`) are beyond the paper. Figures: docs/estimators.md, "The rotation test".
 """
 from __future__ import annotations
 
@@ -167,9 +170,11 @@ def readjusted_step(ropset, result, R_kf_c: np.ndarray, config: AdjustmentConfig
                     t_direction: np.ndarray | None = None) -> np.ndarray | None:
     """``T_kf_c`` (4,4) with the rotation ``R_kf_c`` (3,3; the PnP fit's, where the test failed the ROP rotation) and
     the translation of seed 000's step 2 (eqs. 2-3, :func:`vo.rop.adjustment.adjust_translations`) re-solved with that
-    rotation as its fixed coefficient, from the ROPs ``ropset`` and the adjustment ``result``'s positions. The PnP
-    translation is not taken: a calibration scale error moves it (8-16 % on the real KITTI turn), not the ROPs'
-    scale, which rests on the calibrated baseline alone. None when the re-solve diverges."""
+    rotation as its fixed coefficient, from the ROPs ``ropset`` and the adjustment ``result``'s positions; with
+    ``t_direction`` (3,) (the PnP translation) only the re-solved length is kept and the direction is that one's.
+    The PnP length is not taken: a calibration scale error moves it (8-16 % on the real KITTI turn), not the ROPs'
+    scale, which rests on the calibrated baseline alone; the ROPs' direction is not kept where their rotation failed:
+    five-point geometry confuses the two (close, nearly planar walls). None when the re-solve diverges."""
     R = np.asarray(R_kf_c, float)
     tra = adjust_translations(ropset, R, result.T_c1_c3[:3, 3], result.T_c1_c4[:3, 3], config)
     if not np.all(np.isfinite(tra.x)):
