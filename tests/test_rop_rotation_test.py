@@ -10,9 +10,12 @@ from scipy.stats import binom
 from rigs.geometry import inv_T, make_T, so3_exp, so3_log
 from rigs.presets import get_rig
 from vo.errors import EstimatorError
+from vo.rop import adjust_rops, initial_eops
+from vo.rop.adjustment import AdjustmentConfig
+from vo.rop.ropset import exact_ropset
 from vo.rop.rop_config import RopConfig
 from vo.rop.rotation_test import (MIN_FACTOR_STEPS, RotationTester, chi2_threshold, pnp_rotation_cov,
-                                  rotation_test)
+                                  readjusted_step, rotation_test)
 
 K = np.array([[400.0, 0, 360], [0, 400.0, 240], [0, 0, 1]])
 T_KF_C = make_T(so3_exp(np.radians([0.5, 4.5, 0.3])), [0.05, -0.01, 0.07])   # a fast turn: 4.5 deg, 7 cm
@@ -183,3 +186,20 @@ def test_the_tester_passes_agreeing_steps_and_fails_a_rotation_off_by_half_a_deg
     off = make_T(so3_exp(np.radians([0.0, 0.5, 0.0])) @ T_KF_C[:3, :3], T_KF_C[:3, 3])
     assert "Mahalanobis" in t.miss(off, cov, T_KF_C, view, rig)
     assert t.miss(off, cov, None, view, rig) == ""                    # no PnP pose: no check
+
+
+def test_the_readjusted_step_keeps_the_rops_scale_with_the_given_rotation_and_direction():
+    # exact ROPs of a 0.6 m step: with the true rotation, seed 000's step 2 re-solved returns the true step; with a
+    # PnP translation 10 % long (a calibration scale error) as the direction, the length stays the ROPs' (exact)
+    T_c1_c2 = make_T(so3_exp(np.radians([0.0, -0.76, 0.8])), [0.2857, 0.0005, -0.0041])
+    T13 = make_T(so3_exp([0.01, 0.03, -0.005]), [0.05, -0.02, 0.6])
+    rops = exact_ropset(T13, T_c1_c2)
+    res = adjust_rops(rops, initial_eops(rops))
+    np.testing.assert_allclose(readjusted_step(rops, res, T13[:3, :3], AdjustmentConfig()), T13, atol=1e-9)
+    T = readjusted_step(rops, res, T13[:3, :3], AdjustmentConfig(), 1.1 * T13[:3, 3])
+    np.testing.assert_allclose(T, T13, atol=1e-9)
+    # a rotation 0.5 deg off: the re-solved translation follows it, the length stays within 1 % of the true one
+    R_off = so3_exp(np.radians([0.0, 0.5, 0.0])) @ T13[:3, :3]
+    T = readjusted_step(rops, res, R_off, AdjustmentConfig())
+    np.testing.assert_allclose(T[:3, :3], R_off)
+    assert abs(np.linalg.norm(T[:3, 3]) / np.linalg.norm(T13[:3, 3]) - 1) < 0.01
