@@ -377,7 +377,8 @@ class RopEstimator(Estimator):
             return self._fail(frame, left, right, "keyframe", n_feat, miss, timings, t0, keep_tracks=True, lost=False)
         if miss:
             T_kf_c, msg = T_fix, "; ".join(filter(None, (msg, miss + ": its rotation, translation re-adjusted")))
-        self._record_epoch(frame.t_ns, T_kf_c, epoch)
+        if not miss:                       # a step the rotation test corrected is no ROP epoch (Fig. 5 check)
+            self._record_epoch(frame.t_ns, T_kf_c, epoch)
         is_kf = self._is_keyframe(T_kf_c, n_feat)
         step = Step(int(frame.t_ns), self.T_o_kf, self.cov_kf, T_kf_c, cov_step, is_kf, epoch[3], epoch[4], pairs,
                     tracks, (*self._kf_imgs, left, right))
