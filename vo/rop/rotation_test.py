@@ -30,7 +30,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.stats import chi2
 
-from rigs.geometry import inv_T, make_T, skew, so3_log
+from rigs.geometry import inv_T, make_T, so3_log
 from vo.rop.adjustment import AdjustmentConfig, adjust_translations
 from vo.frontend.stereo import triangulate, undistort_px
 
@@ -84,8 +84,13 @@ def pnp_rotation_cov(p_kf: np.ndarray, x_px: np.ndarray, K: np.ndarray, T_kf_c: 
     d_proj = np.zeros((n, 2, 3))                      # d(u, v) / d p_c
     d_proj[:, 0, 0], d_proj[:, 0, 2] = fx / zi, -fx * p[:, 0] / zi ** 2
     d_proj[:, 1, 1], d_proj[:, 1, 2] = fy / zi, -fy * p[:, 1] / zi ** 2
-    d_p = np.concatenate([-np.stack([skew(q) for q in p]), np.broadcast_to(np.eye(3), (n, 3, 3))], axis=2)
-    J = (d_proj @ d_p).reshape(2 * n, 6)
+    J = np.empty((n, 2, 6))
+    J[:, :, 3:] = d_proj                                  # d p_c / d dt = I
+    zero = np.zeros(n)
+    minus_skew = np.stack([np.stack([zero, p[:, 2], -p[:, 1]], 1), np.stack([-p[:, 2], zero, p[:, 0]], 1),
+                           np.stack([p[:, 1], -p[:, 0], zero], 1)], 1)      # -[p_c]x: d p_c / d dphi
+    J[:, :, :3] = d_proj @ minus_skew
+    J = J.reshape(2 * n, 6)
     s2 = float(np.sum(e[inl] ** 2)) / max(2 * n - 6, 1)
     try:
         cov = s2 * np.linalg.inv(J.T @ J)
