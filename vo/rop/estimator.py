@@ -18,10 +18,13 @@ Our extensions (each documented in its module, figures in docs/estimators.md):
   (``moving_objects``, :mod:`vo.rop.moving`). The prior is the constant-velocity prediction of the track
   filter's own PnP poses (``moving_prior="pnp"``), so that one wrong ROP step does not move the prediction
   onto a car. A ROP step more than ``moving_step_gate_m`` from the PnP pose of the same tracks fails the
-  frame, which then takes that PnP pose; so does a ROP step whose rotation is more than
-  ``pnp_rotation_gate_deg`` from that PnP pose's (:func:`vo.rop.weak_frame.rotation_miss`: the ROP adjustment's
-  covariance does not reveal its bad steps; that frame becomes a keyframe, not a lost one). The pose of every
-  other frame comes from the ROPs.
+  frame, which then takes that PnP pose. A ROP step whose rotation fails the test against that PnP pose's
+  (``pnp_rotation_test``: "chi2", the difference in the metric of both fits' covariances with the run's
+  variance factor, :mod:`vo.rop.rotation_test`; "degrees", more than ``pnp_rotation_gate_deg``,
+  :func:`vo.rop.weak_frame.rotation_miss`) takes, with ``pnp_rotation_action="direction"``, the PnP rotation and
+  translation direction and the length of seed 000's translation step re-solved for that rotation
+  (:func:`vo.rop.rotation_test.readjusted_step`); ``"rotation"`` keeps the re-solved translation; ``"pose"`` takes
+  the PnP pose and a new keyframe (a keyframe, not a lost frame). The pose of every other frame comes from the ROPs.
 * Standstill: a rotation-only fit gives the parallax (:mod:`vo.rop.rotation_only`); below
   ``min_parallax_px`` the epoch is "no translation" (``T_kf_c = (R_1_3, 0)``, status ``ok``).
 * ROP gates and the rotation consensus (:mod:`vo.rop.consensus`); >= 3 ROPs are needed.
@@ -64,6 +67,7 @@ from vo.rop.initial_eops import initial_eops
 from vo.rop.moving import TrackFilter, filter_tracks
 from vo.rop.ropset import PAIRS
 from vo.rop.rotation_only import rotation_only
+from vo.rop.rotation_test import RotationTester, readjusted_step
 from vo.rop.tracks import KltFourView
 from vo.rop.uncertainty import Step, UncertaintyModel
 from vo.rop.weak_frame import rotation_miss, weak_frame_pose
@@ -110,7 +114,10 @@ class RopEstimator(Estimator):
         self.step_observer = step_observer
         self.rigidity = RigidityConfig.from_option(rigidity, "rop.rigidity")
         self._rigidity_rng = np.random.default_rng(self.rigidity.seed)   # partner draws
-        self.track_filter_config = PnpConfig(ransac_reproj_px=c.moving_reproj_px, min_model_fraction=c.moving_min_fraction)
+        self.track_filter_config = f = PnpConfig(ransac_reproj_px=c.moving_reproj_px,
+                                                 min_model_fraction=c.moving_min_fraction)
+        self.rotation_tester = RotationTester(c.pnp_rotation_prob, c.moving_reproj_px, f.max_depth,
+                                              f.max_triangulation_px)
         self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
         self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
         self._kf_imgs = None          # (left, right) of the keyframe; None before the first frame
@@ -211,13 +218,17 @@ class RopEstimator(Estimator):
             return ""
         return self._filter.step_miss(T_kf_c, self._pnp_pose(), self.config.moving_step_gate_m)
 
-    def _rotation_miss(self, T_kf_c: np.ndarray) -> str:
-        """Why the ROP step's rotation is suspect ("" when it is not): more than ``pnp_rotation_gate_deg`` from
-        the track filter's PnP pose of the same tracks (:func:`vo.rop.weak_frame.rotation_miss`); the frame then
-        takes that pose and becomes a keyframe (status ``keyframe``, not lost: its pose is measured)."""
+    def _rotation_miss(self, T_kf_c: np.ndarray, cov_step: np.ndarray) -> str:
+        """Why the ROP step's rotation is suspect ("" when it is not): it differs from the track filter's PnP pose
+        of the same tracks beyond ``pnp_rotation_test`` (:class:`vo.rop.rotation_test.RotationTester` in both
+        fits' covariances, or :func:`vo.rop.weak_frame.rotation_miss` in degrees); the frame then takes that pose
+        and becomes a keyframe (status ``keyframe``, not lost: its pose is measured)."""
         if self.config.moving_objects == "none":
             return ""
-        return rotation_miss(T_kf_c, self._pnp_pose(), self.config.pnp_rotation_gate_deg)
+        if self.config.pnp_rotation_test == "degrees":
+            return rotation_miss(T_kf_c, self._pnp_pose(), self.config.pnp_rotation_gate_deg)
+        return self.rotation_tester.miss(T_kf_c, cov_step, self._pnp_pose(), self.klt.view if self.klt else None,
+                                         self.rig)
 
     def _advance_prior(self, T_kf_c: np.ndarray) -> None:
         """Extend the PnP chain of the prediction by this frame (its PnP pose, else the frame's own)."""
@@ -357,10 +368,17 @@ class RopEstimator(Estimator):
         if miss:
             return self._fail(frame, left, right, "lost", n_feat, miss, timings, t0,
                               keep_tracks=True)
-        miss = self._rotation_miss(T_kf_c) if epoch[0] == "rops" else ""
-        if miss:
+        miss = self._rotation_miss(T_kf_c, cov_step) if epoch[0] == "rops" else ""
+        act = self.config.pnp_rotation_action
+        T_fix = readjusted_step(epoch[3], epoch[4], self._pnp_pose()[:3, :3], self.adjustment_config,
+                                self._pnp_pose()[:3, 3] if act == "direction" else None) \
+            if miss and act != "pose" else None
+        if miss and T_fix is None:
             return self._fail(frame, left, right, "keyframe", n_feat, miss, timings, t0, keep_tracks=True, lost=False)
-        self._record_epoch(frame.t_ns, T_kf_c, epoch)
+        if miss:
+            T_kf_c, msg = T_fix, "; ".join(filter(None, (msg, miss + ": its rotation, translation re-adjusted")))
+        if not miss:                       # a step the rotation test corrected is no ROP epoch (Fig. 5 check)
+            self._record_epoch(frame.t_ns, T_kf_c, epoch)
         is_kf = self._is_keyframe(T_kf_c, n_feat)
         step = Step(int(frame.t_ns), self.T_o_kf, self.cov_kf, T_kf_c, cov_step, is_kf, epoch[3], epoch[4], pairs,
                     tracks, (*self._kf_imgs, left, right))

@@ -24,6 +24,8 @@ from vo.rop.tracks import KltFourView
 COVS = ("propagated", "chain_bootstrap")      # vo.rop.cov_models.make_uncertainty
 MOVING = ("prior", "none")                    # vo.rop.moving
 MOVING_PRIORS = ("pnp", "velocity")           # vo.rop.estimator: prediction that selects the motion
+ROTATION_TESTS = ("chi2", "degrees")          # vo.rop.rotation_test | vo.rop.weak_frame.rotation_miss
+ROTATION_ACTIONS = ("direction", "rotation", "pose")   # vo.rop.rotation_test.readjusted_step | PnP pose
 # measured, non-default alternatives, given as ``experimental.<field>`` (vo.estimators.experimental); the
 # decision and the study behind each: docs/estimators.md, "Experimental options"
 EXPERIMENTAL = frozenset({"weights", "klt_refine", "rop_loss", "moving_prior"})
@@ -60,8 +62,14 @@ class RopConfig:
     PnP poses) | "velocity" (constant velocity of the estimator's poses); ``moving_step_gate_m`` a ROP
     step farther than this (m) from the track filter's PnP pose fails the frame, which then takes the PnP
     pose; ``moving_prior_gate_m`` that PnP pose stands for a failed frame only within this distance (m)
-    of the prediction (:mod:`vo.rop.estimator`); ``pnp_rotation_gate_deg`` a ROP step whose rotation is farther
-    than this (deg) from that PnP pose's fails the frame likewise (:func:`vo.rop.weak_frame.rotation_miss`).
+    of the prediction (:mod:`vo.rop.estimator`); ``pnp_rotation_test`` a ROP step whose rotation
+    differs from that PnP pose's fails the frame likewise: "chi2" when the difference's Mahalanobis distance in
+    the sum of both fits' covariances exceeds the ``chi2_3(pnp_rotation_prob)`` quantile
+    (:mod:`vo.rop.rotation_test`), "degrees" when it exceeds ``pnp_rotation_gate_deg``
+    (:func:`vo.rop.weak_frame.rotation_miss`); ``pnp_rotation_action`` what such a step becomes: "direction" the PnP
+    rotation and translation direction with the length of seed 000's translation step re-solved for that rotation,
+    "rotation" the PnP rotation with that re-solved translation (:func:`vo.rop.rotation_test.readjusted_step`),
+    "pose" the PnP pose and a new keyframe.
     Experimental (:data:`EXPERIMENTAL`, given as ``experimental.<field>``): ``weights``, ``klt_refine``,
     ``rop_loss``, ``moving_prior``."""
 
@@ -89,6 +97,9 @@ class RopConfig:
     moving_prior: Literal[MOVING_PRIORS] = "pnp"
     moving_prior_gate_m: float = knob(0.5, gt=0)
     moving_step_gate_m: float = knob(0.3, gt=0)
+    pnp_rotation_test: Literal[ROTATION_TESTS] = "chi2"
+    pnp_rotation_prob: float = knob(0.99, gt=0, lt=1)
+    pnp_rotation_action: Literal[ROTATION_ACTIONS] = "direction"
     pnp_rotation_gate_deg: float = knob(0.2, gt=0)
 
     def __post_init__(self):
