@@ -65,7 +65,8 @@ def sfm(frames, min_parallax_px: float, virtual_focal: float):
     for k in range(ref - 1, -1, -1):
         if not _pnp(frames[k], points, T, k):
             return None
-        _add_points(points, frames, T, k, ref)
+        for c in range(n - 1, k, -1):        # with every posed keyframe, widest baseline first (a deviation)
+            _add_points(points, frames, T, k, c)
     for a in range(n - 1):                   # the remaining tracks, widest baseline first
         for c in range(n - 1, a, -1):
             _add_points(points, frames, T, a, c)
