@@ -70,8 +70,9 @@ def test_window_scale_change_is_the_relative_change_of_the_distances():
 def _rest_frames(seed: int = 1):
     """Seven keyframes as :func:`_frames` (centres ``(0.4 k, 0, 1.0 k)`` m), where the oldest shares its tracks
     only with the next two (60 points; a start from rest whose early tracks die before the reference), the
-    next two share 30 more with keyframes 3 and 4, and keyframes 3-6 share 200. The reference pair is
-    (3, 6) (the pair qualifies at 30 px of parallax at 12-30 m between keyframes 3 and 6), so keyframe 0 can be posed only from points triangulated between keyframes 1 and 2."""
+    next two share 30 more with keyframes 3 and 4, and keyframes 3-6 share 200 (12-30 m ahead, so that the
+    pair (3, 6) has 30 px of parallax). The reference pair is (3, 6), so keyframe 0 can be posed only from
+    points triangulated between keyframes 1 and 2."""
     rng = np.random.default_rng(seed)
     A = rng.uniform([-10, -3, 15], [10, 3, 40], (60, 3))
     B1 = rng.uniform([-10, -3, 20], [10, 3, 40], (30, 3))
