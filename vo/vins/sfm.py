@@ -17,7 +17,6 @@ MIN_COMMON = 20          # features shared by the reference and the second view 
 MIN_POSE_INLIERS = 12    # essential-matrix inliers of the reference pair (VINS-Mono: 12)
 BA_SIGMA_PX = 1.0        # reprojection std of the SfM bundle adjustment at the virtual focal length
 REJECT_PX = 3.0          # observations beyond this after the first BA are dropped (moving objects, KLT slips)
-CAUCHY_PX = 1.0          # Cauchy loss scale of the SfM bundle adjustment (the window's loss, seed 002's choice)
 
 
 def _common(a, b):
@@ -143,7 +142,7 @@ def _bundle_adjust(frames, T_c_v, points, ref, virtual_focal, reject_px: float =
     the virtual focal length) at the input estimate are left out. -> (T_c_v, points)."""
     from gtsam.symbol_shorthand import L, X
     K = gtsam.Cal3_S2(virtual_focal, virtual_focal, 0.0, 0.0, 0.0)
-    noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(CAUCHY_PX / BA_SIGMA_PX),
+    noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345),
                                            gtsam.noiseModel.Isotropic.Sigma(2, BA_SIGMA_PX))
     g, v = gtsam.NonlinearFactorGraph(), gtsam.Values()
     used = set()
