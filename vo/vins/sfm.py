@@ -45,8 +45,9 @@ def sfm(frames, min_parallax_px: float, virtual_focal: float):
     view (:func:`reference_pair`); the keyframes after it are then chained forward by PnP as well.
     A keyframe posed by PnP before the reference triangulates its tracks with every keyframe posed so far, not
     only with the reference (VINS-Mono's ``GlobalSFM``; a deviation): the keyframe of a start from rest shares
-    its long tracks with the next keyframes, which often lose them before the reference (urban-dynamic seed 0:
-    5 of 9 points were PnP inliers against the reference's triangulation, 17 of 28 with this)."""
+    its long tracks with the next keyframes, which often lose them before the reference (measured on an
+    urban-dynamic start from rest: 9 points, 5 PnP inliers, with the reference's triangulation only; 28 and 17
+    with this)."""
     pair = reference_pair(frames, min_parallax_px, virtual_focal)
     if pair is None:
         return None
