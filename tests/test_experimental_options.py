@@ -12,7 +12,7 @@ from vo.vins.vins_config import EXPERIMENTAL as VINS_EXPERIMENTAL, PRESETS, Vins
 # one non-default value per experimental field
 ROP_VALUES = {"weights": "sampson", "klt_refine": "affine", "rop_loss": "tukey", "moving_prior": "velocity"}
 VINS_VALUES = {"n_count": "window", "weight_min": 0.1, "weight_max": 1.0, "landmark": "inverse-depth",
-               "shift_depth": True, "hold_gauge": True, "klt_refine": "affine", "init_min_excitation": 0.25,
+               "shift_depth": True, "hold_gauge": True, "init_min_excitation": 0.25,
                "init_provisional_scale_std": 0.15, "init_confirm_s": 5.0}
 
 

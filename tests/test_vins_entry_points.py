@@ -1,5 +1,5 @@
 """The VINS study drivers (docs/studies/vins_tables.py, vins_postinit_nees.py, vins_start_table.py,
-vins_initial_report.py) on bad input: one ``error:`` line, exit 2."""
+vins_initial_report.py, vins_start_window.py) on bad input: one ``error:`` line, exit 2."""
 import numpy as np
 import pytest
 from studies import load_study
@@ -8,6 +8,7 @@ tables = load_study("vins_tables")
 postinit_nees = load_study("vins_postinit_nees")
 start_table = load_study("vins_start_table")
 initial_report = load_study("vins_initial_report")
+start_window = load_study("vins_start_window")
 
 
 def _one_error_line(capsys) -> str:
@@ -45,4 +46,13 @@ def test_start_table_and_initial_report_missing_dataset(tmp_path, capsys):
     assert initial_report.main([str(tmp_path / "none")]) == 2
     assert "dataset folder not found" in _one_error_line(capsys)
     assert initial_report.main([str(tmp_path), "10", "landmark"]) == 2
+    assert "usage" in capsys.readouterr().err
+
+
+def test_start_window_missing_dataset_or_bad_option(tmp_path, capsys):
+    assert start_window.main([str(tmp_path / "none")]) == 2
+    assert "dataset folder not found" in _one_error_line(capsys)
+    assert start_window.main([str(tmp_path), "10", "landmark"]) == 2
+    assert _one_error_line(capsys).startswith("error:")
+    assert start_window.main([]) == 2
     assert "usage" in capsys.readouterr().err

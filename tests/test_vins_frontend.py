@@ -83,7 +83,7 @@ def test_tracks_on_an_approaching_plane_follow_the_exact_zoom(refine):
 def test_refine_option_is_validated():
     from vo.errors import EstimatorError
     from vo.vins.vins_config import VinsConfig
-    assert VinsConfig(klt_refine="affine").klt_refine == "affine"
+    assert VinsConfig().klt_refine == "affine" and VinsConfig(klt_refine="none").klt_refine == "none"
     with pytest.raises(EstimatorError, match="klt_refine"):
         VinsConfig(klt_refine="projective")
     with pytest.raises(ValueError, match="refine 'x'"):

@@ -39,7 +39,7 @@ PRESETS = {
 # measured, non-default alternatives, given as ``experimental.<field>`` (vo.estimators.experimental); the
 # decision and the study behind each: docs/estimators.md, "Experimental options"
 EXPERIMENTAL = frozenset({"n_count", "weight_min", "weight_max", "landmark", "shift_depth", "hold_gauge",
-                          "klt_refine", "init_min_excitation", "init_provisional_scale_std", "init_confirm_s"})
+                          "init_min_excitation", "init_provisional_scale_std", "init_confirm_s"})
 
 
 def _positive_or_inf(value):
@@ -70,8 +70,10 @@ class VinsConfig:
     ``hold_gauge``: after each optimization the window is moved back so that its oldest state keeps its position
     and yaw (VINS-Mono's ``double2vector``; position and yaw are unobservable).
     Front-end: ``max_features``, ``min_distance_px``, ``f_threshold_px``, ``min_parallax_px`` (at F_c),
-    ``min_tracked`` (fewer tracked features than this -> keyframe), ``klt_refine`` "none" (VINS-Mono's KLT) or
-    "affine" (each track refined against its first image, :mod:`vo.vins.feature_tracker`). IMU: ``imu_noise`` "rig" (the rig's
+    ``min_tracked`` (fewer tracked features than this -> keyframe), ``klt_refine`` "affine" (default, a deviation:
+    each track refined against its first image, :mod:`vo.vins.feature_tracker`; translation-only KLT drifts on
+    the perspective ground and biased the start's scale by 6-19 % in traffic, docs/vins.md) or "none"
+    (VINS-Mono's KLT). IMU: ``imu_noise`` "rig" (the rig's
     calibrated Kalibr densities, as a VINS-Mono user configures the IMU; Table 1's when the rig has none) or
     "table1" (seed 002 Table 1's estimator configuration ``acc_n``, ``gyr_n``, ``acc_w``, ``gyr_w``, not the
     sensor's noise: :mod:`rigs.imu_models`).
@@ -101,7 +103,7 @@ class VinsConfig:
     Output: ``covariance`` "frame" (gtsam marginal of the newest state every frame, ``FrameResult.cov``) or "off".
     ``remove_dynamic`` (preset ``oracle``): the front-end keeps no features on moving objects (true segmentation).
     Experimental (:data:`EXPERIMENTAL`, given as ``experimental.<field>``): ``n_count``, ``weight_min``,
-    ``weight_max``, ``landmark``, ``shift_depth``, ``hold_gauge``, ``klt_refine``, ``init_min_excitation``,
+    ``weight_max``, ``landmark``, ``shift_depth``, ``hold_gauge``, ``init_min_excitation``,
     ``init_provisional_scale_std``, ``init_confirm_s``.
     """
 
@@ -127,7 +129,7 @@ class VinsConfig:
     f_threshold_px: float = knob(1.0, gt=0)
     min_parallax_px: float = knob(10.0, gt=0)
     min_tracked: int = knob(20, ge=0)
-    klt_refine: Literal[KLT_REFINE] = "none"
+    klt_refine: Literal[KLT_REFINE] = "affine"
     imu_noise: Literal[IMU_NOISE] = "rig"
     acc_n: float = knob(0.1, gt=0)
     gyr_n: float = knob(0.01, gt=0)
