@@ -170,8 +170,10 @@ class VinsEstimator(Estimator):
             return
         res.cov = output_covariance(P_x, self.T_o_w, w.values.atPose3(X(st.k)).matrix(), self.T_i_c)
 
-    def _is_keyframe(self, feats, last_kf) -> bool:
-        if last_kf is None:
+    def _is_keyframe(self, feats, last_kf, max_interval_s: float = float("inf")) -> bool:
+        """Seed 002's two tests (mean parallax to ``last_kf``, tracked count), and, in the window, a keyframe
+        at least every ``max_interval_s`` (:class:`VinsConfig` ``max_keyframe_interval_s``)."""
+        if last_kf is None or (feats.t_ns - last_kf.t_ns) * 1e-9 >= max_interval_s:
             return True
         par, n_common = parallax_px(feats, last_kf, self.config.virtual_focal)
         n_tracked = int(np.sum(feats.count > 1))
@@ -267,7 +269,7 @@ class VinsEstimator(Estimator):
     def _process_window(self, frame, feats) -> FrameResult:
         w = self.window
         last_kf = next(st for st in reversed(w.states) if st.is_kf)
-        is_kf = self._is_keyframe(feats, last_kf.feats)
+        is_kf = self._is_keyframe(feats, last_kf.feats, self.config.max_keyframe_interval_s)
         before = self._snapshot()
         try:
             new = w.add_state(feats.t_ns, feats, is_kf)
