@@ -26,7 +26,7 @@ from vo.estimators.base import Estimator, FrameResult
 from vo.vins.vins_config import VinsConfig
 from vo.vins.covariance import INIT_COV, output_covariance
 from vo.vins.divergence import DivergenceCheck, Snapshot
-from vo.vins.feature_tracker import KltFrontend, mask_at, parallax_px
+from vo.vins.feature_tracker import KltFrontend, is_keyframe, mask_at
 from vo.vins.imu import GRAVITY, ImuStream, imu_params, preintegrate
 from vo.vins.vi_init import SFM_FAILED, initialize, usable_points, window_scale_change
 from vo.vins.truth_segmentation import FeatureLabels, rule_confusion
@@ -171,13 +171,8 @@ class VinsEstimator(Estimator):
         res.cov = output_covariance(P_x, self.T_o_w, w.values.atPose3(X(st.k)).matrix(), self.T_i_c)
 
     def _is_keyframe(self, feats, last_kf, max_interval_s: float = float("inf")) -> bool:
-        """Seed 002's two tests (mean parallax to ``last_kf``, tracked count), and, in the window, a keyframe
-        at least every ``max_interval_s`` (:class:`VinsConfig` ``max_keyframe_interval_s``)."""
-        if last_kf is None or (feats.t_ns - last_kf.t_ns) * 1e-9 >= max_interval_s:
-            return True
-        par, n_common = parallax_px(feats, last_kf, self.config.virtual_focal)
-        n_tracked = int(np.sum(feats.count > 1))
-        return par >= self.config.min_parallax_px or n_tracked < self.config.min_tracked
+        cfg = self.config
+        return is_keyframe(feats, last_kf, cfg.min_parallax_px, cfg.min_tracked, cfg.virtual_focal, max_interval_s)
 
     def _init_status(self) -> str:
         return "reinit" if self.reinitialising else "init"
