@@ -113,6 +113,7 @@ class VinsEstimator(Estimator):
         self.window = None
         self.init_frames: list = []
         self.provisional_since = None
+        self.last_attempt = None        # (t_ns, message) of the last failed start attempt
 
     def _diverged(self, frame, feats, message: str) -> FrameResult:
         """The window failed: reset and start a new initialisation from this frame on. Every frame until it
@@ -193,11 +194,16 @@ class VinsEstimator(Estimator):
                                      f"dataset through the runner)")
             return self._initialised(frame, truth_init(self.truth, self.init_frames))
         if cfg.init == "vi" and new_kf and len(self.init_frames) >= need:
-            result, msg = self.initializer(self.stream, self.params, self.init_frames, self.T_i_c, cfg)
-            if result is not None:
-                return self._initialised(frame, result)
+            last = self.last_attempt
+            if self.reinitialising and last and (feats.t_ns - last[0]) * 1e-9 < cfg.reinit_attempt_interval_s:
+                msg = f"{last[1]} (next attempt {cfg.reinit_attempt_interval_s:g} s after it)"
+            else:
+                result, msg = self.initializer(self.stream, self.params, self.init_frames, self.T_i_c, cfg)
+                if result is not None:
+                    return self._initialised(frame, result)
+                self.last_attempt = last = (feats.t_ns, msg)
             if len(self.init_frames) >= cfg.init_keyframes:
-                drop_init_keyframe(self.init_frames, msg == SFM_FAILED)
+                drop_init_keyframe(self.init_frames, last[1] == SFM_FAILED)
         return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(), message=msg)
 
     def _initialised(self, frame, result) -> FrameResult:

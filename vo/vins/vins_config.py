@@ -92,6 +92,9 @@ class VinsConfig:
     the window is not tried, :func:`vo.vins.vi_init.imu_excitation`; 0 = off, as in VINS-Mono, which logs its
     0.25 test without acting on it: the scale's standard deviation already says whether the motion observes
     it, and the campus cart's start from rest, 0.16-0.20 m/s^2, observes it to 1.3 %),
+    ``reinit_attempt_interval_s``: after a divergence, a start attempt at a new keyframe only this long after
+    the last failed one (0 = at every keyframe, as the first start and VINS-Mono; beyond seed 002: at speed
+    every frame is a keyframe and each attempt costs 0.2-0.7 s of CPU, docs/vins.md);
     ``init_provisional_scale_std``: an alignment whose scale is known only to this (relative standard
     deviation) starts the window provisionally: no pose is emitted (status ``init``) until the window's own
     speed is known to ``init_max_scale_std``, or it is dropped after ``init_confirm_s`` seconds. Off by
@@ -148,6 +151,7 @@ class VinsConfig:
     init_min_excitation: float = knob(0.0, ge=0)
     init_provisional_scale_std: float = knob(0.05, gt=0)
     init_confirm_s: float = knob(10.0, gt=0)
+    reinit_attempt_interval_s: float = knob(0.5, ge=0)
     fail_max_acc_bias: float = knob(2.5, gt=0)
     fail_max_gyr_bias: float = knob(1.0, gt=0)
     fail_max_step_m: float = knob(5.0, gt=0)
