@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rigs.model import Camera
-from vo.vins.feature_tracker import KltFrontend
+from vo.vins.feature_tracker import FeatureFrame, KltFrontend, is_keyframe
 
 W, H = 320, 240
 
@@ -89,3 +89,26 @@ def test_refine_option_is_validated():
     with pytest.raises(ValueError, match="refine 'x'"):
         KltFrontend(Camera(name="cam0", width=W, height=H, fx=200.0, fy=200.0, cx=W / 2 - 0.5, cy=H / 2 - 0.5),
                     refine="x")
+
+
+def test_keyframe_at_standstill_only_after_the_interval():
+    """A vehicle standing still: 40 tracked features that do not move (zero parallax). Seed 002's criteria
+    take no keyframe however long the stop (10 s); with ``max_interval_s`` = 1 the frame 1 s after the last
+    keyframe is one, the one 0.9 s after is not. 12 px of mean parallax (> 10) or 19 tracked features (< 20) is
+    a keyframe at once."""
+    ids = np.arange(40, dtype=np.int64)
+    xy = np.random.default_rng(0).uniform(-0.5, 0.5, (40, 2))
+
+    def frame(t_s, shift=0.0, n_new=0):
+        count = np.full(40, 5, np.int64)
+        count[:n_new] = 1
+        return FeatureFrame(int(t_s * 1e9), ids, xy * 460.0, xy + [shift, 0.0], count)
+
+    last = frame(0.0)
+    assert not is_keyframe(frame(10.0), last, 10.0, 20, 460.0)
+    assert not is_keyframe(frame(0.9), last, 10.0, 20, 460.0, max_interval_s=1.0)
+    assert is_keyframe(frame(1.0), last, 10.0, 20, 460.0, max_interval_s=1.0)
+    assert is_keyframe(frame(0.1, shift=12.0 / 460.0), last, 10.0, 20, 460.0, max_interval_s=1.0)
+    assert is_keyframe(frame(0.1, n_new=21), last, 10.0, 20, 460.0, max_interval_s=1.0)
+    assert not is_keyframe(frame(0.1, n_new=20), last, 10.0, 20, 460.0, max_interval_s=1.0)
+    assert is_keyframe(frame(0.0), None, 10.0, 20, 460.0)

@@ -104,7 +104,8 @@ def test_forced_divergence_reinitialises(urban_from_rest):
     held and the frame class `lost` (not covered by the evaluation). On this route the divergence comes at
     about 7 s, when the car is at speed: the windows after it span about 2 s of nearly constant acceleration
     and are refused for observability within the 14 s (docs/vins.md), so a second start is checked only if it
-    happens: then it is announced as `initialised` and covers every frame after it."""
+    happens: then it is announced as `initialised` and covers every frame after it. The attempts after the
+    divergence are at least ``reinit_attempt_interval_s`` (0.5 s) apart."""
     ds = open_dataset(urban_from_rest)
     rec = CountingRecorder(ds.groundtruth_cam0())
     est = VinsEstimator(ds.rig, initializer=rec, divergence=DivergeOnce(1))
@@ -125,6 +126,8 @@ def test_forced_divergence_reinitialises(urban_from_rest):
     msgs = [r.message for r in res[first + 2:again]]
     assert "collecting keyframes 1/11" in msgs, msgs[:5]                       # fresh keyframes
     assert rec.calls > rec.calls_at_reinit                                     # the start is tried again
+    t_reinit = np.array(rec.t_ns[rec.calls_at_reinit:])                        # reinit_attempt_interval_s
+    assert np.all(np.diff(t_reinit) >= 0.5e9), np.diff(t_reinit)
     assert any("not observable" in m or "SfM failed" in m for m in msgs), set(msgs)
     if again < len(res):
         assert all(r.status in COVERED for r in res[again:]) and len(rec.starts) == 2
@@ -135,10 +138,11 @@ class CountingRecorder(InitRecorder):
 
     def __init__(self, gt):
         super().__init__(gt)
-        self.calls, self.calls_at_reinit = 0, None
+        self.calls, self.calls_at_reinit, self.t_ns = 0, None, []
 
     def __call__(self, *args):
         self.calls += 1
+        self.t_ns.append(args[2][-1].t_ns)          # the newest keyframe of the attempt
         return super().__call__(*args)
 
 

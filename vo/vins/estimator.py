@@ -26,7 +26,7 @@ from vo.estimators.base import Estimator, FrameResult
 from vo.vins.vins_config import VinsConfig
 from vo.vins.covariance import INIT_COV, output_covariance
 from vo.vins.divergence import DivergenceCheck, Snapshot
-from vo.vins.feature_tracker import KltFrontend, mask_at, parallax_px
+from vo.vins.feature_tracker import KltFrontend, is_keyframe, mask_at
 from vo.vins.imu import GRAVITY, ImuStream, imu_params, preintegrate
 from vo.vins.vi_init import SFM_FAILED, initialize, usable_points, window_scale_change
 from vo.vins.truth_segmentation import FeatureLabels, rule_confusion
@@ -113,6 +113,7 @@ class VinsEstimator(Estimator):
         self.window = None
         self.init_frames: list = []
         self.provisional_since = None
+        self.last_attempt = None        # (t_ns, message) of the last failed start attempt
 
     def _diverged(self, frame, feats, message: str) -> FrameResult:
         """The window failed: reset and start a new initialisation from this frame on. Every frame until it
@@ -170,12 +171,9 @@ class VinsEstimator(Estimator):
             return
         res.cov = output_covariance(P_x, self.T_o_w, w.values.atPose3(X(st.k)).matrix(), self.T_i_c)
 
-    def _is_keyframe(self, feats, last_kf) -> bool:
-        if last_kf is None:
-            return True
-        par, n_common = parallax_px(feats, last_kf, self.config.virtual_focal)
-        n_tracked = int(np.sum(feats.count > 1))
-        return par >= self.config.min_parallax_px or n_tracked < self.config.min_tracked
+    def _is_keyframe(self, feats, last_kf, max_interval_s: float = float("inf")) -> bool:
+        cfg = self.config
+        return is_keyframe(feats, last_kf, cfg.min_parallax_px, cfg.min_tracked, cfg.virtual_focal, max_interval_s)
 
     def _init_status(self) -> str:
         return "reinit" if self.reinitialising else "init"
@@ -196,11 +194,16 @@ class VinsEstimator(Estimator):
                                      f"dataset through the runner)")
             return self._initialised(frame, truth_init(self.truth, self.init_frames))
         if cfg.init == "vi" and new_kf and len(self.init_frames) >= need:
-            result, msg = self.initializer(self.stream, self.params, self.init_frames, self.T_i_c, cfg)
-            if result is not None:
-                return self._initialised(frame, result)
+            last = self.last_attempt
+            if self.reinitialising and last and (feats.t_ns - last[0]) * 1e-9 < cfg.reinit_attempt_interval_s:
+                msg = f"{last[1]} (next attempt {cfg.reinit_attempt_interval_s:g} s after it)"
+            else:
+                result, msg = self.initializer(self.stream, self.params, self.init_frames, self.T_i_c, cfg)
+                if result is not None:
+                    return self._initialised(frame, result)
+                self.last_attempt = last = (feats.t_ns, msg)
             if len(self.init_frames) >= cfg.init_keyframes:
-                drop_init_keyframe(self.init_frames, msg == SFM_FAILED)
+                drop_init_keyframe(self.init_frames, last[1] == SFM_FAILED)
         return FrameResult(frame.t_ns, self.last_T_o_c.copy(), self._init_status(), message=msg)
 
     def _initialised(self, frame, result) -> FrameResult:
@@ -267,7 +270,7 @@ class VinsEstimator(Estimator):
     def _process_window(self, frame, feats) -> FrameResult:
         w = self.window
         last_kf = next(st for st in reversed(w.states) if st.is_kf)
-        is_kf = self._is_keyframe(feats, last_kf.feats)
+        is_kf = self._is_keyframe(feats, last_kf.feats, self.config.max_keyframe_interval_s)
         before = self._snapshot()
         try:
             new = w.add_state(feats.t_ns, feats, is_kf)
