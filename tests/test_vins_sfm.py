@@ -10,6 +10,15 @@ from vo.vins.vi_init import InitResult, window_scale_change
 F = 460.0
 
 
+def _keyframe(k: int, pts: np.ndarray, ids: np.ndarray, rng) -> tuple:
+    """Keyframe ``k`` at centre ``(0.4 k, 0, 1.0 k)`` m (identity rotation) seeing world points ``pts`` (N,3)
+    with track ``ids`` (N,), 0.05 px image noise at F -> (FeatureFrame, centre (3,))."""
+    c = np.array([0.4 * k, 0.0, 1.0 * k])
+    p_c = pts - c
+    xy = p_c[:, :2] / p_c[:, 2:] + rng.normal(0, 0.05 / F, (len(pts), 2))
+    return FeatureFrame(k * 10 ** 8, ids.astype(np.int64), xy * F, xy, np.ones(len(ids), np.int64)), c
+
+
 def _frames(n_old: int = 6, n_newest_common: int = 15, seed: int = 0):
     """Keyframes of a camera moving forward and sideways past 200 points 15-40 m ahead (identity rotation,
     centres ``(0.4 k, 0, 1.0 k)`` m); the newest sees only ``n_newest_common`` of those points plus 100 of
@@ -19,14 +28,12 @@ def _frames(n_old: int = 6, n_newest_common: int = 15, seed: int = 0):
     P_new = rng.uniform([-10, -3, 25], [10, 3, 45], (100, 3))
     frames, centres = [], []
     for k in range(n_old + 1):
-        c = np.array([0.4 * k, 0.0, 1.0 * k])
         if k < n_old:
             pts, ids = P, np.arange(200)
         else:
             pts, ids = np.vstack([P[:n_newest_common], P_new]), np.r_[np.arange(n_newest_common), 1000 + np.arange(100)]
-        p_c = pts - c
-        xy = p_c[:, :2] / p_c[:, 2:] + rng.normal(0, 0.05 / F, (len(pts), 2))
-        frames.append(FeatureFrame(k * 10 ** 8, ids.astype(np.int64), xy * F, xy, np.ones(len(ids), np.int64)))
+        frame, c = _keyframe(k, pts, ids, rng)
+        frames.append(frame)
         centres.append(c)
     return frames, np.array(centres)
 
@@ -81,12 +88,10 @@ def _rest_frames(seed: int = 1):
             4: [(B1, 100), (B, 1000)], 5: [(B, 1000)], 6: [(B, 1000)]}
     frames, centres = [], []
     for k in range(7):
-        c = np.array([0.4 * k, 0.0, 1.0 * k])
         pts = np.vstack([P for P, _ in sets[k]])
         ids = np.concatenate([off + np.arange(len(P)) for P, off in sets[k]])
-        p_c = pts - c
-        xy = p_c[:, :2] / p_c[:, 2:] + rng.normal(0, 0.05 / F, (len(pts), 2))
-        frames.append(FeatureFrame(k * 10 ** 8, ids.astype(np.int64), xy * F, xy, np.ones(len(ids), np.int64)))
+        frame, c = _keyframe(k, pts, ids, rng)
+        frames.append(frame)
         centres.append(c)
     return frames, np.array(centres)
 
