@@ -18,7 +18,7 @@ point of B (a far-away pose that PnP RANSAC accepts, found on the lunar traverse
 counts for what it is, one or a few places. A consensus of at most :data:`MINIMAL_SAMPLE` places (the matches each
 RANSAC hypothesis is fitted to: AP3P's 3 and the 1 that chooses among its solutions, 4) is what any set of matches
 yields and no evidence of a common place: such a pair's similarity is *unverified* (measured on the indoor
-scene, seeds 0-4: 601 of 605 distinct pairs, all of their matches wrong by construction, reach exactly 4).
+scene, seeds 0-4: 601 of 605 distinct pairs, all of their matches wrong by construction, score at most 4).
 (A fundamental-matrix check is too weak here: driving along a straight street the epipolar
 lines are the street's own lines, so matches anywhere along a lane marking pass it.)
 
@@ -367,10 +367,12 @@ def plot_places(res: PlaceCheck, places, revisits, matcher, path) -> None:
     ax.hist(res.revisit, bins=bins, color="tab:green", alpha=0.6, label=f"revisits ({len(res.revisit)})")
     ax.axvline(res.revisit.min(), color="tab:green", ls="--", lw=1)
     ax.axvline(LOOP_ACCEPT_INLIERS, color="k", ls=":", lw=1, label=f"loop accepted ({LOOP_ACCEPT_INLIERS})")
+    ax.axvspan(0, res.minimal_sample + 0.5, color="0.85", zorder=0, label=f"unverified (<= {res.minimal_sample})")
     ax.set_xscale("symlog", linthresh=1.0)
     ax.set_xlim(left=0)
     ax.set_yscale("log")
-    ax.set_xlabel(f"ORB matches surviving ratio test + {'PnP' if matcher.place.verify == 'pnp' else 'F'} RANSAC")
+    ax.set_xlabel(f"ORB matches surviving ratio test + {'PnP' if matcher.place.verify == 'pnp' else 'F'} RANSAC, "
+                  f"in places {matcher.place.ransac_px:g} px apart")
     ax.set_ylabel("pairs")
     ax.set_title(f"{res.source}: {'PASS' if res.passed else 'FAIL'}", fontsize=10)
     ax.legend(fontsize=8)
@@ -385,7 +387,7 @@ def plot_places(res: PlaceCheck, places, revisits, matcher, path) -> None:
         for p, q in zip(xa, xb):
             ax2.plot([p[0], q[0] + a.shape[1]], [p[1], q[1]], "-", color="yellow", lw=0.5)
         ax2.set_axis_off()
-        ax2.set_title(f"most similar distinct places: {res._where(i)} vs {res._where(j)}, {n} inliers", fontsize=9)
+        ax2.set_title(f"most similar distinct places: {res._where(i)} vs {res._where(j)}, {n} places", fontsize=9)
     fig.tight_layout()
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=100)
