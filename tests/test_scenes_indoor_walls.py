@@ -77,16 +77,19 @@ def test_indoor_wall_sides_each_their_own_texture_same_seed_same_bytes():
 
 
 @pytest.mark.slow
-def test_indoor_places_no_look_alikes():
-    """Indoor seed 0, a place every 2 m: every revisit (the white wall's too) is more similar than any two
-    distinct places, and none of those reaches a loop closure's 40."""
+@pytest.mark.parametrize("seed", [0, 2, 4])
+def test_indoor_places_no_look_alikes(seed):
+    """Indoor, a place every 2 m: no distinct pair of places is verified at or above the weakest revisit, none
+    reaches a loop closure's 40. Seed 2: its revisit of place 8 (a plaster partition at a grazing angle) stays
+    unverified, as every distinct pair; seed 4: two copies of one poster pattern matched with 13 places."""
     from sim.app.validation.place_recognition import LOOP_ACCEPT_INLIERS, PlaceConfig, check_places, render_views
     from sim.scenarios import get_scenario
     place = PlaceConfig(spacing_m=2.0)
-    places, revisits = render_views(get_scenario("indoor"), place, progress=False)
+    places, revisits = render_views(get_scenario("indoor", seed=seed), place, progress=False)
     res, _ = check_places(places, revisits, "indoor", place, progress=False)
     assert len(places) == 10 and len(res.distinct) > 100
     assert res.passed and max(res.distinct) < LOOP_ACCEPT_INLIERS, res.table()
+    assert np.median(res.revisit) > 4 * place.minimal_sample, res.table()
 
 
 @pytest.mark.slow
