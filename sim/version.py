@@ -4,5 +4,6 @@ offsets' 16-bit table index drawn bytewise, the low byte only where the high byt
 actor wears an atlas of its own, every bus has a body and livery of its own; 0.5.0: PNG row filter ``sub``
 instead of ``paeth``, 20-27 % less encoding CPU for 8-13 % larger images, the same pixels; every indoor wall
 side wears a texture of its own, drawn at its full extent, with skirting, switches, notices and sockets: no
-pattern repeats within a wall)."""
-__version__ = "0.5.0"
+pattern repeats within a wall; 0.6.0: every indoor poster, desk top and desk item has a pattern of its own, not a
+tint of a shared one: copies of one poster were look-alike places)."""
+__version__ = "0.6.0"

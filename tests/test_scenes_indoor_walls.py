@@ -77,13 +77,47 @@ def test_indoor_wall_sides_each_their_own_texture_same_seed_same_bytes():
 
 
 @pytest.mark.slow
-def test_indoor_places_no_look_alikes():
-    """Indoor seed 0, a place every 2 m: every revisit (the white wall's too) is more similar than any two
-    distinct places, and none of those reaches a loop closure's 40."""
+@pytest.mark.parametrize("seed", [0, 2, 4])
+def test_indoor_places_no_look_alikes(seed):
+    """Indoor, a place every 2 m: no distinct pair of places is verified at or above the weakest revisit, none
+    reaches a loop closure's 40. Seed 2: its revisit of place 8 (a plaster partition at a grazing angle) stays
+    unverified, as every distinct pair; seed 4: two copies of one poster pattern matched with 13 places."""
     from sim.app.validation.place_recognition import LOOP_ACCEPT_INLIERS, PlaceConfig, check_places, render_views
     from sim.scenarios import get_scenario
     place = PlaceConfig(spacing_m=2.0)
-    places, revisits = render_views(get_scenario("indoor"), place, progress=False)
+    places, revisits = render_views(get_scenario("indoor", seed=seed), place, progress=False)
     res, _ = check_places(places, revisits, "indoor", place, progress=False)
     assert len(places) == 10 and len(res.distinct) > 100
     assert res.passed and max(res.distinct) < LOOP_ACCEPT_INLIERS, res.table()
+    assert np.median(res.revisit) > 4 * place.minimal_sample, res.table()
+
+
+@pytest.mark.slow
+def test_indoor_posters_desks_and_items_each_a_pattern_of_their_own():
+    """Every poster, desk top and desk item wears a texture of its own (not a tint of a shared pattern, which ORB
+    on grey images sees as one: two copies of one poster were a look-alike place on seed 4), different in grey,
+    the same bytes for the same seed."""
+    import mujoco
+    from scenes import SceneConfig, make_scene
+
+    def own(seed):
+        spec = mujoco.MjSpec()
+        make_scene(SceneConfig(name="indoor"), scene_streams(seed)).add_to_spec(spec)
+        tex = {t.name: t for t in spec.textures}
+        out = {}
+        for g in spec.geoms:
+            part = g.name.split("/", 1)[-1]
+            if part.startswith("decor/poster") or part.endswith(("/top", "/item")):
+                t = tex[f"tex/{g.material.split('/', 1)[1]}"]
+                out[part] = np.frombuffer(bytes(t.data), np.uint8).reshape(t.height, t.width, 3)
+        return out
+
+    a = own(4)
+    assert sum(k.startswith("decor/poster") for k in a) == 12 and sum(k.endswith("/top") for k in a) == 7
+    grey = {k: v.mean(axis=2) for k, v in a.items()}
+    keys = sorted(grey)
+    for i, k in enumerate(keys):
+        for j in keys[i + 1:]:
+            assert np.abs(grey[k] - grey[j]).mean() > 3.0, (k, j)
+    again = own(4)
+    assert all(a[k].tobytes() == again[k].tobytes() for k in a)
