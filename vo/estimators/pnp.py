@@ -17,9 +17,10 @@ nearest the constant-velocity prediction (``pnp_config.consensus="prior"``, defa
 Stereo disparity offset (``klt-pnp``; not in seed 003): a calibration whose right principal point is off the
 images' (the real KITTI excerpt: about 1.2-1.4 px) makes far landmarks long and every step long; the offset is
 estimated online from the tracks and, where significant, landmark depths are corrected along their birth rays
-(:mod:`vo.estimators.disparity_offset`); with a consistent calibration nothing changes. The close/far split
-(ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works around the same offset is off by default
-(``pnp_config={near_baselines: 40}`` turns it on).
+(:mod:`vo.estimators.disparity_offset`), and the frames tracked since the (re)initialisation are re-chained
+with the corrected depths (:mod:`vo.estimators.offset_replay`); with a consistent calibration nothing changes.
+The close/far split (ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works around the same offset is off
+by default (``pnp_config={near_baselines: 40}`` turns it on).
 
 Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on the
 keyframe where they were born; old key points are not re-matched left-right on later keyframes, since those
