@@ -39,7 +39,10 @@ class OffsetConfig:
     used once the camera is that many baselines from it (parallax); ``min_landmarks`` landmarks of one
     keyframe needed for its fit; ``min_keyframes`` fits before an offset is reported; ``tolerance_px`` smallest
     offset applied (the stereo matcher's own sub-pixel bias stays below it on the simulated rigs);
-    ``significance`` standard errors the mean must exceed."""
+    ``significance`` standard errors the mean must exceed; ``replay_frames`` frames since the (re)initialisation
+    that ``klt-pnp`` re-chains when the offset is first applied (:mod:`vo.estimators.offset_replay`; 0: none,
+    the frames before keep their long steps), again whenever the applied offset has moved by more than
+    ``replay_step_px`` since."""
 
     enabled: bool = True
     min_travel_baselines: float = knob(6.0, gt=0)
@@ -47,6 +50,8 @@ class OffsetConfig:
     min_keyframes: int = knob(3, ge=1)
     tolerance_px: float = knob(0.5, ge=0)
     significance: float = knob(3.0, ge=0)
+    replay_frames: int = knob(200, ge=0)
+    replay_step_px: float = knob(0.1, ge=0)
 
     def __post_init__(self):
         check_fields(self, EstimatorError, "disparity_offset.")
@@ -230,6 +235,20 @@ class DisparityOffset:
             return float("nan")
         w = 1.0 / np.array([max(f[1], 1e-6) for f in self.fits])
         return float(np.sum(w * np.array([f[0] for f in self.fits])) / np.sum(w))
+
+    def rebase(self, moved: dict) -> None:
+        """The chain re-estimated (:meth:`vo.estimators.offset_replay.Replay.moved`: old camera centre's bytes
+        -> ``(T_new (4,4), R_new_old (3,3))``). The landmarks' birth centres, the pending keyframes (centre and
+        rays) and the recorded poses whose centre was one of those (copies of the estimator's pose: equal to the
+        bit) move with it."""
+        self.births = {i: (moved[c.tobytes()][0][:3, 3].copy() if c.tobytes() in moved else c, z)
+                       for i, (c, z) in self.births.items()}
+        for k, (c, ids, dirs, z) in list(self.keyframes.items()):
+            if c.tobytes() in moved:
+                T_new, R_new_old = moved[c.tobytes()]
+                self.keyframes[k] = (T_new[:3, 3].copy(), ids, dirs @ R_new_old.T, z)
+        self.history = [(k, moved[T[:3, 3].tobytes()][0].copy() if T[:3, 3].tobytes() in moved else T, ids, x)
+                        for k, T, ids, x in self.history]
 
     def correct(self, i: int, p_raw_o: np.ndarray) -> np.ndarray:
         """Landmark ``i``'s raw position ``p_raw_o`` (3,) moved along its birth ray to the depth the offset

@@ -17,9 +17,10 @@ nearest the constant-velocity prediction (``pnp_config.consensus="prior"``, defa
 Stereo disparity offset (``klt-pnp``; not in seed 003): a calibration whose right principal point is off the
 images' (the real KITTI excerpt: about 1.2-1.4 px) makes far landmarks long and every step long; the offset is
 estimated online from the tracks and, where significant, landmark depths are corrected along their birth rays
-(:mod:`vo.estimators.disparity_offset`); with a consistent calibration nothing changes. The close/far split
-(ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works around the same offset is off by default
-(``pnp_config={near_baselines: 40}`` turns it on).
+(:mod:`vo.estimators.disparity_offset`), and the frames tracked since the (re)initialisation are re-chained
+with the corrected depths (:mod:`vo.estimators.offset_replay`); with a consistent calibration nothing changes.
+The close/far split (ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works around the same offset is off
+by default (``pnp_config={near_baselines: 40}`` turns it on).
 
 Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on the
 keyframe where they were born; old key points are not re-matched left-right on later keyframes, since those
@@ -36,6 +37,7 @@ from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
 from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 from vo.estimators.near_far import NearFarGate, refine_on_near
+from vo.estimators.offset_replay import ChainRecord
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.estimators.rigidity import RigidityConfig, refine_pose, rigid_subset
 from vo.frontend.depth_edge import off_edge
@@ -193,6 +195,8 @@ class KltPnpEstimator(StereoPnpEstimator):
         self.offset = offset if offset is not None else DisparityOffset(offset_config, float(cam.K[0, 0]), rig.baseline)
         self._raw: dict = {}             # track id -> p_o (3,) as triangulated (before the offset's correction)
         self._applied_offset = 0.0
+        self._replayed_offset = 0.0      # the offset the recorded chain was last re-chained with
+        self._chain = ChainRecord(offset_config.replay_frames if keyframe_adjuster is None else 0)
         self.rigidity = RigidityConfig.from_option(rigidity, f"{self.name}.rigidity")
         self._rigidity_rng = np.random.default_rng(self.rigidity.seed)   # partner draws
         self.rigidity_observer = rigidity_observer
@@ -202,11 +206,14 @@ class KltPnpEstimator(StereoPnpEstimator):
         self.landmarks.clear()
         self.near.clear()
         self._raw.clear()
+        self._chain.reset()
         if self.keyframe_adjuster is not None:
             self.keyframe_adjuster.reset()
         with timed(timings, "detect"):
             new_ids = self.tracker.detect(left)
         n = self._add_landmarks(left, right, new_ids, timings)
+        if self.offset.config.enabled:
+            self._chain.frame(self.T_o_c0, np.zeros(0, np.int64), np.zeros((0, 2)))
         self._next_keyframe = False
         return n
 
@@ -225,6 +232,8 @@ class KltPnpEstimator(StereoPnpEstimator):
             x_n = (undistort_px(p_l, cam) - cam.K[:2, 2]) / np.diag(cam.K)[:2] if len(p_l) else np.zeros((0, 2))
             dir_o = (self.T_o_c0[:3, :3] @ np.c_[x_n, np.ones(len(x_n))].T).T
             self.offset.add(self.tracker.ids[sel][ok], self.T_o_c0[:3, 3], dir_o[ok], z_c0[ok])
+            if self.offset.config.enabled:
+                self._chain.born(self.tracker.ids[sel][ok], p_c0[ok])
             if self.offset.delta_px != 0.0:
                 fb = self.offset.fb
                 z_c0 = np.where(ok, fb / (fb / np.where(ok, z_c0, 1.0) + self.offset.delta_px), z_c0)
@@ -303,11 +312,34 @@ class KltPnpEstimator(StereoPnpEstimator):
         self.offset.forget(self.landmarks)
         cam = self.rig.cameras[0]
         pts = self.tracker.pts
-        x_n = (undistort_px(pts, cam) - cam.K[:2, 2]) / np.diag(cam.K)[:2] if len(pts) else np.zeros((0, 2))
+        px = undistort_px(pts, cam) if len(pts) else np.zeros((0, 2))
+        x_n = (px - cam.K[:2, 2]) / np.diag(cam.K)[:2]
+        self._chain.frame(self.T_o_c0, self.tracker.ids, px)
         self.offset.observe(self.tracker.ids, x_n, self.T_o_c0)
         if self.offset.delta_px != self._applied_offset:
+            if abs(self.offset.delta_px - self._replayed_offset) > self.offset.config.replay_step_px:
+                self._replay_chain()
             self._applied_offset = self.offset.delta_px
             self.landmarks = {i: self.offset.correct(i, self._raw[i]) for i in self.landmarks}
+
+    def _replay_chain(self) -> None:
+        """The applied offset moved by more than ``replay_step_px``: re-chain the frames recorded since the
+        (re)initialisation with the depths it gives (:mod:`vo.estimators.offset_replay`); the current pose,
+        velocity and raw landmark positions move to the re-chained ones, the offset estimate's stored poses
+        with them."""
+        self._replayed_offset = self.offset.delta_px
+        replay = self._chain.replay(self.offset.delta_px, self.offset.fb, self.rig.cameras[0].K)
+        if replay is None:
+            return
+        self.T_o_c0 = replay.pairs[-1][1].copy()
+        self._T_prev_curr = inv_T(replay.pairs[-2][1]) @ replay.pairs[-1][1]
+        self._raw = {i: replay.raw_o.get(i, p) for i, p in self._raw.items()}
+        moved = replay.moved()
+        self.offset.rebase(moved)
+        for i, (near, c, d) in self.near.items():
+            if c.tobytes() in moved:
+                T_new, R_new_old = moved[c.tobytes()]
+                self.near[i] = (near, T_new[:3, 3].copy(), R_new_old @ d)
 
     def _rigid(self, left, right, T_o_c0, inl, p_o, c_o, timings) -> tuple:
         """The rigidity test (:mod:`vo.estimators.rigidity`) on the PnP inliers: birth positions ``p_o`` (N,3)
