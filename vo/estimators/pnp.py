@@ -218,6 +218,9 @@ class KltPnpEstimator(StereoPnpEstimator):
         with timed(timings, "detect"):
             new_ids = self.tracker.detect(left)
         n = self._add_landmarks(left, right, new_ids, timings)
+        if n < self.pnp_config.min_init_landmarks:    # failed: every corner stays, for the next frame's rotation fit
+            with timed(timings, "detect"):
+                self.tracker.detect(left)
         self._next_keyframe = False
         return n
 

@@ -57,8 +57,8 @@ class KltConfig:
     (docs/estimators.md, "Depth-edge test")).
     ``min_zncc`` (not in seed 003): every LK match of :func:`track_fb` (temporal and stereo) is kept only when
     the ZNCC of its two ``win`` x ``win`` windows on the raw images reaches it
-    (:mod:`vo.frontend.patch_check`: 0.5 = window texture at least as strong as the image noise); -1 turns
-    the check off.
+    (:mod:`vo.frontend.patch_check`; default 0.5: window texture at least as strong as the image noise); -1
+    turns the check off.
     """
 
     cell: int = 32
@@ -84,7 +84,7 @@ class KltConfig:
     edge_win: int = 11
     edge_win_h: int = 11
     edge_threshold_px: float = 0.0
-    min_zncc: float = -1.0
+    min_zncc: float = 0.5
 
     def __post_init__(self):
         checks = {
