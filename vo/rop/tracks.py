@@ -84,7 +84,8 @@ class FourView:
 def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``); ``ok``
     where both directions converge inside the image, the round trip ends < ``fb_threshold_px`` from
-    ``p0`` and the two windows correlate (ZNCC >= ``config.min_zncc``, :mod:`vo.frontend.patch_check`). With ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
+    ``p0`` and the two windows correlate (ZNCC >= ``config.min_zncc``, :mod:`vo.frontend.patch_check`). With
+    ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
     :mod:`vo.frontend.lk_normalized` (seed 003's intensity-invariant residual; ``pyramid`` image -> pyramid,
     default ``config.pyramid``), else on the raw images."""
     n = len(p0)
