@@ -7,7 +7,10 @@ temporal LK (forward-backward 1 px) and by the stereo LK (forward-backward and e
 realistic camera, raw LK (brightness constancy) 0.916 / 0.688; realistic, normalised pyramids alone
 0.963 / 0.764, the default (normalised, raw LK for the points it loses) 0.966 / 0.799. The bounds lie
 between: the default front-end keeps >= 0.98 / 0.93 of the ideal camera's matches, brightness constancy
-does not (0.95 / 0.88), so a front-end that loses its photometric invariance fails here. Deterministic: fixed seed, same bytes.
+does not (0.95 / 0.88), so a front-end that loses its photometric invariance fails here. These ratios are the LK's
+alone: the ZNCC check of the matches (:mod:`vo.frontend.patch_check`) is off for them. With it (the default) the
+realistic camera keeps 0.969 / 0.983 of the ideal camera's matches (both with the check): it drops the realistic
+camera's matches whose window texture is below its noise; bound 0.95 / 0.95. Deterministic: fixed seed, same bytes.
 
 Seed 11 draws a calibration error that puts the stereo matches 1.25 px (median) off the written
 calibration's epipolar lines: seed 003's gate around the calibrated line keeps 0.104 of the ideal camera's
@@ -41,12 +44,16 @@ def match_rates(ds, config: KltConfig) -> tuple:
 def test_klt_frontend_keeps_its_matches_under_vignetting_and_auto_exposure():
     ideal = open_dataset(cached_dataset(get_scenario("indoor-short"), progress=False))
     real = open_dataset(cached_dataset(get_scenario("indoor-short-realistic"), progress=False))
-    t_ideal, s_ideal = match_rates(ideal, KltConfig(normalize_box=0))
-    t_new, s_new = match_rates(real, KltConfig())
-    t_raw, s_raw = match_rates(real, KltConfig(normalize_box=0))
+    t_ideal, s_ideal = match_rates(ideal, KltConfig(normalize_box=0, min_zncc=-1.0))
+    t_new, s_new = match_rates(real, KltConfig(min_zncc=-1.0))
+    t_raw, s_raw = match_rates(real, KltConfig(normalize_box=0, min_zncc=-1.0))
     assert t_new >= 0.98 * t_ideal and s_new >= 0.93 * s_ideal, (t_new / t_ideal, s_new / s_ideal)
     # the scenario still exercises the effect: brightness-constancy LK loses matches here
     assert t_raw < 0.98 * t_ideal or s_raw < 0.93 * s_ideal, (t_raw / t_ideal, s_raw / s_ideal)
+    # with the ZNCC check (the default) on both cameras
+    t_ideal_z, s_ideal_z = match_rates(ideal, KltConfig(normalize_box=0))
+    t_z, s_z = match_rates(real, KltConfig())
+    assert t_z >= 0.95 * t_ideal_z and s_z >= 0.95 * s_ideal_z, (t_z / t_ideal_z, s_z / s_ideal_z)
 
 
 @pytest.mark.long

@@ -6,8 +6,10 @@ becomes a keyframe, as in the paper). ``StereoPnpEstimator`` is the frame loop i
 ``orb-pnp`` (:mod:`vo.estimators.orb_pnp`).
 
 Failure handling: too few tracked landmarks -> status ``few_features`` ("N tracked < M"), PnP failure ->
-``lost``; the pose is coasted (constant velocity for ``max_coast_frames``, then held) and the next frame with
-a good stereo pair re-initialises a keyframe anchored at the current estimate -> ``reinit``. Never NaN.
+``lost``; the pose is coasted (constant velocity for ``max_coast_frames``, then held; ``klt-pnp`` turns the
+coasted step by the rotation-only fit of its frame-to-frame tracks, :mod:`vo.estimators.coast_rotation`) and
+the next frame with a good stereo pair re-initialises a keyframe anchored at the current estimate ->
+``reinit``. Never NaN.
 Timings per frame (ms): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
 
 Moving objects (our extension): each frame's PnP takes, among the rigid motions the landmarks hold, the one
@@ -35,6 +37,7 @@ import numpy as np
 
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
+from vo.estimators.coast_rotation import coast_rotation
 from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 from vo.estimators.near_far import NearFarGate, refine_on_near
 from vo.estimators.offset_replay import ChainRecord
@@ -45,7 +48,7 @@ from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
 from vo.frontend.stereo import triangulate, undistort_px
 from vo.frontend.stereo_prior import disparity_guess, landmark_refs
-from rigs.geometry import inv_T, transform_points
+from rigs.geometry import inv_T, make_T, transform_points
 
 
 @contextmanager
@@ -94,7 +97,7 @@ class StereoPnpEstimator(Estimator):
         """Build a keyframe at the current pose: the first one defines ``o`` (its identity pose is the origin,
         class ok); a later one sits at the coasted pose (class coasting, or lost once the pose is held). Before
         the first keyframe the identity is a placeholder (class init)."""
-        pose_class = self._coast_pose() if self._initialized else "init"
+        pose_class = self._coast_pose(self._coast_rotation(left, timings)) if self._initialized else "init"
         n_lm = self._initialize(left, right, timings)
         if n_lm < self.pnp_config.min_init_landmarks:
             return self._result(t_ns, "few_features", n_lm, 0,
@@ -105,17 +108,25 @@ class StereoPnpEstimator(Estimator):
         return self._result(t_ns, status, n_lm, n_lm, f"keyframe with {n_lm} landmarks",
                             pose_class if status == "reinit" else "ok")
 
-    def _fail(self, t_ns, status, n_feat, n_inl, message) -> FrameResult:
-        """Tracking failed this frame: coast the pose and re-initialise on the next frame."""
-        pose_class = self._coast_pose()
+    def _fail(self, t_ns, status, n_feat, n_inl, message, R_prev_curr=None) -> FrameResult:
+        """Tracking failed this frame: coast the pose (turned by ``R_prev_curr`` when measured) and
+        re-initialise on the next frame."""
+        pose_class = self._coast_pose(R_prev_curr)
         self._need_init = True
         return self._result(t_ns, status, n_feat, n_inl, message, pose_class)
 
-    def _coast_pose(self) -> str:
-        """Extrapolate the pose at constant velocity (-> "coasting"), or hold it after
-        :data:`MAX_COAST_FRAMES` failed frames (-> "lost")."""
+    def _coast_rotation(self, left, timings):
+        """``R_prev_curr`` (3,3) measured without a pose fit for a frame about to be coasted, or None (the
+        default: constant velocity)."""
+        return None
+
+    def _coast_pose(self, R_prev_curr=None) -> str:
+        """Extrapolate the pose at constant velocity, its rotation replaced by ``R_prev_curr`` when given (->
+        "coasting"), or hold it after :data:`MAX_COAST_FRAMES` failed frames (-> "lost")."""
         coast = self._coast < MAX_COAST_FRAMES
         if coast:
+            if R_prev_curr is not None:
+                self._T_prev_curr = make_T(R_prev_curr, self._T_prev_curr[:3, 3])
             self.T_o_c0 = self.T_o_c0 @ self._T_prev_curr
         self._coast += 1
         return "coasting" if coast else "lost"
@@ -214,6 +225,9 @@ class KltPnpEstimator(StereoPnpEstimator):
         n = self._add_landmarks(left, right, new_ids, timings)
         if self.offset.config.enabled:
             self._chain.frame(self.T_o_c0, np.zeros(0, np.int64), np.zeros((0, 2)))
+        if n < self.pnp_config.min_init_landmarks:    # failed: every corner stays, for the next frame's rotation fit
+            with timed(timings, "detect"):
+                self.tracker.detect(left)
         self._next_keyframe = False
         return n
 
@@ -270,14 +284,27 @@ class KltPnpEstimator(StereoPnpEstimator):
         p_c0, ok_t = triangulate(self.rig, p_l, p_r, self.pnp_config.max_depth, self.pnp_config.max_triangulation_px)
         return p_c0, ok & ok_t
 
-    def _step(self, t_ns, left, right, timings) -> FrameResult:
+    def _coast_rotation(self, left, timings):
+        """The rotation-only fit (:mod:`vo.estimators.coast_rotation`) of the tracker's points tracked into
+        ``left`` (a frame about to re-initialise), None without enough tracks."""
+        if self.tracker.image is None or len(self.tracker.pts) == 0:
+            return None
+        p_prev = self.tracker.pts.copy()
         with timed(timings, "track"):
-            self.tracker.track(left)
+            alive = self.tracker.track(left)
+        return coast_rotation(p_prev[alive], self.tracker.pts, self.rig.cameras[0])
+
+    def _step(self, t_ns, left, right, timings) -> FrameResult:
+        p_prev = self.tracker.pts.copy()
+        with timed(timings, "track"):
+            alive = self.tracker.track(left)
             ids = self.tracker.ids
             self.landmarks = {int(i): self.landmarks[int(i)] for i in ids}
         n_feat = len(ids)
+        R_track = lambda: coast_rotation(p_prev[alive], self.tracker.pts, self.rig.cameras[0])  # noqa: E731
         if n_feat < self.pnp_config.min_features:
-            return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}")
+            return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}",
+                              R_track())
         p_o = np.array([self.landmarks[int(i)] for i in ids])
         T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
         if T_o_c0 is not None and (self.pnp_config.near_baselines > 0 or self.rigidity.enabled):
@@ -289,7 +316,8 @@ class KltPnpEstimator(StereoPnpEstimator):
             T_o_c0, inl = self._near_far(T_o_c0, inl, p_o, near, rays, timings)
         n_inl = int(inl.sum())
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
-            return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked")
+            return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked",
+                              R_track())
         self.tracker.keep(inl)
         status, msg = "ok", ""
         if self._next_keyframe:

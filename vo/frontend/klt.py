@@ -16,6 +16,7 @@ from vo.frontend.grid import Grid
 from vo.frontend.lk_invariant import lk_illumination_invariant
 from vo.frontend.lk_normalized import PyramidCache, lk_pyramids, normalized_pyramid
 from vo.frontend.epipolar_offset import offset_epipolar_mask
+from vo.frontend.patch_check import zncc_mask
 from vo.frontend.stereo import epipolar_mask
 
 
@@ -54,6 +55,10 @@ class KltConfig:
     and the largest one-sided second difference of the disparity (px) a landmark may show; 0 (the default)
     turns it off (experimental: at 2 px it removes most big-step edge landmarks but did not lower the drift
     (docs/estimators.md, "Depth-edge test")).
+    ``min_zncc`` (not in seed 003): every LK match of :func:`track_fb` (temporal and stereo) is kept only when
+    the ZNCC of its two ``win`` x ``win`` windows on the raw images reaches it
+    (:mod:`vo.frontend.patch_check`; default 0.5: window texture at least as strong as the image noise); -1
+    turns the check off.
     """
 
     cell: int = 32
@@ -79,6 +84,7 @@ class KltConfig:
     edge_win: int = 11
     edge_win_h: int = 11
     edge_threshold_px: float = 0.0
+    min_zncc: float = 0.5
 
     def __post_init__(self):
         checks = {
@@ -94,13 +100,14 @@ class KltConfig:
             "edge_win_h": self.edge_win_h >= 3 and self.edge_win_h % 2 == 1,
             "edge_threshold_px": self.edge_threshold_px >= 0,
             "offset_min_matches": self.offset_min_matches >= 1, "offset_max_px": self.offset_max_px >= 0,
+            "min_zncc": -1.0 <= self.min_zncc <= 1.0,
         }
         for name, good in checks.items():
             if not good:
                 raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
                               "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, odd edge_win>=3, levels>=1, "
                               "normalize_box 0 or >= 1, 0<=max_empty_fraction<=1, thresholds > 0, "
-                              "edge_threshold_px >= 0)")
+                              "edge_threshold_px >= 0, -1 <= min_zncc <= 1)")
 
     @classmethod
     def from_option(cls, value, where: str = "klt_config") -> "KltConfig":
@@ -195,7 +202,8 @@ def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = K
 
 def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig(),
              pyramid=None, guess: np.ndarray | None = None) -> tuple:
-    """LK ``img0 -> img1`` then back; keep points whose round trip ends < ``fb_threshold_px`` from the start.
+    """LK ``img0 -> img1`` then back; keep points whose round trip ends < ``fb_threshold_px`` from the start
+    and whose windows correlate (ZNCC >= ``min_zncc``, :mod:`vo.frontend.patch_check`).
     ``pyramid`` (image -> normalised pyramid, e.g. a :class:`PyramidCache`) defaults to ``config.pyramid``;
     ``guess`` (N,2) start points of the forward LK in ``img1`` (default: zero flow).
 
@@ -214,9 +222,9 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
     if pyr is not None and config.raw_fallback and not ok.all():
         lost = np.flatnonzero(~ok)
-        p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0),
+        p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
                                       guess=None if guess is None else np.asarray(guess)[lost])
-    return p1, ok
+    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc)
 
 
 def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,

@@ -38,6 +38,7 @@ from vo.frontend.depth_edge import off_edge
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells, stereo_gate
 from vo.frontend.lk_normalized import lk_fb_pyramids
+from vo.frontend.patch_check import zncc_mask
 from vo.rop.relative import normalized_points
 from rigs.geometry.pinhole import to_normalized
 
@@ -82,8 +83,9 @@ class FourView:
 
 def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``); ``ok``
-    where both directions converge inside the image and the round trip ends < ``fb_threshold_px`` from
-    ``p0``. With ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
+    where both directions converge inside the image, the round trip ends < ``fb_threshold_px`` from
+    ``p0`` and the two windows correlate (ZNCC >= ``config.min_zncc``, :mod:`vo.frontend.patch_check`). With
+    ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
     :mod:`vo.frontend.lk_normalized` (seed 003's intensity-invariant residual; ``pyramid`` image -> pyramid,
     default ``config.pyramid``), else on the raw images."""
     n = len(p0)
@@ -95,9 +97,9 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[
                                 config.lk_eps, config.fb_threshold_px, guess)
         if config.raw_fallback and not ok.all():       # the lost points: brightness constancy on the raw images
             lost = np.flatnonzero(~ok)
-            p1[lost], ok[lost] = lk_fb(img0, img1, p0[lost], replace(config, normalize_box=0),
+            p1[lost], ok[lost] = lk_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
                                        None if guess is None else np.asarray(guess)[lost])
-        return p1, ok
+        return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
     a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
@@ -113,7 +115,7 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[
     ok = (st.ravel() == 1) & (st2.ravel() == 1) & np.all(np.isfinite(p1), axis=1)
     ok &= (p1[:, 0] >= 0) & (p1[:, 1] >= 0) & (p1[:, 0] <= w - 1) & (p1[:, 1] <= h - 1)
     ok &= np.linalg.norm(a2.reshape(-1, 2) - p0, axis=1) < config.fb_threshold_px
-    return p1, ok
+    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc)
 
 
 class KltFourView:
