@@ -67,6 +67,17 @@ class Replay:
         return out
 
 
+def rebased_near(near: dict, moved: dict) -> dict:
+    """``klt-pnp``'s close/far records (track id -> ``(near, birth c_o (3,), birth bearing_o (3,))``) with the
+    births at a re-chained pose (``Replay.moved()``) moved to its new centre and bearing."""
+    out = dict(near)
+    for i, (is_near, c, d) in near.items():
+        if c.tobytes() in moved:
+            T_new, R_new_old = moved[c.tobytes()]
+            out[i] = (is_near, T_new[:3, 3].copy(), R_new_old @ d)
+    return out
+
+
 class ChainRecord:
     """Frames since the last (re)initialisation (module docstring). Per frame, first the births
     (:meth:`born`, any number of calls), then :meth:`frame` closes it with its pose and tracked landmarks."""

@@ -8,7 +8,8 @@ import numpy as np
 
 from vo.errors import EstimatorError
 from vo.estimators.base import FrameResult
-from vo.estimators.pnp import StereoPnpEstimator, timed
+from vo.estimators.pnp import StereoPnpEstimator
+from vo.estimators.stage_timing import timed
 from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, is_keyframe

@@ -31,7 +31,6 @@ extra observations only serve BA); PnP outliers are dropped from the tracks.
 from __future__ import annotations
 
 import time
-from contextlib import contextmanager
 
 import numpy as np
 
@@ -40,24 +39,16 @@ from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
 from vo.estimators.coast_rotation import coast_rotation
 from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 from vo.estimators.near_far import NearFarGate, refine_on_near
-from vo.estimators.offset_replay import ChainRecord
+from vo.estimators.offset_replay import ChainRecord, rebased_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.estimators.rigidity import RigidityConfig, refine_pose, rigid_subset
+from vo.estimators.stage_timing import timed
 from vo.frontend.depth_edge import off_edge
 from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
 from vo.frontend.stereo import triangulate, undistort_px
 from vo.frontend.stereo_prior import disparity_guess, landmark_refs
 from rigs.geometry import inv_T, make_T, transform_points
-
-
-@contextmanager
-def timed(timings: dict, key: str):
-    t0 = time.perf_counter()
-    try:
-        yield
-    finally:
-        timings[key] = timings.get(key, 0.0) + (time.perf_counter() - t0) * 1e3
 
 
 class StereoPnpEstimator(Estimator):
@@ -364,10 +355,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         self._raw = {i: replay.raw_o.get(i, p) for i, p in self._raw.items()}
         moved = replay.moved()
         self.offset.rebase(moved)
-        for i, (near, c, d) in self.near.items():
-            if c.tobytes() in moved:
-                T_new, R_new_old = moved[c.tobytes()]
-                self.near[i] = (near, T_new[:3, 3].copy(), R_new_old @ d)
+        self.near = rebased_near(self.near, moved)
 
     def _rigid(self, left, right, T_o_c0, inl, p_o, c_o, timings) -> tuple:
         """The rigidity test (:mod:`vo.estimators.rigidity`) on the PnP inliers: birth positions ``p_o`` (N,3)
