@@ -327,6 +327,7 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     it lives in the app layer, because it reads the finished folder through the reader API).
     """
     check_bag_export(config.format, bag_export)     # before anything is written
+    world_cache()                                   # its settings (VO_TESTBED_WORLD_CACHE_MB) too
     if workers > 1 or scheduler:
         check_splittable(config)
     with claim_folder(out_dir, overwrite):

@@ -273,11 +273,13 @@ def world_cache() -> WorldCache:
     """The cache under ``$VO_TESTBED_CACHE/worlds``, or one that keeps nothing when ``VO_TESTBED_WORLD_CACHE=0``."""
     if os.environ.get("VO_TESTBED_WORLD_CACHE", "1").strip().lower() in _OFF:
         return WorldCache(None)
+    text = os.environ.get("VO_TESTBED_WORLD_CACHE_MB", str(DEFAULT_LIMIT_MB))
     try:
-        limit = float(os.environ.get("VO_TESTBED_WORLD_CACHE_MB", DEFAULT_LIMIT_MB))
+        limit = float(text)
     except ValueError:
-        raise SimError(f"VO_TESTBED_WORLD_CACHE_MB: expected a number of megabytes, got "
-                       f"{os.environ['VO_TESTBED_WORLD_CACHE_MB']!r}") from None
+        limit = float("nan")
+    if not 0 <= limit < float("inf"):
+        raise SimError(f"VO_TESTBED_WORLD_CACHE_MB: expected a number of megabytes >= 0, got {text!r}")
     return WorldCache(cache_root() / "worlds", limit)
 
 

@@ -207,3 +207,13 @@ def test_concurrent_generate_runs_share_one_whole_entry(tmp_path):
     key = _key(GenerateConfig(scene="indoor", rig="stereo27", duration_s=0.2, seed=3))
     assert entries(worlds) == [key] and verify(worlds / key, key)
     assert [p.name for p in worlds.iterdir() if p.name.startswith(".")] == [".lock"]
+
+
+@pytest.mark.parametrize("value", ["lots", "-1", "nan", "inf"])
+def test_a_bad_size_limit_is_a_one_line_error_before_anything_is_written(tmp_path, monkeypatch, value):
+    from sim.errors import SimError
+    from sim.generate import generate
+    monkeypatch.setenv("VO_TESTBED_WORLD_CACHE_MB", value)
+    with pytest.raises(SimError, match=f"VO_TESTBED_WORLD_CACHE_MB: expected a number of megabytes >= 0, got '{value}'"):
+        generate(SHORT, tmp_path / "ds", progress=False)
+    assert not (tmp_path / "ds").exists()
