@@ -242,7 +242,7 @@ def format_bench(b: GenerateBench) -> str:
              f"ratio         {b.ratio:7.2f}",
              *([f"after start-up {b.after_start_pairs_per_s:6.1f} pairs/s   (workers' first chunk in; ratio "
                 f"{b.after_start_pairs_per_s / b.render_pairs_per_s:.2f})"] if b.after_start_pairs_per_s else []),
-             *([f"start-up      world build here {b.startup_s['world_build']:.2f} s (CPU "
+             *([f"start-up      world here {b.startup_s['world_build']:.2f} s (CPU "
                 f"{b.startup_s['world_build_cpu']:.2f}), per worker {b.startup_s['worker_mean']:.2f} s (CPU "
                 f"{b.startup_s['worker_mean_cpu']:.2f}, mean), first chunk in after {b.startup_s['first_chunk']:.2f} s, "
                 f"a worker's after {b.startup_s['first_worker_chunk']:.2f} s; {b.startup_s['frames_here']} frames "
