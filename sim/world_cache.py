@@ -182,7 +182,10 @@ class WorldCache:
             for name in ENTRY_FILES + (MANIFEST,):
                 _link_or_copy(self.root / key / name, folder / name)
             if verify(folder, key):
-                os.utime(self.root / key)         # recently used (eviction order)
+                try:
+                    os.utime(self.root / key)     # recently used (eviction order)
+                except OSError:
+                    pass                          # replaced or evicted meanwhile: the checkout holds its files
                 return folder
         except OSError:
             pass
