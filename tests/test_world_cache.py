@@ -214,6 +214,7 @@ def test_a_bad_size_limit_is_a_one_line_error_before_anything_is_written(tmp_pat
     from sim.errors import SimError
     from sim.generate import generate
     monkeypatch.setenv("VO_TESTBED_WORLD_CACHE_MB", value)
-    with pytest.raises(SimError, match=f"VO_TESTBED_WORLD_CACHE_MB: expected a number of megabytes >= 0, got '{value}'"):
+    with pytest.raises(SimError, match=f"VO_TESTBED_WORLD_CACHE_MB: expected a number of megabytes >= 0, "
+                                       f"got '{value}'"):
         generate(SHORT, tmp_path / "ds", progress=False)
     assert not (tmp_path / "ds").exists()

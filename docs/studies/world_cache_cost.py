@@ -2,7 +2,8 @@
 from the machine's world cache (a checkout: hard links and SHA-256 of the entry, then MuJoCo's binary model and the
 parts loaded), the least of ROUNDS alternating rounds, after one warm-up of each (textures in the store, the entry
 there); and the entry's size. Process CPU time (time.process_time), so robust to other load.
-Usage: PYTHONPATH=. MUJOCO_GL=egl VO_TESTBED_CACHE=... .venv/bin/python docs/studies/world_cache_cost.py SCENARIO [ROUNDS]"""
+Usage: PYTHONPATH=. MUJOCO_GL=egl VO_TESTBED_CACHE=... .venv/bin/python docs/studies/world_cache_cost.py SCENARIO
+[ROUNDS]"""
 import sys
 import time
 from pathlib import Path

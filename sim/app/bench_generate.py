@@ -251,8 +251,9 @@ def format_bench(b: GenerateBench) -> str:
              *([f"start-up parts (s, mean per worker; 'here': this process) " + ", ".join(
                  f"{k.replace('start-up', '').strip(': ') or 'worker'}: {v:.2f}" for k, v in b.startup_s["parts"].items())]
                if b.startup_s.get("parts") else []),
-             *([f"world         {b.world['cache']} ({'loaded from' if b.world['cache'] == 'hit' else 'built, not in'} "
-                f"the world cache): {b.world['seconds']:.2f} s (CPU {b.world['cpu_s']:.2f})"] if b.world else []),
+             *([f"world         {b.world['cache']} ("
+                f"{'loaded from' if b.world['cache'] == 'hit' else 'built, not in'} the world cache): "
+                f"{b.world['seconds']:.2f} s (CPU {b.world['cpu_s']:.2f})"] if b.world else []),
              "stage ms/pair " + "  ".join(f"{s} {b.stage_ms[s]:.1f}" for s in STAGES),
              f"peak memory   {b.peak_rss_mb:7.0f} MB" + (f" (largest worker process {b.peak_rss_children_mb:.0f} MB)"
                                                      if b.workers > 1 else ""),
