@@ -218,3 +218,14 @@ def test_a_bad_size_limit_is_a_one_line_error_before_anything_is_written(tmp_pat
                                        f"got '{value}'"):
         generate(SHORT, tmp_path / "ds", progress=False)
     assert not (tmp_path / "ds").exists()
+
+
+def test_a_bad_size_limit_through_the_console_is_exit_2_and_one_line(tmp_path, monkeypatch, capsys):
+    from sim.app.cli import main
+    monkeypatch.setenv("VO_TESTBED_WORLD_CACHE_MB", "lots")
+    with pytest.raises(SystemExit) as exit_:
+        main(["generate", "--scenario", "smoke", "--out", str(tmp_path / "ds")])
+    err = capsys.readouterr().err.strip()
+    assert exit_.value.code == 2 and err.count("\n") == 0 and "Traceback" not in err
+    assert "VO_TESTBED_WORLD_CACHE_MB: expected a number of megabytes >= 0, got 'lots'" in err
+    assert not (tmp_path / "ds").exists()
