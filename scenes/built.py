@@ -59,6 +59,18 @@ class BuiltScene(Scene):
         self._object_ids = b.object_ids()
         self.texture_bytes = b.texture_bytes
 
+    def built_state(self) -> dict:
+        """What :meth:`add_to_spec` learnt beside the MuJoCo model (footprints, geom ids, texture bytes), for a
+        process that loads the compiled model instead of building it (:meth:`adopt_built_state`)."""
+        self._ensure_built()
+        return {"footprints": list(self._footprints), "object_ids": dict(self._object_ids),
+                "texture_bytes": int(self.texture_bytes)}
+
+    def adopt_built_state(self, state: dict) -> None:
+        """Take :meth:`built_state` of a build of this very scene (same config and streams) as this one's."""
+        self._footprints, self._object_ids = list(state["footprints"]), dict(state["object_ids"])
+        self.texture_bytes = int(state["texture_bytes"])
+
     def _ensure_built(self):
         if self._footprints is None:
             import mujoco

@@ -1,5 +1,6 @@
 """Where the testbed keeps what it can make again: ``$VO_TESTBED_CACHE``, default ``~/.cache/vo-testbed``
-(scenario datasets under their config hash, :mod:`sim.scenarios`; textures, :mod:`sim.texture_cache`)."""
+(scenario datasets under their config hash, :mod:`sim.scenarios`; textures, :mod:`sim.texture_cache`; compiled
+worlds, :mod:`sim.world_cache`)."""
 from __future__ import annotations
 
 import os

@@ -34,6 +34,7 @@ from sim.sensors.wheels import measure_wheels, with_vehicle_geometry
 from sim.stage_timer import NO_TIMER
 from sim.vehicles import vehicle_class
 from sim.version import __version__
+from sim.world_cache import world_cache
 from sim.writers import DatasetWriters
 from sim.writers.fanout import check_bag_export
 from sim.writers.common import PngOptions, claim_folder
@@ -216,8 +217,13 @@ def render_frames(setup: Setup, T_w_b_frames, writers, progress: bool = True, st
     first = 0 if effects and c.camera.auto_exposure else start   # auto exposure: gains from frame 0 on
     gains = [1.0] * len(setup.frame_t_ns)
     pose_at = lambda t_ns: setup.trajectory.states(t_ns).T_w_b  # noqa: E731
+    t0, c0 = time.perf_counter(), time.process_time()
+    world, source = world_cache().world(c, setup.scene, setup.rig, c.vehicle)   # the machine's cache, or built
+    for name, value in (("world build", time.perf_counter() - t0), ("world build CPU", time.process_time() - c0),
+                        ("world cache " + source, 1.0)):
+        timer.add(name, value)
     with StereoCamera(setup.scene, setup.rig, vehicle=c.vehicle, depth=c.depth, segmentation=c.segmentation,
-                      supersample=setup.supersample, rgb=c.rgb, timer=timer) as camera:
+                      supersample=setup.supersample, rgb=c.rgb, timer=timer, world=world) as camera:
         if c.segmentation:
             writers.add_segmentation_ids(setup.scene.segmentation_rows(camera.geom_names()))
         writers.add_metadata({"rendering": [device_label(camera.gl_renderer)]})
@@ -266,7 +272,8 @@ def _render_frames_in_workers(setup: Setup, writers, progress, start, threads, t
     with ChunkSource(c, workers, resolve, scheduler, egl_devices, png, setup=resolved) as source, \
             FrameLoop(n, "render", threads, progress, start, timer) as loop:
         for name, seconds in (("world build", source.build_s), ("world build CPU", source.build_cpu_s),
-                              ("frame loop", source.build_s), ("frame loop CPU", source.build_cpu_s)):
+                              ("frame loop", source.build_s), ("frame loop CPU", source.build_cpu_s),
+                              ("world cache " + getattr(source.handoff, "source", "off"), 1.0)):
             timer.add(name, seconds)                   # the world built here for the worker processes
         for chunk in source.chunks(start, n):
             if not ids_written:
@@ -320,6 +327,7 @@ def generate(config: GenerateConfig, out_dir, progress: bool = True, overwrite: 
     it lives in the app layer, because it reads the finished folder through the reader API).
     """
     check_bag_export(config.format, bag_export)     # before anything is written
+    world_cache()                                   # its settings (VO_TESTBED_WORLD_CACHE_MB) too
     if workers > 1 or scheduler:
         check_splittable(config)
     with claim_folder(out_dir, overwrite):

@@ -12,7 +12,10 @@ process would have compiled, so its renders are the same (``tests/test_generate_
 runs byte-identical to the serial loop).
 
 The scene object of the loading process is the resolved, unbuilt one: the renderer reads only the model,
-and actor poses (``Scene.actor_states``) come from the scene's construction, not its build.
+and actor poses (``Scene.actor_states``) come from the scene's construction, not its build. What the build
+learns beside the model (a :class:`scenes.built.BuiltScene`'s footprints and geom ids, ``built_state``) is
+saved too and given to the loading process's scene (``adopt_built_state``), which then needs no build for its
+top-down map (:mod:`sim.world_cache` loads worlds in place of building them).
 """
 from __future__ import annotations
 
@@ -42,8 +45,9 @@ def save_world(world, folder, key: str) -> WorldFiles:
     folder = os.fspath(folder)
     mujoco.mj_saveModel(world.model, os.path.join(folder, MODEL_FILE), None)
     with open(os.path.join(folder, PARTS_FILE), "wb") as f:
-        pickle.dump({"handles": world.handles, "render_rig": world.render_rig,
-                     "maps": world.distortion_maps, "rig": world.rig}, f, protocol=pickle.HIGHEST_PROTOCOL)
+        built = getattr(world.scene, "built_state", None)       # what the scene's build learnt beside the model
+        pickle.dump({"handles": world.handles, "render_rig": world.render_rig, "maps": world.distortion_maps,
+                     "rig": world.rig, "scene_state": built() if built else None}, f, protocol=pickle.HIGHEST_PROTOCOL)
     return WorldFiles(folder, str(key))
 
 
@@ -62,4 +66,6 @@ def load_world(files: WorldFiles, scene, rig):
         raise SimError(f"{files.folder}: cannot load the saved world ({exc})") from None
     if parts["rig"] != rig:
         raise SimError(f"{files.folder}: the saved world carries rig {parts['rig'].name!r}, not {rig.name!r}")
+    if parts.get("scene_state") is not None and hasattr(scene, "adopt_built_state"):
+        scene.adopt_built_state(parts["scene_state"])     # footprints for the top-down map, without a build
     return World(model, rig, parts["handles"], scene, parts["render_rig"], parts["maps"])

@@ -14,6 +14,9 @@ One run of :func:`bench_generate` on a scenario's first ``frames`` frames, side 
   ``first_worker_chunk``); *after start-up* is the end-to-end rate from the arrival of the first rendered
   chunk (of any renderer) to the end, the rate a long route approaches. The workers' stage times come back
   with each chunk and are summed over the processes; the render-only run stays one process.
+  ``world``: where the end-to-end run's world came from (``hit``: the machine's world cache,
+  :mod:`sim.world_cache`; ``miss``: built, then stored; ``off``: built, ``VO_TESTBED_WORLD_CACHE=0``) and its
+  elapsed and CPU seconds (``world_build`` above with workers).
 
 ``repeat`` alternates the two and keeps each one's best run (the machine may be shared). Per-stage
 figures are thread-milliseconds per pair (:class:`sim.stage_timer.StageTimer`; the worker threads run
@@ -71,6 +74,7 @@ class GenerateBench:
     end_to_end_renderers: tuple = ()                  # end to end: metadata.yaml's ``rendering`` (per process)
     peak_rss_children_mb: float = 0.0                 # the largest render worker process's peak (workers > 1)
     startup_s: dict = field(default_factory=dict)     # workers > 1: world build here, mean per worker, first chunk
+    world: dict = field(default_factory=dict)         # the end-to-end run's world: cache hit / miss / off, s, CPU s
 
     @property
     def ratio(self) -> float:
@@ -156,13 +160,15 @@ def bench_generate(scenario: str = "campus-short", frames: int | None = 100, thr
                    "frames_here": int(tot.get("frames here", 0.0)), "here_startup": tot.get("start-up here", 0.0),
                    "parts": {name: sec / (1 if name.startswith("start-up here") else workers)
                              for name, sec in tot.items() if name.startswith("start-up") and ": " in name}}
+    world = {"cache": next((k.split()[-1] for k in tot if k.startswith("world cache ")), "off"),
+             "seconds": tot.get("world build", 0.0), "cpu_s": tot.get("world build CPU", 0.0)}
     r = config.render
     png = f"level {r.png_compression}, {r.png_strategy}, {r.png_filter} filter"
     return GenerateBench(scenario, n, threads, workers, png, n / best_render[0],
                          n / best_e2e[0], stage_ms, peak, 1e3 * best_render[1] / n, 1e3 * best_e2e[1] / n,
                          os.cpu_count() or 0,
                          (round(load0, 2), round(os.getloadavg()[0], 2)), after_start, device, renderers,
-                         peak_children, startup)
+                         peak_children, startup, world)
 
 
 def png_levels(scenario: str = "campus-short", frames: int = 10, overrides=()) -> list:
@@ -236,7 +242,7 @@ def format_bench(b: GenerateBench) -> str:
              f"ratio         {b.ratio:7.2f}",
              *([f"after start-up {b.after_start_pairs_per_s:6.1f} pairs/s   (workers' first chunk in; ratio "
                 f"{b.after_start_pairs_per_s / b.render_pairs_per_s:.2f})"] if b.after_start_pairs_per_s else []),
-             *([f"start-up      world build here {b.startup_s['world_build']:.2f} s (CPU "
+             *([f"start-up      world here {b.startup_s['world_build']:.2f} s (CPU "
                 f"{b.startup_s['world_build_cpu']:.2f}), per worker {b.startup_s['worker_mean']:.2f} s (CPU "
                 f"{b.startup_s['worker_mean_cpu']:.2f}, mean), first chunk in after {b.startup_s['first_chunk']:.2f} s, "
                 f"a worker's after {b.startup_s['first_worker_chunk']:.2f} s; {b.startup_s['frames_here']} frames "
@@ -245,6 +251,9 @@ def format_bench(b: GenerateBench) -> str:
              *([f"start-up parts (s, mean per worker; 'here': this process) " + ", ".join(
                  f"{k.replace('start-up', '').strip(': ') or 'worker'}: {v:.2f}" for k, v in b.startup_s["parts"].items())]
                if b.startup_s.get("parts") else []),
+             *([f"world         {b.world['cache']} ("
+                f"{'loaded from' if b.world['cache'] == 'hit' else 'built, not in'} the world cache): "
+                f"{b.world['seconds']:.2f} s (CPU {b.world['cpu_s']:.2f})"] if b.world else []),
              "stage ms/pair " + "  ".join(f"{s} {b.stage_ms[s]:.1f}" for s in STAGES),
              f"peak memory   {b.peak_rss_mb:7.0f} MB" + (f" (largest worker process {b.peak_rss_children_mb:.0f} MB)"
                                                      if b.workers > 1 else ""),
