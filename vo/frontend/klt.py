@@ -58,8 +58,8 @@ class KltConfig:
     ``min_zncc`` (not in seed 003): every LK match of :func:`track_fb` (temporal and stereo) is kept only when
     the ZNCC of its two ``win`` x ``win`` windows on the raw images reaches it
     (:mod:`vo.frontend.patch_check`; default 0.5: window texture at least as strong as the image noise); -1
-    turns the check off. ``zncc_texture_snr``: the check applies only to windows whose standard deviation is
-    below this many times the image noise (default 2; 0: to every window; :mod:`vo.frontend.patch_check`).
+    turns the check off. ``zncc_affine``: a match below the gate stays when its window's affine fit correlates
+    (default True; :mod:`vo.frontend.patch_check`).
     """
 
     cell: int = 32
@@ -86,7 +86,7 @@ class KltConfig:
     edge_win_h: int = 11
     edge_threshold_px: float = 0.0
     min_zncc: float = 0.5
-    zncc_texture_snr: float = 2.0
+    zncc_affine: bool = True
 
     def __post_init__(self):
         checks = {
@@ -102,14 +102,14 @@ class KltConfig:
             "edge_win_h": self.edge_win_h >= 3 and self.edge_win_h % 2 == 1,
             "edge_threshold_px": self.edge_threshold_px >= 0,
             "offset_min_matches": self.offset_min_matches >= 1, "offset_max_px": self.offset_max_px >= 0,
-            "min_zncc": -1.0 <= self.min_zncc <= 1.0, "zncc_texture_snr": self.zncc_texture_snr >= 0,
+            "min_zncc": -1.0 <= self.min_zncc <= 1.0,
         }
         for name, good in checks.items():
             if not good:
                 raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
                               "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, odd edge_win>=3, levels>=1, "
                               "normalize_box 0 or >= 1, 0<=max_empty_fraction<=1, thresholds > 0, "
-                              "edge_threshold_px >= 0, -1 <= min_zncc <= 1, zncc_texture_snr >= 0)")
+                              "edge_threshold_px >= 0, -1 <= min_zncc <= 1)")
 
     @classmethod
     def from_option(cls, value, where: str = "klt_config") -> "KltConfig":
@@ -226,7 +226,7 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
         lost = np.flatnonzero(~ok)
         p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
                                       guess=None if guess is None else np.asarray(guess)[lost])
-    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_texture_snr)
+    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine)
 
 
 def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,

@@ -18,26 +18,24 @@ gain: it is dimensionless and invariant to an affine change of brightness (expos
 window). Measured on the stationary noise tracks above: ZNCC 5th percentile 0.04-0.13, median 0.20-0.29 per
 frame; the moving tracks of the same frames median 0.44-0.87.
 
-A window whose own texture is strong against the noise cannot sit on noise, and its ZNCC with a true match
-falls below the gate only by geometry the translation-only window does not model: on the real KITTI turn the
-road near the car (stereo disparities 35-58 px, a shear of ~0.3 px per row between the views; temporal
-expansion of the ground) gives true matches ZNCC 0.2-0.5 while their windows' standard deviation is 3-35
-times the noise. So the check applies only to windows whose standard deviation (grey levels, both images'
-noise included) is below ``max_texture_snr`` times the image noise ``n`` (:func:`band_noise_sigma` of the
-first image): at 2, a window whose signal variance ``s^2 < 3 n^2`` (true-match ZNCC expected below 0.75).
-Measured (docs/estimators.md, "ZNCC check and disparity-offset tolerance"): the blank-wall noise tracks of
-``indoor-realistic`` seed 0 have 1.07-1.49 times the noise (5th-95th percentile), the matches the check
-dropped on the real turn 2.7-35.
+A translation-only window also decorrelates where the view deforms across it: on the real KITTI turn the
+road near the car (stereo disparities 35-58 px: a shear of ~0.3 px per row between the views; the ground's
+expansion between frames) gives true matches ZNCC 0.2-0.5 although their windows' texture is 3-35 times the
+noise. With ``affine`` the matches that fail the gate are given a second chance: the affine + gain/offset
+Lucas-Kanade fit of their window (:func:`vo.frontend.affine_lk.refine_affine`, started at the LK match) and the
+ZNCC of that warped window; the match is kept when that ZNCC reaches the gate and the fitted centre lies
+within ``AFFINE_MAX_MOVE_PX`` of the LK match (the match itself is not moved). A window of noise stays
+uncorrelated under any warp of 6 parameters over its ``win^2`` samples, a window across an occlusion too.
+Measured: docs/estimators.md, "ZNCC check and disparity-offset tolerance".
 """
 from __future__ import annotations
 
 import cv2
 import numpy as np
 
-from vo.frontend.noise_level import estimate_noise_sigma
+from vo.frontend.affine_lk import bilinear, refine_affine
 
-_NOISE_BAND_ROWS = 32       # rows of each band of :func:`band_noise_sigma`
-_NOISE_BAND_STEP = 4        # one band in this many
+AFFINE_MAX_MOVE_PX = 1.0    # the affine fit's centre this close to the LK match (the forward-backward gate)
 
 
 def zncc(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarray, win: int) -> np.ndarray:
@@ -67,33 +65,39 @@ def _windows(img: np.ndarray, p: np.ndarray, win: int) -> np.ndarray:
     return out.astype(np.float64)
 
 
-def band_noise_sigma(img: np.ndarray) -> float:
-    """Noise std (grey levels) of a (H,W) image by :func:`vo.frontend.noise_level.estimate_noise_sigma` on
-    every 4th band of 32 full-resolution rows (a quarter of the cost; subsampling the pixels instead would
-    double the texture's frequency and overestimate the noise: 1.29 for 0.74 on a real KITTI frame); the whole
-    image when it has fewer than 2 bands."""
-    img = np.asarray(img)
-    h = img.shape[0]
-    starts = range(0, h - _NOISE_BAND_ROWS + 1, _NOISE_BAND_ROWS * _NOISE_BAND_STEP)
-    if len(starts) < 2:
-        return estimate_noise_sigma(img)
-    return float(np.mean([estimate_noise_sigma(img[a:a + _NOISE_BAND_ROWS]) for a in starts]))
+def affine_zncc(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarray, win: int) -> tuple:
+    """ZNCC (N,) of the ``win`` x ``win`` windows of ``img0`` at ``p0`` (N,2) and of ``img1`` under the affine
+    warp fitted from the match ``p1`` (N,2) (:func:`vo.frontend.affine_lk.refine_affine`), the fitted centres
+    (N,2) and whether the fit converged (N,) (ZNCC -1 where not)."""
+    p0 = np.asarray(p0, np.float64).reshape(-1, 2)
+    c, A, ok = refine_affine(img0, img1, p0, np.asarray(p1, np.float64).reshape(-1, 2), win=win)
+    r = np.arange(win, dtype=np.float64) - (win - 1) / 2.0
+    offs = np.stack(np.meshgrid(r, r), axis=-1).reshape(-1, 2)
+    a = bilinear(np.asarray(img0, np.float32), p0[:, None, :] + offs[None]).astype(np.float64)
+    b = bilinear(np.asarray(img1, np.float32),
+                 c[:, None, :] + offs[None] @ (np.eye(2)[None] + A).transpose(0, 2, 1)).astype(np.float64)
+    a -= a.mean(axis=1, keepdims=True)
+    b -= b.mean(axis=1, keepdims=True)
+    den = np.sqrt(np.einsum("ij,ij->i", a, a) * np.einsum("ij,ij->i", b, b))
+    z = np.where(den > 0, np.einsum("ij,ij->i", a, b) / np.where(den > 0, den, 1.0), 0.0)
+    return np.where(ok, z, -1.0), c, ok
 
 
 def zncc_mask(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarray, ok: np.ndarray, win: int,
-              min_zncc: float, max_texture_snr: float = 0.0) -> np.ndarray:
+              min_zncc: float, affine: bool = False) -> np.ndarray:
     """``ok`` (N,) with the matches whose window ZNCC is below ``min_zncc`` removed (``min_zncc`` <= -1 or no
-    match: ``ok`` unchanged); with ``max_texture_snr`` > 0 only those whose ``img0`` window's standard
-    deviation is below ``max_texture_snr`` times the noise of ``img0`` (:func:`band_noise_sigma`, computed only
-    when a match fails the ZNCC gate) (module docstring)."""
+    match: ``ok`` unchanged); with ``affine`` such a match stays when its affine-warped window's ZNCC
+    (:func:`affine_zncc`) reaches ``min_zncc`` and the fit's centre is within ``AFFINE_MAX_MOVE_PX`` of ``p1``
+    (module docstring)."""
     ok = np.asarray(ok, bool).copy()
     if min_zncc <= -1.0 or not ok.any():
         return ok
     idx = np.flatnonzero(ok)
     p0s, p1s = np.asarray(p0, np.float64).reshape(-1, 2)[idx], np.asarray(p1, np.float64).reshape(-1, 2)[idx]
     bad = zncc(img0, img1, p0s, p1s, win) < min_zncc
-    if max_texture_snr > 0 and bad.any():
-        sd = _windows(img0, p0s[bad], win).std(axis=1)
-        bad[bad] = sd < max_texture_snr * band_noise_sigma(img0)
+    if affine and bad.any():
+        z, c, fitted = affine_zncc(img0, img1, p0s[bad], p1s[bad], win)
+        near = np.linalg.norm(c - p1s[bad], axis=1) <= AFFINE_MAX_MOVE_PX
+        bad[bad] = ~(fitted & near & (z >= min_zncc))
     ok[idx[bad]] = False
     return ok
