@@ -58,7 +58,9 @@ class KltConfig:
     ``min_zncc`` (not in seed 003): every LK match of :func:`track_fb` (temporal and stereo) is kept only when
     the ZNCC of its two ``win`` x ``win`` windows on the raw images reaches it
     (:mod:`vo.frontend.patch_check`; default 0.5: window texture at least as strong as the image noise); -1
-    turns the check off.
+    turns the check off. ``zncc_affine``: a match below the gate stays when its window's affine fit correlates
+    (default False: measured better on the real turn, worse on a held-out `indoor-realistic` seed;
+    :mod:`vo.frontend.patch_check`).
     """
 
     cell: int = 32
@@ -85,6 +87,7 @@ class KltConfig:
     edge_win_h: int = 11
     edge_threshold_px: float = 0.0
     min_zncc: float = 0.5
+    zncc_affine: bool = False
 
     def __post_init__(self):
         checks = {
@@ -224,7 +227,7 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
         lost = np.flatnonzero(~ok)
         p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
                                       guess=None if guess is None else np.asarray(guess)[lost])
-    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc)
+    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine)
 
 
 def stereo_klt(left: np.ndarray, right: np.ndarray, p_left: np.ndarray, rig,
