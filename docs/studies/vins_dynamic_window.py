@@ -3,9 +3,11 @@
     OPENBLAS_NUM_THREADS=1 python docs/studies/vins_dynamic_window.py D [--max-frames N] [--every 10] \\
         [--opt key=value ...]
 
-``D``: an EuRoC dataset of ours written with ``--segmentation`` (``segmentation_ids.csv``, ``actors.csv``).
+``D``: an EuRoC dataset of ours; the columns on moving objects need one written with ``--segmentation``
+(``segmentation_ids.csv``, ``actors.csv``; without it every feature counts as static).
 Runs ``vins`` frame by frame (the product's estimator, default options unless ``--opt``) and prints, every
-``--every`` frames after the first pose: the window's landmarks, how many of them the current frame sees on
+``--every`` frames after the first pose: the newest state's speed against the true one (m/s), the window's time
+span (s), its landmarks, how many of them the current frame sees on
 moving objects (true segmentation at the feature's pixel), the mean reprojection error (px, over the
 observing window states) of the static and of the dynamic ones (mean / max / count above 3 px), the actors they lie on (``actor_id:count``), and
 per such actor its speed along the car's direction of travel relative to the car (m/s; ``actors.csv``'s
@@ -21,6 +23,7 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
+from gtsam.symbol_shorthand import V
 
 from rigs.errors import TestbedError
 from rigs.typed_config import parse_value
@@ -76,8 +79,9 @@ def main(argv=None) -> int:
             opts[k] = parse_value(v, k, EstimatorError)
         ds = open_dataset(a.dataset)
         root = Path(a.dataset)
-        actor_of, moving_obj = seg_to_actor(root)
-        tracks = actor_tracks(root)
+        seg = (root / "segmentation_ids.csv").is_file()
+        actor_of, moving_obj = seg_to_actor(root) if seg else (np.full(1, -1), np.zeros(1, bool))
+        tracks = actor_tracks(root) if seg else {}
         gt = ds.groundtruth_cam0()
         state = {"T0": None}
 
@@ -92,11 +96,14 @@ def main(argv=None) -> int:
                 return
             state.setdefault("first", k)
             w, feats = est.window, est.window.states[-1].feats
-            ids_img, _ = ds.segmentation(k)
-            h, wd = ids_img.shape[:2]
-            r = np.clip(np.round(feats.px[:, 1]).astype(int), 0, h - 1)
-            c = np.clip(np.round(feats.px[:, 0]).astype(int), 0, wd - 1)
-            obj = ids_img[r, c]
+            if seg:
+                ids_img, _ = ds.segmentation(k)
+                h, wd = ids_img.shape[:2]
+                r = np.clip(np.round(feats.px[:, 1]).astype(int), 0, h - 1)
+                c = np.clip(np.round(feats.px[:, 0]).astype(int), 0, wd - 1)
+                obj = ids_img[r, c]
+            else:
+                obj = np.zeros(len(feats.ids), int)
             in_win = np.array([int(i) in w.lm for i in feats.ids.tolist()], bool)
             obj = np.clip(obj.astype(int), 0, len(actor_of) - 1)
             dyn = moving_obj[obj] & in_win
@@ -119,12 +126,15 @@ def main(argv=None) -> int:
             e_d = [err[int(i)] for i, d in zip(feats.ids.tolist(), dyn) if d and int(i) in err]
             e_s = [err[int(i)] for i, d, iw in zip(feats.ids.tolist(), dyn, in_win) if iw and not d and int(i) in err]
             q = (lambda e: f"{np.mean(e):5.2f}/{np.max(e):5.2f}/{np.sum(np.array(e) > 3):2d}" if e else "    -")
+            v_est = float(np.linalg.norm(w.values.atVector(V(w.states[-1].k))))
+            span = (w.states[-1].t_ns - w.states[0].t_ns) * 1e-9
             Te = state["T0"] @ res.T_o_c0
             along = (Te[:3, 3] - T_gt[:3, 3]) @ fwd
-            print(f"{k:5d} {(t - int(gt.t_ns[0])) * 1e-9:6.1f} {len(w.lm):4d} {int(in_win.sum()):4d} "
+            print(f"{k:5d} {(t - int(gt.t_ns[0])) * 1e-9:6.1f} {v_est:6.2f} {np.linalg.norm(v_car):6.2f} "
+                  f"{span:5.1f} {len(w.lm):4d} {int(in_win.sum()):4d} "
                   f"{int(dyn.sum()):4d} {along:+7.2f}  {q(e_s)}  {q(e_d)}  " + " ".join(parts), flush=True)
 
-        print(f"{a.dataset} vins {' '.join(a.opt)}\nframe    t s   lm  seen  dyn  along m  static px mean/max/>3  dynamic px  actor:landmarks(rel. speed, range)")
+        print(f"{a.dataset} vins {' '.join(a.opt)}\nframe    t s  v est v true  span   lm  seen  dyn  along m  static px mean/max/>3  dynamic px  actor:landmarks(rel. speed, range)")
         run_estimator("vins", ds, opts, progress=False, max_frames=a.max_frames, with_truth=True, on_frame=on_frame)
     except (TestbedError, OSError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
