@@ -29,7 +29,7 @@ def test_a_scaled_route_gives_its_scale_error_and_along_track_error():
         assert scale_pct == pytest.approx(10.0, abs=1e-9)
         d = 10.0 * (t1 - 2.0)                   # true distance from the first covered frame (t = 2 s)
         assert along == pytest.approx(0.1 * d, abs=1e-9) and err == pytest.approx(0.1 * d, abs=1e-9)
-    assert "+10.0 .. +10.0 %" in route_scale.summary(rows)
+    assert "+10.0 .. +10.0 %" in route_scale.summary(rows) and "(+10.0 % of 180 m)" in route_scale.summary(rows)
 
 
 def test_frames_without_a_pose_are_left_out():

@@ -6,7 +6,8 @@ Per segment of ``--segment-s`` seconds of covered frames (status ``ok``/``keyfra
 the scale error of the emitted poses over the segment (estimated / true path length - 1, %) and the
 along-track and total position error at its end (poses aligned at the first covered frame, m). Prints one
 line per segment (not with ``--brief``) and a summary per dataset: the range of the segment scale errors at
-more than 1 m/s, the largest along-track error and where, the end-point error. Bad input: one ``error:`` line,
+more than 1 m/s, the largest along-track error, where, and as a share of the true path from the first pose to there, the
+end-point error. Bad input: one ``error:`` line,
 exit 2.
 """
 from __future__ import annotations
@@ -48,8 +49,10 @@ def segments(t_ns, T_gt, T_est, status, segment_s: float) -> list:
 def summary(rows) -> str:
     sc = np.array([r[3] for r in rows if r[2] > 1.0])
     k = int(np.argmax([abs(r[4]) for r in rows]))
+    path = sum(r[2] * (r[1] - r[0]) for r in rows[:k + 1])         # true path from the first pose to there
     return (f"segment scale error {sc.min():+.1f} .. {sc.max():+.1f} %, largest along-track error "
-            f"{rows[k][4]:+.1f} m at {rows[k][1]:.0f} s, end error {rows[-1][5]:.2f} m")
+            f"{rows[k][4]:+.1f} m at {rows[k][1]:.0f} s ({100 * rows[k][4] / path:+.1f} % of {path:.0f} m), "
+            f"end error {rows[-1][5]:.2f} m")
 
 
 def main(argv=None) -> int:
