@@ -1,7 +1,7 @@
 """The start-up table of ``docs/vins.md``: when and how well ``vins`` initialises without truth, and what it
 covers afterwards, per dataset.
 
-``python docs/studies/vins_start_table.py DATASET [DATASET ...] [--frames N] [--json OUT] [--opt key=value ...]``
+``python docs/studies/vins_start_table.py DATASET [DATASET ...] [--frames N] [--json OUT] [--traj PREFIX] [--opt key=value ...]``
 runs ``vins`` (or ``--estimator NAME``) on each dataset's first ``N`` frames (default: all) and prints one row:
 the frame and time (from the first frame) of the first initialisation, the distance travelled by then,
 the scale and gravity errors against the truth of the alignment that started the window (:class:`InitRecorder`,
@@ -9,7 +9,8 @@ injected into the estimator, not patched in) and of the window when it emits its
 (:func:`window_errors`; later than the alignment after a provisional start), the re-initialisations, the frames covered (status ``ok`` or
 ``keyframe``: a pose was produced), the drift (end-point error / path, %) and the mean RPE over 10 m pairs
 of the covered frames from the first initialisation on, aligned at that frame; in the JSON also the CPU time
-per frame (``time.process_time`` around ``process``) from the first pose on. Bad input: one ``error:``
+per frame (``time.process_time`` around ``process``) from the first pose on; ``--traj PREFIX`` saves each
+dataset's per-frame statuses, poses and CPU times to ``PREFIX_<dataset name>.npz``. Bad input: one ``error:``
 line, exit 2.
 """
 from __future__ import annotations
@@ -73,8 +74,9 @@ def window_errors(w, gt) -> dict:
             "window_tilt_deg": float(np.degrees(np.arccos(np.clip(up_e @ up_g, -1, 1))))}
 
 
-def run_one(path, n_frames=None, estimator: str = "vins", options=None) -> dict:
-    """Row of the start table for the dataset at ``path`` (see the module docstring)."""
+def run_one(path, n_frames=None, estimator: str = "vins", options=None, traj_out=None) -> dict:
+    """Row of the start table for the dataset at ``path`` (see the module docstring); with ``traj_out`` the
+    per-frame statuses, emitted poses ``T_o_c0`` (n, 4, 4) and CPU seconds are saved there (``.npz``)."""
     ds = open_dataset(path)
     gt = ds.groundtruth_cam0()
     rec = InitRecorder(gt)
@@ -103,6 +105,9 @@ def run_one(path, n_frames=None, estimator: str = "vins", options=None) -> dict:
     run_estimator(estimator, ds, {**(options or {}), "initializer": rec}, progress=False, max_frames=n,
                   with_truth=True, before_frame=before_frame, on_frame=on_frame)
     wall = time.perf_counter() - t0
+    if traj_out:
+        np.savez_compressed(traj_out, status=np.array(status), T_o_c0=np.array(T), cpu_s=np.array(cpu),
+                            t_ns=np.asarray(gt.t_ns[:len(status)], np.int64))
     at_first_pose = at_pose.get("errors")
     t_ns = np.asarray(gt.t_ns[:n], np.int64)
     Tg = gt.T[:n]
@@ -160,7 +165,7 @@ HEADER = ("| dataset | frames | first pose: frame / time / distance | scale err 
 
 def main(argv=None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
-    paths, opts, n, out, est = [], {}, None, None, "vins"
+    paths, opts, n, out, est, traj = [], {}, None, None, "vins", None
     try:
         while args:
             a = args.pop(0)
@@ -168,6 +173,8 @@ def main(argv=None) -> int:
                 n = int(args.pop(0))
             elif a == "--json":
                 out = args.pop(0)
+            elif a == "--traj":
+                traj = args.pop(0)
             elif a == "--estimator":
                 est = args.pop(0)
             elif a == "--opt":
@@ -186,7 +193,7 @@ def main(argv=None) -> int:
     rows = []
     try:
         for p in paths:
-            r = run_one(p, n, est, opts)
+            r = run_one(p, n, est, opts, traj and f"{traj}_{p.rstrip('/').split('/')[-1]}.npz")
             rows.append(r)
             print(format_row(r), flush=True)
     except TestbedError as e:
