@@ -72,8 +72,8 @@ def test_check_passes_and_fails_on_bounds(cache, capsys):
     code, out, _ = check(capsys, "--estimator", "klt-pnp", "--max-ate", "1e-9", "--json")
     assert code == 1
     assert json.loads(out)["failures"][0]["bound"] == "max_ate"
-    datasets = [p for p in cache.iterdir() if not p.name.startswith(".") and p.name != "textures"]
-    assert len(datasets) == 1                        # generated once, reused (+ its lock; textures kept beside)
+    datasets = [p for p in cache.iterdir() if not p.name.startswith(".") and p.name not in ("textures", "worlds")]
+    assert len(datasets) == 1                        # generated once, reused (+ its lock; textures, worlds kept beside)
 
 
 def test_external_program_sees_sensor_data_only_and_cache_is_unchanged(cache, tmp_path, capsys):
