@@ -84,7 +84,8 @@ class FourView:
 def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``); ``ok``
     where both directions converge inside the image, the round trip ends < ``fb_threshold_px`` from
-    ``p0`` and the two windows correlate (ZNCC >= ``config.min_zncc``, :mod:`vo.frontend.patch_check`). With
+    ``p0`` and the two windows correlate (ZNCC >= ``config.min_zncc``, or the affine fit with ``config.zncc_affine``:
+    :mod:`vo.frontend.patch_check`). With
     ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
     :mod:`vo.frontend.lk_normalized` (seed 003's intensity-invariant residual; ``pyramid`` image -> pyramid,
     default ``config.pyramid``), else on the raw images."""
@@ -99,7 +100,7 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[
             lost = np.flatnonzero(~ok)
             p1[lost], ok[lost] = lk_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
                                        None if guess is None else np.asarray(guess)[lost])
-        return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc)
+        return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
     a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
@@ -115,7 +116,7 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[
     ok = (st.ravel() == 1) & (st2.ravel() == 1) & np.all(np.isfinite(p1), axis=1)
     ok &= (p1[:, 0] >= 0) & (p1[:, 1] >= 0) & (p1[:, 0] <= w - 1) & (p1[:, 1] <= h - 1)
     ok &= np.linalg.norm(a2.reshape(-1, 2) - p0, axis=1) < config.fb_threshold_px
-    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc)
+    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine)
 
 
 class KltFourView:
