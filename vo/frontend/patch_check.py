@@ -46,8 +46,12 @@ def zncc(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarray, win
     p1 = np.asarray(p1, np.float64).reshape(-1, 2)
     if len(p0) == 0:
         return np.zeros(0)
-    a = _windows(img0, p0, win)
-    b = _windows(img1, p1, win)
+    return _zncc_rows(_windows(img0, p0, win), _windows(img1, p1, win))
+
+
+def _zncc_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """ZNCC (N,) of the rows of ``a`` and ``b`` (N, M) float64 (changed in place: zero mean); 0 for a row
+    without variance."""
     a -= a.mean(axis=1, keepdims=True)
     b -= b.mean(axis=1, keepdims=True)
     den = np.sqrt(np.einsum("ij,ij->i", a, a) * np.einsum("ij,ij->i", b, b))
@@ -76,11 +80,7 @@ def affine_zncc(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarr
     a = bilinear(np.asarray(img0, np.float32), p0[:, None, :] + offs[None]).astype(np.float64)
     b = bilinear(np.asarray(img1, np.float32),
                  c[:, None, :] + offs[None] @ (np.eye(2)[None] + A).transpose(0, 2, 1)).astype(np.float64)
-    a -= a.mean(axis=1, keepdims=True)
-    b -= b.mean(axis=1, keepdims=True)
-    den = np.sqrt(np.einsum("ij,ij->i", a, a) * np.einsum("ij,ij->i", b, b))
-    z = np.where(den > 0, np.einsum("ij,ij->i", a, b) / np.where(den > 0, den, 1.0), 0.0)
-    return np.where(ok, z, -1.0), c, ok
+    return np.where(ok, _zncc_rows(a, b), -1.0), c, ok
 
 
 def zncc_mask(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarray, ok: np.ndarray, win: int,
