@@ -9,17 +9,16 @@ robustness"). The tracks that survive from the previous frame still measure the 
 the camera's translation is small against the scene's depth, so the bearings of the tracks obey
 ``b_cur ~ R_cur_prev b_prev`` and :func:`vo.rop.rotation_only.rotation_only` (Kabsch with one robust refit,
 the fit ``rop`` uses for its failed frames) gives ``R_prev_cur``. The coasted step then takes that rotation
-and the constant-velocity translation. At least :data:`MIN_ROTATION_TRACKS` tracks (as ``rop``); fewer give
+and the constant-velocity translation. At least :data:`vo.rop.rotation_only.MIN_ROTATION_TRACKS` tracks (as ``rop``); fewer give
 no rotation (None), and the step is the constant-velocity one.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from rigs.geometry.pinhole import to_normalized
 from vo.frontend.stereo import undistort_px
-from vo.rop.rotation_only import rotation_only
-
-MIN_ROTATION_TRACKS = 8     # frame-to-frame tracks for a rotation-only fit (rop's value)
+from vo.rop.rotation_only import MIN_ROTATION_TRACKS, rotation_only
 
 
 def coast_rotation(p_prev: np.ndarray, p_cur: np.ndarray, cam) -> np.ndarray | None:
@@ -31,8 +30,7 @@ def coast_rotation(p_prev: np.ndarray, p_cur: np.ndarray, cam) -> np.ndarray | N
     if len(p_prev) < MIN_ROTATION_TRACKS:
         return None
     K = np.asarray(cam.K, float)
-    f, c = np.diag(K)[:2], K[:2, 2]
-    x_prev = (undistort_px(p_prev, cam) - c) / f
-    x_cur = (undistort_px(p_cur, cam) - c) / f
-    R_prev_cur, _, _ = rotation_only(x_prev, x_cur, float(np.mean(f)))
+    x_prev = to_normalized(undistort_px(p_prev, cam), K)
+    x_cur = to_normalized(undistort_px(p_cur, cam), K)
+    R_prev_cur, _, _ = rotation_only(x_prev, x_cur, float(np.mean(np.diag(K)[:2])))
     return R_prev_cur

@@ -49,6 +49,7 @@ from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
 from vo.frontend.stereo import triangulate, undistort_px
 from vo.frontend.stereo_prior import disparity_guess, landmark_refs
 from rigs.geometry import inv_T, make_T, transform_points
+from rigs.geometry.pinhole import to_normalized
 
 
 class StereoPnpEstimator(Estimator):
@@ -234,7 +235,7 @@ class KltPnpEstimator(StereoPnpEstimator):
             p_o = transform_points(self.T_o_c0, p_c0)
             z_c0 = transform_points(inv_T(self.T_o_c0), p_o)[:, 2]
             cam = self.rig.cameras[0]
-            x_n = (undistort_px(p_l, cam) - cam.K[:2, 2]) / np.diag(cam.K)[:2] if len(p_l) else np.zeros((0, 2))
+            x_n = to_normalized(undistort_px(p_l, cam), cam.K)
             dir_o = (self.T_o_c0[:3, :3] @ np.c_[x_n, np.ones(len(x_n))].T).T
             self.offset.add(self.tracker.ids[sel][ok], self.T_o_c0[:3, 3], dir_o[ok], z_c0[ok])
             if self.offset.config.enabled:
@@ -331,8 +332,8 @@ class KltPnpEstimator(StereoPnpEstimator):
         self.offset.forget(self.landmarks)
         cam = self.rig.cameras[0]
         pts = self.tracker.pts
-        px = undistort_px(pts, cam) if len(pts) else np.zeros((0, 2))
-        x_n = (px - cam.K[:2, 2]) / np.diag(cam.K)[:2]
+        px = undistort_px(pts, cam)
+        x_n = to_normalized(px, cam.K)
         self._chain.frame(self.T_o_c0, self.tracker.ids, px)
         self.offset.observe(self.tracker.ids, x_n, self.T_o_c0)
         if self.offset.delta_px != self._applied_offset:

@@ -34,8 +34,8 @@ Our extensions (each documented in its module, figures in docs/estimators.md):
   :mod:`vo.rop.weak_frame`: a rotation-only fit of 15 bunched tracks was 2 deg off); else it
   coasts at constant velocity (at most :data:`~vo.estimators.base.MAX_COAST_FRAMES` frames, then held)
   with the heading of the rotation-only fit to the left tracks when there are >=
-  :data:`MIN_ROTATION_TRACKS`; never NaN; the frame becomes a fresh keyframe (keeping its tracks when
-  only the ROP step was suspect).
+  :data:`vo.rop.rotation_only.MIN_ROTATION_TRACKS`; never NaN; the frame becomes a fresh keyframe
+  (keeping its tracks when only the ROP step was suspect).
 * Covariance of ``T_o_c0`` from an :class:`~vo.rop.uncertainty.UncertaintyModel` (first order by
   default; ``cov="chain_bootstrap"``; or any model passed as ``uncertainty=``). Rotation-only epochs:
   rotation sigma ``3 max(parallax, 0.1 px) / (f sqrt(n))``, position sigma
@@ -66,14 +66,13 @@ from vo.rop.epochs import EpochRecord
 from vo.rop.initial_eops import initial_eops
 from vo.rop.moving import TrackFilter, filter_tracks
 from vo.rop.ropset import PAIRS
-from vo.rop.rotation_only import rotation_only
+from vo.rop.rotation_only import MIN_ROTATION_TRACKS, rotation_only
 from vo.rop.rotation_test import RotationTester, readjusted_step
 from vo.rop.tracks import KltFourView
 from vo.rop.uncertainty import Step, UncertaintyModel
 from vo.rop.weak_frame import rotation_miss, weak_frame_pose
 from vo.frontend.stereo import triangulate
 
-MIN_ROTATION_TRACKS = 8     # left tracks for the rotation-only fit of a failed frame
 MIN_COAST_PNP_INLIERS = 20  # PnP inliers of the track filter's motion for it to give a failed frame's pose
 STAGES = ("detect", "track", "stereo", "essential", "initial", "adjust")
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+MIN_ROTATION_TRACKS = 8     # tracks for a rotation-only fit of a failed or coasted frame (rop, klt-pnp)
+
 
 def bearings(x: np.ndarray) -> np.ndarray:
     """(N,2) normalized image coordinates -> (N,3) unit bearing vectors."""
