@@ -48,6 +48,7 @@ from typing import Optional
 
 import numpy as np
 
+from rigs.atomic_io import sha256_file
 from sim.cache_dir import cache_root
 from sim.errors import SimError
 from sim.version import __version__
@@ -117,18 +118,10 @@ def world_key(config, rig, vehicle: str, distort: bool = True) -> Optional[str]:
     return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()
 
 
-def _file_sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 22), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def write_manifest(folder, key: str) -> None:
     """``manifest.json`` of the world files in ``folder`` (the key, each file's size and SHA-256)."""
     folder = Path(folder)
-    files = {n: [(folder / n).stat().st_size, _file_sha256(folder / n)] for n in ENTRY_FILES}
+    files = {n: [(folder / n).stat().st_size, sha256_file(folder / n)] for n in ENTRY_FILES}
     (folder / MANIFEST).write_text(json.dumps({"format": ENTRY_FORMAT, "key": key, "files": files}))
 
 
@@ -139,7 +132,7 @@ def verify(folder, key: str) -> bool:
         m = json.loads((folder / MANIFEST).read_text())
         if m.get("format") != ENTRY_FORMAT or m.get("key") != key or sorted(m["files"]) != sorted(ENTRY_FILES):
             return False
-        return all((folder / n).stat().st_size == size and _file_sha256(folder / n) == sha
+        return all((folder / n).stat().st_size == size and sha256_file(folder / n) == sha
                    for n, (size, sha) in m["files"].items())
     except (OSError, ValueError, KeyError, TypeError):
         return False

@@ -29,7 +29,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from rigs.geometry import inv_T, make_T, transform_points
+from rigs.geometry import inv_T, transform_points
+from vo.estimators.rigidity import refine_pose
 
 MIN_REFIT_POINTS = 6         # landmarks a frame needs for its refit (else it keeps the original step)
 
@@ -148,13 +149,8 @@ def _refit(T_o_c0: np.ndarray, fr: ChainFrame, corrected: dict, K: np.ndarray) -
     if use.sum() < MIN_REFIT_POINTS:
         return T_o_c0
     p_o = np.array([corrected[int(i)] for i in fr.ids[use]], np.float64)
-    T_c0_o = inv_T(T_o_c0)
-    rvec = cv2.Rodrigues(np.ascontiguousarray(T_c0_o[:3, :3]))[0]
-    tvec = T_c0_o[:3, 3].reshape(3, 1).copy()
     try:
-        rvec, tvec = cv2.solvePnPRefineLM(p_o.reshape(-1, 1, 3), np.ascontiguousarray(fr.px[use]).reshape(-1, 1, 2),
-                                          K, None, rvec, tvec)
+        T = refine_pose(inv_T(T_o_c0), p_o, fr.px[use], K)
     except cv2.error:
         return T_o_c0
-    T = make_T(cv2.Rodrigues(rvec)[0], tvec.reshape(3))
     return inv_T(T) if np.all(np.isfinite(T)) else T_o_c0
