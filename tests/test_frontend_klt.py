@@ -104,6 +104,9 @@ def test_klt_config_from_option_takes_a_mapping_and_names_bad_fields():
         KltConfig.from_option(11, "rop.klt_config")
     with pytest.raises(VoError, match="KltConfig.win: invalid value 10"):
         KltConfig.from_option({"win": 10})
+    with pytest.raises(VoError, match="KltConfig.zncc_affine: invalid value 3"):     # a switch takes true/false only
+        KltConfig.from_option({"zncc_affine": 3})
+    assert KltConfig.from_option({"zncc_affine": True}).zncc_affine is True
 
 
 def test_estimators_take_klt_config_as_a_mapping_and_name_themselves_in_errors():

@@ -105,12 +105,14 @@ class KltConfig:
             "offset_min_matches": self.offset_min_matches >= 1, "offset_max_px": self.offset_max_px >= 0,
             "min_zncc": -1.0 <= self.min_zncc <= 1.0,
         }
+        checks.update({f.name: isinstance(getattr(self, f.name), (bool, np.bool_))
+                       for f in fields(self) if f.type in (bool, "bool")})
         for name, good in checks.items():
             if not good:
                 raise VoError(f"KltConfig.{name}: invalid value {getattr(self, name)!r} "
                               "(cell>=8, odd win>=3, stereo_win 0 or odd >=3, odd edge_win>=3, levels>=1, "
                               "normalize_box 0 or >= 1, 0<=max_empty_fraction<=1, thresholds > 0, "
-                              "edge_threshold_px >= 0, -1 <= min_zncc <= 1)")
+                              "edge_threshold_px >= 0, -1 <= min_zncc <= 1, switches true or false)")
 
     @classmethod
     def from_option(cls, value, where: str = "klt_config") -> "KltConfig":
