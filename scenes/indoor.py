@@ -126,6 +126,11 @@ class IndoorScene(BuiltScene):
         add_fixtures(b, "wall/n1_n2", "left", (6.0, 7.5 + h), (6.0, H), (-1.0, 0.0), WALL_T, used=used)
         add_fixtures(b, "wall/east", "corridor", (W + h, 5.0 + h), (W + h, 7.5 - h), (-1.0, 0.0), WALL_T,
                      used=used)                           # the corridor's end, ahead after the turn into it
+        add_fixtures(b, "wall/s1_s2", "left", (8.0, 0.0), (8.0, 5.0 - h), (-1.0, 0.0), WALL_T, doors=((1.5, 2.7),),
+                     used=used, keep_clear=((3.0, 5.0),), exclude=("door",))  # ahead at the start; a poster, a cabinet
+        add_fixtures(b, "wall/corridor_n", "right", (0.0, 7.5), (W, 7.5), (0.0, -1.0), WALL_T,
+                     doors=((2.0, 3.2), (10.7, 13.3)), used=used,   # seen from S1 through its doorway; posters
+                     keep_clear=((4.3, 5.7), (7.8, 9.2), (14.3, 15.7)))
 
     def _desk(self, b, part, xy, yaw, rng):
         rng.integers(4, 7)                  # unused draw: the layout stream's sequence fixes where things stand

@@ -193,16 +193,21 @@ DRAW = {"door": door_image, "extinguisher": extinguisher_image, "picture": pictu
         "whiteboard": whiteboard_image, "notice_board": notice_board_image, "clock": clock_image}
 
 
-def plan_fixtures(rng, length_m: float, doors=(), per_m: float = 1 / 2.5, used=None) -> list:
+def plan_fixtures(rng, length_m: float, doors=(), per_m: float = 1 / 2.5, used=None, keep_clear=(),
+                  exclude=()) -> list:
     """``[(kind, t_m, z_m, half_w_m, half_h_m, proud_m)]``: fixtures along a wall side of ``length_m`` (``t`` the
-    centre along it), about ``per_m`` per metre (at least one), none overlapping another or a door gap. A kind of
-    :data:`ONCE` already in the set ``used`` is not drawn again (it is added to ``used`` when placed)."""
+    centre along it), about ``per_m`` per metre (at least one), none overlapping another, a door gap or a
+    ``keep_clear`` stretch ((a, c) m). The ``n`` fixtures are spread as things on a real wall are: the k-th in the
+    k-th ``length_m / n`` of the wall where it fits there (so no long stretch is left bare by chance), elsewhere if
+    not. A kind of :data:`ONCE` already in the set ``used``, or in ``exclude``, is not drawn (``used`` gains each
+    kind placed)."""
     used = set() if used is None else used
     kinds = list(KINDS)
-    taken = [(a - 0.15, c + 0.15) for a, c in doors]
+    taken = [(a - 0.15, c + 0.15) for a, c in doors] + [tuple(k) for k in keep_clear]
     out = []
-    for _ in range(max(1, int(rng.poisson(per_m * length_m)))):
-        p = np.array([0.0 if k in used and k in ONCE else KINDS[k][0] for k in kinds])
+    n = max(1, int(rng.poisson(per_m * length_m)))
+    for i in range(n):
+        p = np.array([0.0 if (k in used and k in ONCE) or k in exclude else KINDS[k][0] for k in kinds])
         kind = kinds[int(rng.choice(len(kinds), p=p / p.sum()))]
         _, wr, hr, zr, proud = KINDS[kind]
         w = rng.uniform(*wr)
@@ -210,8 +215,10 @@ def plan_fixtures(rng, length_m: float, doors=(), per_m: float = 1 / 2.5, used=N
         z = h + 0.001 if zr is None else rng.uniform(*zr)
         if kind == "extinguisher":
             z = max(z, h + 0.05)
-        for _ in range(20):                                       # a free stretch of wall
-            t = rng.uniform(w + 0.1, length_m - w - 0.1) if length_m > 2 * w + 0.2 else None
+        for j in range(20):                                       # a free stretch of wall, in its slot first
+            lo, hi = (i * length_m / n, (i + 1) * length_m / n) if j < 10 else (0.0, length_m)
+            lo, hi = max(lo, w + 0.1), min(hi, length_m - w - 0.1)
+            t = rng.uniform(lo, hi) if hi > lo else None
             if t is not None and all(t + w + 0.1 < a or t - w - 0.1 > c for a, c in taken):
                 taken.append((t - w, t + w))
                 used.add(kind)
@@ -221,15 +228,17 @@ def plan_fixtures(rng, length_m: float, doors=(), per_m: float = 1 / 2.5, used=N
 
 
 def add_fixtures(b, wall: str, side: str, p0, p1, room_normal, wall_t: float, doors=(),
-                 per_m: float = 1 / 2.5, used=None) -> int:
+                 per_m: float = 1 / 2.5, used=None, keep_clear=(), exclude=()) -> int:
     """Fixtures of their own on the ``side`` of the wall ``wall`` from ``p0`` to ``p1`` (x-y, m; the room face
     ``wall_t`` / 2 from that line along the unit ``room_normal``), through the ``SceneBuilder`` ``b``.
-    ``used``: the set of kinds placed so far in the scene (:func:`plan_fixtures`). Returns how many were placed."""
+    ``used``: the set of kinds placed so far in the scene, ``keep_clear``: stretches left free, ``exclude``: kinds
+    not placed (:func:`plan_fixtures`).
+    Returns how many were placed."""
     p0, p1, n = np.asarray(p0, float), np.asarray(p1, float), np.asarray(room_normal, float)
     L = float(np.linalg.norm(p1 - p0))
     u = (p1 - p0) / L
     yaw = float(np.arctan2(u[1], u[0]))
-    plan = plan_fixtures(b.streams(f"layout/fixtures/{wall}/{side}"), L, doors, per_m, used)
+    plan = plan_fixtures(b.streams(f"layout/fixtures/{wall}/{side}"), L, doors, per_m, used, keep_clear, exclude)
     for k, (kind, t, z, w, h, proud) in enumerate(plan):
         part = f"fixture/{wall}/{side}/{k}"
         key = f"texture/{part}"
