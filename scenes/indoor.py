@@ -125,7 +125,8 @@ class IndoorScene(BuiltScene):
         add_fixtures(b, "wall/n1_n2", "right", (6.0, 7.5 + h), (6.0, H), (1.0, 0.0), WALL_T, used=used)
         add_fixtures(b, "wall/n1_n2", "left", (6.0, 7.5 + h), (6.0, H), (-1.0, 0.0), WALL_T, used=used)
         add_fixtures(b, "wall/east", "corridor", (W + h, 5.0 + h), (W + h, 7.5 - h), (-1.0, 0.0), WALL_T,
-                     used=used)                           # the corridor's end, ahead after the turn into it
+                     used=used, exclude=("clock", "picture", "door"))   # the corridor's end, 10 m ahead after the
+        #                                                   turn into it: a board (a clock or picture is a speck there)
         add_fixtures(b, "wall/s1_s2", "left", (8.0, 0.0), (8.0, 5.0 - h), (-1.0, 0.0), WALL_T, doors=((1.5, 2.7),),
                      used=used, keep_clear=((3.0, 5.0),), exclude=("door",))  # ahead at the start; a poster, a cabinet
         add_fixtures(b, "wall/corridor_n", "right", (0.0, 7.5), (W, 7.5), (0.0, -1.0), WALL_T,
