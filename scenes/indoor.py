@@ -11,8 +11,13 @@ Those walls are near-white with very low-contrast paint at every ``texture_richn
 blank surface would give zero features, which no real wall does; seed 000 reports fewer, not none), and,
 as real walls, a skirting board, sockets, switches and a few notices. Every wall side has a texture of its
 own drawn at its full extent (:mod:`scenes.indoor_walls`): no pattern repeats within a wall or between walls.
-Every poster, every desk top and every item on a desk has a pattern of its own (:func:`own_material`), not a
-tint of a shared one: two copies of one poster 11 m apart were a look-alike place (``validate places``, seed 4).
+Every poster, every desk top and every item on a desk has a pattern of its own (:func:`own_material`,
+:func:`own_drawn`), not a tint of a shared one: two copies of one poster 11 m apart were a look-alike place
+(``validate places``, seed 4). Posters and desk items are prints laid out as real ones (:mod:`scenes.indoor_print`:
+headline, photo, word-blob text), not rows of alike glyph blocks; shelves are bookshelves of their own. The walls
+around the white wall, S1's east wall, the corridor's north wall and its end carry what real walls do, each
+instance its own (:mod:`scenes.indoor_fixtures`: doors, one fire-extinguisher point, pictures, whiteboards, notice
+boards, clocks), with bare paint between them.
 
 Doorways are 2.2 m high, so the free corridor checked around the route is 1 m each side up to
 ``corridor_height_m = 2.1`` m (the paper's cart and cameras are below 1.5 m).
@@ -185,7 +190,7 @@ class IndoorScene(BuiltScene):
               category="furniture")
 
     def _decor(self, b, rng):
-        """Posters and notice boards on the textured walls (never on the white ones)."""
+        """Posters on the textured walls (the white wall carries fixtures only: :meth:`_walls`)."""
         hi, ho = WALL_T / 2 + 0.011, 0.011                 # inner walls are centred on their line
         spots = ((3.0, ho, 0.0), (5.8, ho, 0.0), (ho, 3.0, np.pi / 2), (8.0 - hi, 3.9, np.pi / 2),
                  (2.5, 5.0 - hi, 0.0), (9.5, 5.0 + hi, 0.0), (14.5, 5.0 + hi, 0.0),
