@@ -23,7 +23,7 @@ from scenes.textures import _wrap_disc
 
 PX_PER_M = 256.0
 MAX_PX = 512
-# kind: (probability, half width range m, half height range m, centre height range m, proud m)
+# kind: (probability, half width range m, half height range m, centre height range m, half depth m)
 KINDS = {
     "door": (0.18, (0.44, 0.47), (1.0, 1.03), None, 0.025),
     "extinguisher": (0.2, (0.13, 0.18), (0.28, 0.38), (0.75, 0.95), 0.1),

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from scenes.indoor_walls import fbm_rect
-from scenes.textures import _wrap_disc, _wrap_rect
+from scenes.textures import _wrap_disc
 
 
 def finish(full: np.ndarray, richness: float) -> np.ndarray:
