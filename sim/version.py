@@ -8,6 +8,6 @@ pattern repeats within a wall; 0.6.0: every indoor poster, desk top and desk ite
 tint of a shared one: copies of one poster were look-alike places; 0.7.0: indoor prints (posters, desk items) drawn as
 a headline, a photo, body text of words of their own lengths and a logo instead of rows of alike glyph blocks;
 every indoor shelf a bookshelf of its own (books, binders, boxes) instead of a poster pattern; doors, a fire
-extinguisher and its sign, pictures, whiteboards, notice boards and clocks, each its own, on the walls around the
-white wall and at the corridor's end)."""
+extinguisher and its sign, pictures, whiteboards, notice boards and clocks, each its own, spread along the walls
+around the white wall, S1's east wall, the corridor's north wall and its end)."""
 __version__ = "0.7.0"
