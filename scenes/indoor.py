@@ -11,8 +11,13 @@ Those walls are near-white with very low-contrast paint at every ``texture_richn
 blank surface would give zero features, which no real wall does; seed 000 reports fewer, not none), and,
 as real walls, a skirting board, sockets, switches and a few notices. Every wall side has a texture of its
 own drawn at its full extent (:mod:`scenes.indoor_walls`): no pattern repeats within a wall or between walls.
-Every poster, every desk top and every item on a desk has a pattern of its own (:func:`own_material`), not a
-tint of a shared one: two copies of one poster 11 m apart were a look-alike place (``validate places``, seed 4).
+Every poster, every desk top and every item on a desk has a pattern of its own (:func:`own_material`,
+:func:`own_drawn`), not a tint of a shared one: two copies of one poster 11 m apart were a look-alike place
+(``validate places``, seed 4). Posters and desk items are prints laid out as real ones (:mod:`scenes.indoor_print`:
+headline, photo, word-blob text), not rows of alike glyph blocks; shelves are bookshelves of their own. The walls
+around the white wall, S1's east wall, the corridor's north wall and its end carry what real walls do, each
+instance its own (:mod:`scenes.indoor_fixtures`: doors, one fire-extinguisher point, pictures, whiteboards, notice
+boards, clocks), with bare paint between them.
 
 Doorways are 2.2 m high, so the free corridor checked around the route is 1 m each side up to
 ``corridor_height_m = 2.1`` m (the paper's cart and cameras are below 1.5 m).
@@ -23,6 +28,8 @@ import numpy as np
 
 from scenes.base import GcpSite, Route
 from scenes.built import BuiltScene
+from scenes.indoor_fixtures import add_fixtures
+from scenes.indoor_print import finish, print_image, shelf_image
 from scenes.indoor_walls import add_wall
 from scenes.routes import point_at, resample, rounded_polyline
 from scenes.textures import make_texture, weather
@@ -42,6 +49,16 @@ def own_material(b, kind: str, part: str, stickers: bool = True, size: int = 256
     keys = (f"texture/{kind}/{part}", f"texture/weather/{part}")
     img = b.textures.get(tuple(b.streams(k) for k in keys), ("instance", kind, b.richness, size, bool(stickers)),
                          lambda: weather(make_texture(kind, b.streams(keys[0]), b.richness, size),
+                                         b.streams(keys[1]), stickers=stickers))
+    return b.image_material(f"{kind}/own/{part}", img, specular=0.1, shininess=0.1)
+
+
+def own_drawn(b, kind: str, part: str, draw, size: int = 256, stickers: bool = True) -> str:
+    """As :func:`own_material`, the pattern drawn by ``draw(rng, size)`` (a full-contrast float image,
+    :mod:`scenes.indoor_print`) from stream ``texture/<kind>/<part>``: a print or a shelf of its own."""
+    keys = (f"texture/{kind}/{part}", f"texture/weather/{part}")
+    img = b.textures.get(tuple(b.streams(k) for k in keys), ("drawn", kind, b.richness, size, bool(stickers)),
+                         lambda: weather(finish(draw(b.streams(keys[0]), size), b.richness),
                                          b.streams(keys[1]), stickers=stickers))
     return b.image_material(f"{kind}/own/{part}", img, specular=0.1, shininess=0.1)
 
@@ -108,6 +125,18 @@ class IndoorScene(BuiltScene):
         wall("wall/corridor_n", (0, 7.5), (W, 7.5), doors=((2.0, 3.2), (10.7, 13.3)))
         wall("wall/s1_s2", (8.0, 0.0), (8.0, 5.0 - h), doors=((1.5, 2.7),))
         wall("wall/n1_n2", (6.0, 7.5 + h), (6.0, H))                                      # ahead at the end
+        used = set()                                      # what real walls carry, around the white wall (P03)
+        add_fixtures(b, "wall/north_n2", "right", (6.0, H + h), (W, H + h), (0.0, -1.0), WALL_T, used=used)
+        add_fixtures(b, "wall/n1_n2", "right", (6.0, 7.5 + h), (6.0, H), (1.0, 0.0), WALL_T, used=used)
+        add_fixtures(b, "wall/n1_n2", "left", (6.0, 7.5 + h), (6.0, H), (-1.0, 0.0), WALL_T, used=used)
+        add_fixtures(b, "wall/east", "corridor", (W + h, 5.0 + h), (W + h, 7.5 - h), (-1.0, 0.0), WALL_T,
+                     used=used, exclude=("clock", "picture", "door"))   # the corridor's end, 10 m ahead after the
+        #                                                   turn into it: a board (a clock or picture is a speck there)
+        add_fixtures(b, "wall/s1_s2", "left", (8.0, 0.0), (8.0, 5.0 - h), (-1.0, 0.0), WALL_T, doors=((1.5, 2.7),),
+                     used=used, keep_clear=((3.0, 5.0),), exclude=("door",))  # ahead at the start; a poster, a cabinet
+        add_fixtures(b, "wall/corridor_n", "right", (0.0, 7.5), (W, 7.5), (0.0, -1.0), WALL_T,
+                     doors=((2.0, 3.2), (10.7, 13.3)), used=used,   # seen from S1 through its doorway; posters
+                     keep_clear=((4.3, 5.7), (7.8, 9.2), (14.3, 15.7)))
 
     def _desk(self, b, part, xy, yaw, rng):
         rng.integers(4, 7)                  # unused draw: the layout stream's sequence fixes where things stand
@@ -120,13 +149,14 @@ class IndoorScene(BuiltScene):
                   tile_m=1.0, category="furniture")
         if rng.random() < 0.8:                                   # monitor / box of papers on the desk
             rng.integers(30, 36)                                 # unused draw (layout sequence)
-            b.box(part + "/item", (*xy, 0.95), (0.28, 0.04, 0.19), own_material(b, "poster", part + "/item"),
+            b.box(part + "/item", (*xy, 0.95), (0.28, 0.04, 0.19), own_drawn(b, "print", part + "/item", print_image),
                   yaw=yaw, tile_m=0.6, category="furniture")
 
     def _shelf(self, b, part, xy, yaw, rng, width=1.8, height=2.0):
+        rng.integers(40, 44)                                     # unused draw (layout sequence)
         b.box(part, (*xy, height / 2), (width / 2, 0.2, height / 2),
-              b.material("poster", variant=int(rng.integers(40, 44))), yaw=yaw, tile_m=max(width, height),
-              category="furniture")
+              own_drawn(b, "shelf", part, shelf_image, size=512, stickers=False), yaw=yaw,
+              tile_m=max(width, height), category="furniture")
 
     def _furniture(self, b, rng):
         # S1: desks along the south wall, shelves along the corridor wall, cabinet, calibration board
@@ -160,7 +190,7 @@ class IndoorScene(BuiltScene):
               category="furniture")
 
     def _decor(self, b, rng):
-        """Posters and notice boards on the textured walls (never on the white ones)."""
+        """Posters on the textured walls (the white wall carries fixtures only: :meth:`_walls`)."""
         hi, ho = WALL_T / 2 + 0.011, 0.011                 # inner walls are centred on their line
         spots = ((3.0, ho, 0.0), (5.8, ho, 0.0), (ho, 3.0, np.pi / 2), (8.0 - hi, 3.9, np.pi / 2),
                  (2.5, 5.0 - hi, 0.0), (9.5, 5.0 + hi, 0.0), (14.5, 5.0 + hi, 0.0),
@@ -170,5 +200,5 @@ class IndoorScene(BuiltScene):
             w, hh = rng.uniform(0.3, 0.6), rng.uniform(0.4, 0.7)
             z = rng.uniform(1.4, 1.8)
             rng.integers(0, 12)                                  # unused draw (layout sequence)
-            b.box(f"decor/poster{k}", (x, y, z), (w, 0.01, hh), own_material(b, "poster", f"decor/poster{k}"),
+            b.box(f"decor/poster{k}", (x, y, z), (w, 0.01, hh), own_drawn(b, "print", f"decor/poster{k}", print_image),
                   yaw=yaw, tile_m=2 * max(w, hh), category="decor")

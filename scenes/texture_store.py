@@ -32,7 +32,8 @@ import numpy as np
 from rigs.atomic_io import atomic_write_bytes
 
 _CODE_FILES = ("textures.py", "lunar.py", "builder.py", "actor_textures.py", "actor_sheets.py", "bus_shapes.py",
-               "car_shapes.py", "urban_actors.py", "indoor_walls.py")
+               "car_shapes.py", "urban_actors.py", "indoor_walls.py", "indoor.py", "indoor_print.py",
+               "indoor_fixtures.py")
 
 
 def _code_digest() -> str:

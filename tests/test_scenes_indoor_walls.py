@@ -77,11 +77,14 @@ def test_indoor_wall_sides_each_their_own_texture_same_seed_same_bytes():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [0, 2, 4])
+@pytest.mark.parametrize("seed", [0, 2, 4, 5])
 def test_indoor_places_no_look_alikes(seed):
     """Indoor, a place every 2 m: no distinct pair of places is verified at or above the weakest revisit, none
-    reaches a loop closure's 40. Seed 2: its revisit of place 8 (a plaster partition at a grazing angle) stays
-    unverified, as every distinct pair; seed 4: two copies of one poster pattern matched with 13 places."""
+    reaches a loop closure's 40, and every revisit is verified (above the minimal sample). Before the scene's
+    fixtures and prints (dataset 0.6.0) seeds 2 and 5 failed the last: their revisit of place 8 (the partition and
+    the white wall) kept 4 places, and seed 5 failed the check (a distinct pair at 5, glyph-block rows of a poster
+    onto a shelf); seed 4: two copies of one poster pattern once matched with 13 places. Measured at 0.7.0:
+    weakest revisits 11 / 25 / 7 / 13, distinct pairs at most 5 / 4 / 4 / 5."""
     from sim.app.validation.place_recognition import LOOP_ACCEPT_INLIERS, PlaceConfig, check_places, render_views
     from sim.scenarios import get_scenario
     place = PlaceConfig(spacing_m=2.0)
@@ -89,7 +92,7 @@ def test_indoor_places_no_look_alikes(seed):
     res, _ = check_places(places, revisits, "indoor", place, progress=False)
     assert len(places) == 10 and len(res.distinct) > 100
     assert res.passed and max(res.distinct) < LOOP_ACCEPT_INLIERS, res.table()
-    assert np.median(res.revisit) > 4 * place.minimal_sample, res.table()
+    assert res.revisit.min() > place.minimal_sample and np.median(res.revisit) > 4 * place.minimal_sample, res.table()
 
 
 @pytest.mark.slow
