@@ -12,10 +12,12 @@ offset is not). :class:`DisparityOffset` adjusts, once per birth keyframe and wh
 ``min_travel_baselines`` baselines from it, the poses of the frames since then and ``delta`` together on the
 reprojection error of that keyframe's landmarks, each placed at ``f b / (D + delta)`` along its birth ray
 (``scipy.optimize.least_squares``, LM, then again without the observations beyond 2 px), and averages the keyframes' estimates with their variances.
-It reports an offset (:attr:`DisparityOffset.delta_px`) only when the average is significant (``significance``
-standard errors of the keyframes' spread) and large enough to matter for depth: ``|delta| / d_med`` beyond
-``min_depth_error``, the relative depth (and step-length) error it makes at the tracked landmarks' median raw
-disparity ``d_med``; otherwise 0, and the estimator using it is unchanged. The default 1 % lies a factor 2 or
+It reports an offset (:attr:`DisparityOffset.delta_px`) only when the average is significantly (``significance``
+standard errors of the keyframes' spread) beyond what matters for depth: ``|delta| - significance * se >
+min_depth_error * d_med``, i.e. the relative depth (and step-length) error ``|delta| / d_med`` it makes at the
+tracked landmarks' median raw disparity ``d_med`` is beyond ``min_depth_error`` by more than its uncertainty
+(an estimate near that floor is not switched on and off as it wanders); otherwise 0, and the estimator using
+it is unchanged. The default 1 % lies a factor 2 or
 more from both sides of what was measured (docs/estimators.md): on consistent calibrations the estimate (the
 stereo matcher's own sub-pixel bias and the model's residual errors) stays below 0.5 % of the median disparity,
 on the seeded +0.45-0.49 px error of the ``realistic`` campus rig it is 2.3-2.7 % before it is applied, on the
@@ -46,7 +48,7 @@ class OffsetConfig:
     keyframe needed for its fit; ``min_keyframes`` fits before an offset is reported; ``min_depth_error``
     smallest relative depth error ``|delta| / d_med`` at the tracked landmarks' median raw disparity for which
     an offset is applied (module docstring); ``tolerance_px`` smallest offset applied (px; 0: none);
-    ``significance`` standard errors the mean must exceed; ``replay_frames`` frames since the (re)initialisation
+    ``significance`` standard errors by which the mean must exceed the larger of the two; ``replay_frames`` frames since the (re)initialisation
     that ``klt-pnp`` re-chains when the offset is first applied (:mod:`vo.estimators.offset_replay`; 0: none,
     the frames before keep their long steps), again whenever the applied offset has moved by more than
     ``replay_step_px`` since."""
@@ -234,12 +236,10 @@ class DisparityOffset:
         mean = float(np.sum(w * d) / np.sum(w))
         # standard error from the keyframes' spread (their variances ignore the chain's rotation errors)
         se = float(np.sqrt(np.sum(w * (d - mean) ** 2) / np.sum(w) / max(len(d) - 1, 1)))
-        # large enough to matter for depth: |delta| / d_med relative error at the median disparity (no landmark: inf)
-        large = abs(mean) > cfg.tolerance_px and (cfg.min_depth_error == 0.0
-                                                  or abs(mean) > cfg.min_depth_error * self.median_disparity_px)
-        significant = large and abs(mean) > cfg.significance * se
+        # significantly beyond what matters for depth (min_depth_error of the median disparity; no landmark: inf)
+        floor = max(cfg.tolerance_px, cfg.min_depth_error * self.median_disparity_px)
         self.se_px = se
-        self.delta_px = mean if significant else 0.0
+        self.delta_px = mean if abs(mean) - cfg.significance * se > floor else 0.0
 
     @property
     def median_disparity_px(self) -> float:
