@@ -5,8 +5,8 @@ velocity (:mod:`vo.estimators.pnp`): the step repeated is its translation in the
 rotation of :mod:`vo.estimators.coast_rotation` where the tracks measure one). Frames fail where the view runs
 out of texture, and the last fitted steps before such a failure are fitted on the few landmarks left, bunched on
 one surface, where a PnP can trade yaw for sideways translation: on ``indoor-realistic`` seed 23 (the blank-wall
-turn) the two steps before five coasted frames were fitted on 18 and 13 inliers and were 8.7 cm off sideways
-against a true step of 7.5 cm; repeating the last one put 8-10 cm of error into every coasted step
+turn) the two steps before five coasted frames were fitted on 18 and 13-14 inliers and were 8.7-10.3 cm off
+against a true step of about 7.5 cm; repeating the last one put 8-10 cm of error into every coasted step
 (docs/estimators.md). A vehicle's velocity does not change that much in one frame; the component-wise median of
 the last :data:`COAST_STEPS` measured steps' translations (each in the camera it started from) is the velocity
 of the last ones that agree: one or two wrong steps among five do not move it, and on a steady motion it is the

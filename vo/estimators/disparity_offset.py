@@ -49,10 +49,10 @@ class OffsetConfig:
     keyframe needed for its fit; ``min_keyframes`` fits before an offset is reported; ``min_depth_error``
     smallest relative depth error ``|delta| / d_med`` at the tracked landmarks' median raw disparity for which
     an offset is applied (module docstring); ``tolerance_px`` smallest offset applied (px; 0: none);
-    ``significance`` standard errors by which the mean must exceed the larger of the two; ``replay_frames`` frames since the (re)initialisation
-    that ``klt-pnp`` re-chains when the offset is first applied (:mod:`vo.estimators.offset_replay`; 0: none,
-    the frames before keep their long steps), again whenever the applied offset has moved by more than
-    ``replay_step_px`` since."""
+    ``significance`` standard errors by which the mean must exceed the larger of the two; ``replay_frames``
+    frames since the (re)initialisation that ``klt-pnp`` re-chains when the offset is first applied
+    (:mod:`vo.estimators.offset_replay`; 0: none, the frames before keep their long steps), again whenever the
+    applied offset has moved by more than ``replay_step_px`` since."""
 
     enabled: bool = True
     min_travel_baselines: float = knob(6.0, gt=0)
