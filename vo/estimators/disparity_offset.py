@@ -52,7 +52,8 @@ class OffsetConfig:
     ``significance`` standard errors by which the mean must exceed the larger of the two; ``replay_frames``
     frames since the (re)initialisation that ``klt-pnp`` re-chains when the offset is first applied
     (:mod:`vo.estimators.offset_replay`; 0: none, the frames before keep their long steps), again whenever the
-    applied offset has moved by more than ``replay_step_px`` since."""
+    applied offset has moved by more than ``replay_step_px`` since; ``track_gate_px`` PnP outliers within it of
+    the fitted pose stay tracks, for the estimate to see (:mod:`vo.estimators.track_gate`; 0: all dropped)."""
 
     enabled: bool = True
     min_travel_baselines: float = knob(6.0, gt=0)
@@ -61,6 +62,7 @@ class OffsetConfig:
     tolerance_px: float = knob(0.0, ge=0)
     min_depth_error: float = knob(0.01, ge=0)
     significance: float = knob(3.0, ge=0)
+    track_gate_px: float = knob(4.0, ge=0)
     replay_frames: int = knob(200, ge=0)
     replay_step_px: float = knob(0.1, ge=0)
 

@@ -3,7 +3,6 @@
 ``KltPnpEstimator`` ("klt-pnp"): KLT tracks (grid detection, LK forward-backward, epipolar check), new
 landmarks from empty cells on keyframes, seed 003's empty-cell / inlier keyframe criterion (the *next* frame
 becomes a keyframe, as in the paper). ``StereoPnpEstimator`` is the frame loop it shares with ``orb-pnp``.
-
 Failure handling: too few tracked landmarks -> status ``few_features`` ("N tracked < M"), PnP failure ->
 ``lost``; the pose is coasted (constant velocity, the median translation of the last measured steps,
 :mod:`vo.estimators.coast_velocity`, for ``max_coast_frames``, then held; ``klt-pnp`` turns the coasted step by
@@ -24,8 +23,8 @@ The close/far split (ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works
 by default (``pnp_config={near_baselines: 40}`` turns it on).
 
 Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on their
-birth keyframe; old key points are not re-matched left-right on later keyframes: that only serves BA); PnP
-outliers are dropped from the tracks.
+birth keyframe; no left-right re-match on later keyframes); PnP outliers are dropped from the tracks (``klt-pnp``:
+those beyond ``disparity_offset.track_gate_px`` of the pose, :mod:`vo.estimators.track_gate`).
 """
 from __future__ import annotations
 
@@ -43,6 +42,7 @@ from vo.estimators.offset_replay import ChainRecord, rebased_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.estimators.rigidity import RigidityConfig, refine_pose, rigid_subset
 from vo.estimators.stage_timing import timed
+from vo.estimators.track_gate import kept_tracks
 from vo.frontend.depth_edge import off_edge
 from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
@@ -310,7 +310,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked",
                               R_track())
-        self.tracker.keep(inl)
+        self.tracker.keep(kept_tracks(T_o_c0, p_o, self.tracker.pts, inl, self.rig.cameras[0], self.offset.config))
         status, msg = "ok", ""
         if self._next_keyframe:
             with timed(timings, "detect"):
