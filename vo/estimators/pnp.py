@@ -24,7 +24,7 @@ by default (``pnp_config={near_baselines: 40}`` turns it on).
 
 Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on their
 birth keyframe; no left-right re-match on later keyframes); PnP outliers are dropped from the tracks (``klt-pnp``:
-those beyond ``disparity_offset.track_gate_px`` of the pose, :mod:`vo.estimators.track_gate`).
+with ``disparity_offset.track_gate_px``, those beyond it of the pose, :mod:`vo.estimators.track_gate`).
 """
 from __future__ import annotations
 
