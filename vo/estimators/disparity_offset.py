@@ -19,13 +19,13 @@ tracked landmarks' median raw disparity ``d_med`` is beyond ``min_depth_error`` 
 (an estimate near that floor is not switched on and off as it wanders); otherwise 0, and the estimator using
 it is unchanged. Measured (docs/estimators.md, "Coasting on the median step, and when the disparity offset is
 applied"): on consistent calibrations the estimate (the stereo matcher's own sub-pixel bias and the model's
-residual errors) is 0.24-0.75 % of the median disparity, and within 3 standard errors of zero where it is largest
-(``indoor`` seed 23); on the seeded 0.44-0.49 px error of the ``realistic`` campus rig 2.3-2.6 % before it is
-applied (3.8-6.4 % after), on the real KITTI turn about 14 %. A pixel floor, ``tolerance_px``, is 0 by
-default: a fixed pixel tolerance is too much for a far scene (small disparities, where an offset matters most)
-and too little for a near one. The tracks it is fitted on are ``klt-pnp``'s PnP inliers, a selection that pulls
-the estimate short of the offset (:mod:`vo.estimators.track_gate`, off by default, measures and removes it). Depths are then corrected along each landmark's birth ray:
-``z' = f b / (f b / z + delta)``
+residual errors) is 0.15-0.51 % of the median disparity; on the seeded 0.44-0.49 px error of the ``realistic``
+campus rig 2.3-2.6 % before it is applied (3.6-5.7 % after), on the real KITTI turn about 11 %: the default 1 %
+lies about a factor 2 from each side. A pixel floor, ``tolerance_px``, is 0 by default: a fixed pixel tolerance
+is too much for a far scene (small disparities, where an offset matters most) and too little for a near one.
+The tracks it is fitted on are ``klt-pnp``'s PnP inliers, a selection that pulls the estimate short of the
+offset (:mod:`vo.estimators.track_gate`, off by default, measures and removes it). Depths are then corrected
+along each landmark's birth ray: ``z' = f b / (f b / z + delta)``
 (exact on a rectified rig; on an unrectified one the offset of the equivalent rectified pair).
 
 Not in seed 003 (whose KITTI calibration is consistent); it repairs a calibration error, as an online
