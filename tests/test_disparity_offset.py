@@ -62,14 +62,27 @@ def test_offset_recovered_whatever_the_chain_scale(delta_true):
 
 
 def test_no_offset_no_correction():
-    """Consistent calibration, 0.3 px tracking noise: the estimate stays within the tolerance and nothing is
-    applied; landmarks are returned unchanged."""
+    """Consistent calibration, 0.3 px tracking noise: the estimate stays near 0 and nothing is applied;
+    landmarks are returned unchanged."""
     est, lms = _drive(0.0, scale=1.0, noise_px=0.3)
     assert len(est.fits) >= 3
     assert abs(est.estimate_px) < 0.2
     assert est.delta_px == 0.0
     i = next(iter(est.births))
     assert est.correct(i, lms[i][1]) is lms[i][1]
+
+
+@pytest.mark.parametrize("delta_true, applied", [(0.3, True), (0.05, False)])
+def test_applied_when_it_matters_for_depth(delta_true, applied):
+    """Exact tracks: the fits return the offset to within 0.002 px, so any offset is significant. 0.3 px (below
+    the former 0.5 px tolerance) is 2-3 % of the tracked landmarks' median disparity (depths 4-60 m, f b = 350 px m):
+    a depth error worth correcting, applied; 0.05 px is 0.3-0.6 %, below ``min_depth_error`` (1 %): not applied."""
+    est, _ = _drive(delta_true, scale=1.0)
+    assert np.allclose([f[0] for f in est.fits], delta_true, atol=0.002)
+    assert abs(est.estimate_px) > 10 * est.se_px
+    ratio = abs(delta_true) / est.median_disparity_px
+    assert (0.02 < ratio < 0.03) if applied else (0.003 < ratio < 0.006), ratio
+    assert est.delta_px == (pytest.approx(delta_true, abs=0.002) if applied else 0.0)
 
 
 def test_correction_moves_landmarks_to_true_depth():

@@ -2,14 +2,12 @@
 
 ``KltPnpEstimator`` ("klt-pnp"): KLT tracks (grid detection, LK forward-backward, epipolar check), new
 landmarks from empty cells on keyframes, seed 003's empty-cell / inlier keyframe criterion (the *next* frame
-becomes a keyframe, as in the paper). ``StereoPnpEstimator`` is the frame loop it shares with
-``orb-pnp`` (:mod:`vo.estimators.orb_pnp`).
-
+becomes a keyframe, as in the paper). ``StereoPnpEstimator`` is the frame loop it shares with ``orb-pnp``.
 Failure handling: too few tracked landmarks -> status ``few_features`` ("N tracked < M"), PnP failure ->
-``lost``; the pose is coasted (constant velocity for ``max_coast_frames``, then held; ``klt-pnp`` turns the
-coasted step by the rotation-only fit of its frame-to-frame tracks, :mod:`vo.estimators.coast_rotation`) and
-the next frame with a good stereo pair re-initialises a keyframe anchored at the current estimate ->
-``reinit``. Never NaN.
+``lost``; the pose is coasted (constant velocity, the median translation of the last measured steps,
+:mod:`vo.estimators.coast_velocity`, for ``max_coast_frames``, then held; ``klt-pnp`` turns the coasted step by
+the rotation-only fit of its frame-to-frame tracks, :mod:`vo.estimators.coast_rotation`) and the next frame
+with a good stereo pair re-initialises a keyframe anchored at the current estimate -> ``reinit``. Never NaN.
 Timings per frame (ms): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
 
 Moving objects (our extension): each frame's PnP takes, among the rigid motions the landmarks hold, the one
@@ -24,9 +22,9 @@ with the corrected depths (:mod:`vo.estimators.offset_replay`); with a consisten
 The close/far split (ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works around the same offset is off
 by default (``pnp_config={near_baselines: 40}`` turns it on).
 
-Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on the
-keyframe where they were born; old key points are not re-matched left-right on later keyframes, since those
-extra observations only serve BA); PnP outliers are dropped from the tracks.
+Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on their
+birth keyframe; no left-right re-match on later keyframes); PnP outliers are dropped from the tracks (``klt-pnp``:
+with ``disparity_offset.track_gate_px``, those beyond it of the pose, :mod:`vo.estimators.track_gate`).
 """
 from __future__ import annotations
 
@@ -37,12 +35,14 @@ import numpy as np
 from vo.errors import EstimatorError
 from vo.estimators.base import MAX_COAST_FRAMES, Estimator, FrameResult
 from vo.estimators.coast_rotation import coast_rotation
+from vo.estimators.coast_velocity import StepHistory
 from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 from vo.estimators.near_far import NearFarGate, refine_on_near
 from vo.estimators.offset_replay import ChainRecord, rebased_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.estimators.rigidity import RigidityConfig, refine_pose, rigid_subset
 from vo.estimators.stage_timing import timed
+from vo.estimators.track_gate import kept_tracks
 from vo.frontend.depth_edge import off_edge
 from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
@@ -69,6 +69,7 @@ class StereoPnpEstimator(Estimator):
         self.pnp_config = PnpConfig.from_option(pnp_config, f"{self.name}.pnp_config")
         self.T_o_c0 = np.eye(4)
         self._T_prev_curr = np.eye(4)      # last inter-frame motion T_{c(k-1)}_{c(k)}
+        self._steps = StepHistory()        # the last measured ones, whose median translation coasting takes
         self._initialized = False
         self._need_init = True
         self._coast = 0
@@ -101,24 +102,22 @@ class StereoPnpEstimator(Estimator):
                             pose_class if status == "reinit" else "ok")
 
     def _fail(self, t_ns, status, n_feat, n_inl, message, R_prev_curr=None) -> FrameResult:
-        """Tracking failed this frame: coast the pose (turned by ``R_prev_curr`` when measured) and
-        re-initialise on the next frame."""
+        """Tracking failed: coast the pose (turned by ``R_prev_curr`` when measured), re-initialise next frame."""
         pose_class = self._coast_pose(R_prev_curr)
         self._need_init = True
         return self._result(t_ns, status, n_feat, n_inl, message, pose_class)
 
     def _coast_rotation(self, left, timings):
-        """``R_prev_curr`` (3,3) measured without a pose fit for a frame about to be coasted, or None (the
-        default: constant velocity)."""
+        """``R_prev_curr`` (3,3) measured without a pose fit for a frame about to be coasted, or None."""
         return None
 
     def _coast_pose(self, R_prev_curr=None) -> str:
-        """Extrapolate the pose at constant velocity, its rotation replaced by ``R_prev_curr`` when given (->
-        "coasting"), or hold it after :data:`MAX_COAST_FRAMES` failed frames (-> "lost")."""
+        """Extrapolate the pose at constant velocity (rotation ``R_prev_curr`` when given; -> "coasting"), or hold
+        it after :data:`MAX_COAST_FRAMES` failed frames (-> "lost")."""
         coast = self._coast < MAX_COAST_FRAMES
         if coast:
-            if R_prev_curr is not None:
-                self._T_prev_curr = make_T(R_prev_curr, self._T_prev_curr[:3, 3])
+            R = self._T_prev_curr[:3, :3] if R_prev_curr is None else R_prev_curr
+            self._T_prev_curr = make_T(R, self._steps.translation(self._T_prev_curr[:3, 3]))
             self.T_o_c0 = self.T_o_c0 @ self._T_prev_curr
         self._coast += 1
         return "coasting" if coast else "lost"
@@ -129,6 +128,7 @@ class StereoPnpEstimator(Estimator):
         if np.linalg.norm(T_prev_curr[:3, 3]) > self.pnp_config.max_step_m:
             return False
         self._T_prev_curr, self.T_o_c0, self._coast = T_prev_curr, T_o_c0_new, 0
+        self._steps.push(T_prev_curr)
         return True
 
     def _pnp(self, p_o, px_raw, timings):
@@ -310,7 +310,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked",
                               R_track())
-        self.tracker.keep(inl)
+        self.tracker.keep(kept_tracks(T_o_c0, p_o, self.tracker.pts, inl, self.rig.cameras[0], self.offset.config))
         status, msg = "ok", ""
         if self._next_keyframe:
             with timed(timings, "detect"):
@@ -344,15 +344,15 @@ class KltPnpEstimator(StereoPnpEstimator):
 
     def _replay_chain(self) -> None:
         """The applied offset moved by more than ``replay_step_px``: re-chain the frames recorded since the
-        (re)initialisation with the depths it gives (:mod:`vo.estimators.offset_replay`); the current pose,
-        velocity and raw landmark positions move to the re-chained ones, the offset estimate's stored poses
-        with them."""
+        (re)initialisation with its depths (:mod:`vo.estimators.offset_replay`); the current pose, velocity, step
+        history, raw landmark positions and the offset estimate's stored poses move to the re-chained ones."""
         self._replayed_offset = self.offset.delta_px
         replay = self._chain.replay(self.offset.delta_px, self.offset.fb, self.rig.cameras[0].K)
         if replay is None:
             return
         self.T_o_c0 = replay.pairs[-1][1].copy()
         self._T_prev_curr = inv_T(replay.pairs[-2][1]) @ replay.pairs[-1][1]
+        self._steps.rebase([T_new for _, T_new in replay.pairs])
         self._raw = {i: replay.raw_o.get(i, p) for i, p in self._raw.items()}
         moved = replay.moved()
         self.offset.rebase(moved)
