@@ -29,10 +29,10 @@ import numpy as np
 from scenes.base import GcpSite, Route
 from scenes.built import BuiltScene
 from scenes.indoor_fixtures import add_fixtures
-from scenes.indoor_print import finish, print_image, shelf_image
+from scenes.indoor_print import print_image, shelf_image
 from scenes.indoor_walls import add_wall
 from scenes.routes import point_at, resample, rounded_polyline
-from scenes.textures import make_texture, weather
+from scenes.textures import make_texture, weather, with_richness
 
 ROOM = (16.0, 12.0)
 CEILING = 3.0
@@ -58,7 +58,7 @@ def own_drawn(b, kind: str, part: str, draw, size: int = 256, stickers: bool = T
     :mod:`scenes.indoor_print`) from stream ``texture/<kind>/<part>``: a print or a shelf of its own."""
     keys = (f"texture/{kind}/{part}", f"texture/weather/{part}")
     img = b.textures.get(tuple(b.streams(k) for k in keys), ("drawn", kind, b.richness, size, bool(stickers)),
-                         lambda: weather(finish(draw(b.streams(keys[0]), size), b.richness),
+                         lambda: weather(with_richness(draw(b.streams(keys[0]), size), b.richness),
                                          b.streams(keys[1]), stickers=stickers))
     return b.image_material(f"{kind}/own/{part}", img, specular=0.1, shininess=0.1)
 

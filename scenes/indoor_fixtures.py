@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.indoor_print import _rect, finish, photo, print_image, words
+from scenes.indoor_print import _rect, photo, print_image, words
 from scenes.indoor_walls import fbm_rect
-from scenes.textures import _wrap_disc
+from scenes.textures import _wrap_disc, with_richness
 
 PX_PER_M = 256.0
 MAX_PX = 512
@@ -244,7 +244,7 @@ def add_fixtures(b, wall: str, side: str, p0, p1, room_normal, wall_t: float, do
         key = f"texture/{part}"
         H, W = _shape(w, h)
         img = b.textures.get((b.streams(key),), ("fixture", kind, b.richness, H, W),
-                             lambda: finish(DRAW[kind](b.streams(key), H, W), b.richness))
+                             lambda: with_richness(DRAW[kind](b.streams(key), H, W), b.richness))
         mat = b.image_material(part, img, specular=0.1, shininess=0.2)
         c = p0 + u * t + n * (wall_t / 2 + proud)
         b.box(part, (*c, z), (w, proud, h), mat, yaw=yaw, tile_m=(2 * w, 2 * h), uv_off=(w, h), category="decor")
@@ -253,7 +253,7 @@ def add_fixtures(b, wall: str, side: str, p0, p1, room_normal, wall_t: float, do
             sk = key + "/sign"
             Hs, Ws = _shape(s, s)
             simg = b.textures.get((b.streams(sk),), ("fixture", "sign", b.richness, Hs, Ws),
-                                  lambda: finish(sign_image(b.streams(sk), Hs, Ws), b.richness))
+                                  lambda: with_richness(sign_image(b.streams(sk), Hs, Ws), b.richness))
             smat = b.image_material(part + "/sign", simg, specular=0.1, shininess=0.2)
             cs = p0 + u * t + n * (wall_t / 2 + 0.003)
             b.box(part + "/sign", (*cs, z + h + 0.25 + s), (s, 0.003, s), smat, yaw=yaw, tile_m=(2 * s, 2 * s),

@@ -10,8 +10,8 @@ a look-alike place between the corridor's poster and a shelf in ``validate place
 A shelf carries books, binders and boxes of varied width, height and colour on boards, not a poster pattern.
 
 Every function draws a full-contrast float image in [0, 1] from the generator it is given (a generator in the same
-state gives the same bytes); :func:`finish` blends it towards its mean colour by the scene's ``richness`` as
-:func:`scenes.textures.make_texture` does and makes it ``uint8``. Row 0 is the top.
+state gives the same bytes); :func:`scenes.textures.with_richness` blends it towards its mean colour by the
+scene's ``richness`` (as :func:`scenes.textures.make_texture` does) and makes it ``uint8``. Row 0 is the top.
 """
 from __future__ import annotations
 
@@ -19,13 +19,6 @@ import numpy as np
 
 from scenes.indoor_walls import fbm_rect
 from scenes.textures import _wrap_disc
-
-
-def finish(full: np.ndarray, richness: float) -> np.ndarray:
-    """``(H, W, 3)`` float image in [0, 1] -> ``uint8``, detail scaled by ``richness`` around its mean colour."""
-    full = np.clip(full, 0.0, 1.0)
-    mean = full.reshape(-1, 3).mean(axis=0)
-    return np.clip(np.round((mean + float(richness) * (full - mean)) * 255.0), 0, 255).astype(np.uint8)
 
 
 def _rect(img, y, x, h, w, col):

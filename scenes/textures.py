@@ -390,7 +390,11 @@ def make_texture(kind: str, rng: np.random.Generator, richness: float, size: int
         raise SceneError(f"texture size: must be a power of two >= 16, got {size!r}")
     if not isinstance(rng, np.random.Generator):
         raise SceneError(f"texture rng: expected a numpy Generator, got {type(rng).__name__}")
-    full = np.clip(GENERATORS[kind](rng, int(size)), 0.0, 1.0)
+    return with_richness(GENERATORS[kind](rng, int(size)), richness)
+
+
+def with_richness(full: np.ndarray, richness: float) -> np.ndarray:
+    """``(H, W, 3)`` float image, clipped to [0, 1] -> ``uint8``: ``mean + richness * (full - mean)``."""
+    full = np.clip(full, 0.0, 1.0)
     mean = full.reshape(-1, 3).mean(axis=0)
-    out = mean + float(richness) * (full - mean)
-    return np.clip(np.round(out * 255.0), 0, 255).astype(np.uint8)
+    return np.clip(np.round((mean + float(richness) * (full - mean)) * 255.0), 0, 255).astype(np.uint8)

@@ -5,8 +5,8 @@ no evidence."""
 import numpy as np
 import pytest
 
-from scenes.indoor_print import finish, print_image
-from scenes.textures import make_texture
+from scenes.indoor_print import print_image
+from scenes.textures import make_texture, with_richness
 from sim.app.validation.place_recognition import (LOOP_ACCEPT_INLIERS, MINIMAL_SAMPLE, OrbMatcher, PlaceCheck,
                                                   PlaceConfig, View, check_places, distinct_places)
 
@@ -85,7 +85,7 @@ def test_prints_of_their_own_are_revisited_far_above_any_look_alike(seed):
     4 / 5 / 6. The glyph-block posters (``make_texture("poster")``, each its own) fail it: weakest revisit 52 / 13
     / 32 against distinct pairs of 6 / 7 / 4 (rows of alike block corners match both ways)."""
     place = PlaceConfig()
-    for draw, good in ((lambda r: finish(print_image(r, 1024), 1.0), True), (None, False)):
+    for draw, good in ((lambda r: with_richness(print_image(r, 1024), 1.0), True), (None, False)):
         places, revisits = _views(repeat=False, seed=seed, draw=draw)
         res, _ = check_places(places, revisits, "prints", place, progress=False)
         floor = max(int(res.distinct.max()), place.minimal_sample)

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from scenes.indoor_fixtures import DRAW, KINDS, ONCE, plan_fixtures, sign_image
-from scenes.indoor_print import finish, print_image, shelf_image
+from scenes.indoor_print import print_image, shelf_image
+from scenes.textures import with_richness
 from sim.rng import scene_streams
 
 
@@ -19,12 +20,12 @@ def test_each_drawing_seeded_and_its_own(kind):
     draw = {"print": lambda r, h, w: print_image(r, h), "shelf": lambda r, h, w: shelf_image(r, h),
             "sign": sign_image}.get(kind, DRAW.get(kind))
     s = scene_streams(5)
-    a = finish(draw(s(f"t/{kind}/0"), 128, 128), 1.0)
+    a = with_richness(draw(s(f"t/{kind}/0"), 128, 128), 1.0)
     assert a.dtype == np.uint8 and a.shape == (128, 128, 3)
-    assert a.tobytes() == finish(draw(s(f"t/{kind}/0"), 128, 128), 1.0).tobytes()
-    others = [finish(draw(s(f"t/{kind}/{k}"), 128, 128), 1.0) for k in range(1, 4)]
+    assert a.tobytes() == with_richness(draw(s(f"t/{kind}/0"), 128, 128), 1.0).tobytes()
+    others = [with_richness(draw(s(f"t/{kind}/{k}"), 128, 128), 1.0) for k in range(1, 4)]
     assert all(_grey_differs(a, o, 1.0 if kind == "sign" else 3.0) for o in others)
-    flat = finish(draw(s(f"t/{kind}/0"), 128, 128), 0.0)
+    flat = with_richness(draw(s(f"t/{kind}/0"), 128, 128), 0.0)
     assert np.ptp(flat.reshape(-1, 3), axis=0).max() <= 1
 
 
@@ -33,7 +34,7 @@ def test_prints_are_not_rows_of_alike_blocks():
     body-text height) the widths spread (coefficient of variation > 0.5), where glyph blocks are near-square,
     all within a factor 2 of their height."""
     import cv2
-    img = finish(print_image(scene_streams(1)("t/print"), 512), 1.0).mean(axis=2)
+    img = with_richness(print_image(scene_streams(1)("t/print"), 512), 1.0).mean(axis=2)
     ink = (img < 0.5 * np.median(img)).astype(np.uint8)
     n, _, stats, _ = cv2.connectedComponentsWithStats(ink, connectivity=4)
     w, h = stats[1:, cv2.CC_STAT_WIDTH], stats[1:, cv2.CC_STAT_HEIGHT]
