@@ -145,6 +145,6 @@ def test_noise_level_remembers_the_last_images_by_identity():
     assert first[0] < first[1] < first[2]
     nl(imgs[3])                                       # the oldest is forgotten, the others kept
     assert [im is imgs[0] for im, _ in nl._seen] == [False] * 3
-    assert abs(nl(imgs[1]) - estimate_noise_sigma(imgs[1][:32])) == 0.0      # 60 rows: the first band only
+    assert nl(imgs[1]) == estimate_noise_sigma(imgs[1])
     big = np.clip(np.round(120 + 2.0 * rng.standard_normal((480, 640))), 0, 255).astype(np.uint8)
     assert abs(NoiseLevel()(big) - np.sqrt(4.0 + 1 / 12)) < 0.1              # noise 2 + rounding
