@@ -53,7 +53,7 @@ def test_zncc_mask_keeps_only_correlated_matches_and_minus_one_is_off():
     assert (zncc_mask(f0, f1, p0, p1, ok, 21, -1.0) == ok).all()
 
 
-@pytest.mark.parametrize("tracker", ["klt", "rop"])
+@pytest.mark.parametrize("tracker", ["klt", "rop", "rop-texture-gate"])
 def test_noise_views_give_stationary_tracks_that_the_check_removes(tracker):
     """Two frames of a view without texture (flat grey + independent shot-like noise, sigma 2 grey levels): LK
     on the normalised pyramids returns forward-backward-consistent near-zero motion for some corners - tracks
@@ -63,7 +63,9 @@ def test_noise_views_give_stationary_tracks_that_the_check_removes(tracker):
     h, w = 240, 320
     noise = lambda: np.clip(np.round(120 + 2.0 * rng.standard_normal((h, w))), 0, 255).astype(np.uint8)
     p0 = grid_points(h, w, step=20, margin=30)
-    run = (lambda a, b, p, c: track_fb(a, b, p, c)) if tracker == "klt" else (lambda a, b, p, c: lk_fb(a, b, p, c))
+    snr = 2.0 if tracker == "rop-texture-gate" else 0.0       # rop's default: the gate on windows < 2x the noise
+    run = (lambda a, b, p, c: track_fb(a, b, p, c)) if tracker == "klt" else \
+        (lambda a, b, p, c: lk_fb(a, b, p, c, texture_snr=snr, noise=NoiseLevel()))
     a, b = noise(), noise()
     _, ok_off = run(a, b, p0, KltConfig(min_zncc=-1.0))
     _, ok_on = run(a, b, p0, KltConfig(min_zncc=0.5))

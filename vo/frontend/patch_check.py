@@ -35,7 +35,7 @@ windows where a true match's expected ZNCC, ``s^2 / (s^2 + n^2)`` with ``s^2 = s
 ``1 - 1 / texture_snr^2`` (0.75 at 2), i.e. where a low ZNCC can mean a match on noise. A window of texture
 many times the noise that decorrelates was deformed (perspective, shear) or straddles an occlusion; its
 position is then judged by the forward-backward, epipolar and RANSAC tests, not by its ZNCC. Measured on
-whole `campus` routes (noise 1.07 grey levels): the matches the plain gate drops there have windows of 5-32
+whole `campus` routes (noise 1.07 grey levels): the matches the plain gate drops there have windows of 5-30
 times the noise, and 92 % of the temporal ones lie within 0.5 px of their true epipolar line
 (docs/estimators.md, "What the ZNCC check drops on whole campus routes").
 """

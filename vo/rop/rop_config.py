@@ -54,8 +54,9 @@ class RopConfig:
     ``klt_config`` (:class:`KltConfig` or a mapping of its fields), ``klt_refine`` "translation" |
     "affine"; ``zncc_texture_snr`` the ZNCC check of the LK matches (``klt_config.min_zncc``) applies only to
     windows whose texture std is below this many times the image noise (0: to every window;
-    :mod:`vo.frontend.patch_check`, docs/estimators.md "What the ZNCC check drops on whole campus routes"); ``rop_loss`` final ROP fit: "gate" (inliers at the RANSAC gate, least squares) |
-    "tukey" | "cauchy" (robust, no step); ``cov`` "propagated" (first order) | "chain_bootstrap"
+    :mod:`vo.frontend.patch_check`, docs/estimators.md "What the ZNCC check drops on whole campus routes");
+    ``rop_loss`` final ROP fit: "gate" (inliers at the RANSAC gate, least squares) | "tukey" | "cauchy"
+    (robust, no step); ``cov`` "propagated" (first order) | "chain_bootstrap"
     (:mod:`vo.rop.chain_bootstrap`), ``bootstrap_replicates`` its replicate count; ``moving_objects``
     "prior" (keep the tracks of the rigid motion nearest the motion prior when several compete,
     :mod:`vo.rop.moving`) | "none" (seed 000: all tracks), ``moving_min_fraction`` a motion competes with

@@ -189,8 +189,8 @@ class KltFourView:
         """Track the keyframe features into the current stereo frame -> the current :class:`FourView`."""
         v = self.view
         t0 = cv2.getTickCount()
-        p3, ok = lk_fb(self._prev_left, left, v.p3, self.config, pyramid=self._pyramid, texture_snr=self.texture_snr,
-                       noise=self._noise)
+        p3, ok = lk_fb(self._prev_left, left, v.p3, self.config, pyramid=self._pyramid,
+                       texture_snr=self.texture_snr, noise=self._noise)
         A3, A4 = self._warps(v)
         t3, t4 = self._templates(v)
         if t3 is not None and ok.any():
