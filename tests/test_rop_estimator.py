@@ -128,6 +128,7 @@ def test_options_are_validated():
     ("ransac_threshold_px", float("nan"), r"rop\.ransac_threshold_px: must be a finite number, got nan"),
     ("min_inlier_ratio", 1.5, r"rop\.min_inlier_ratio: must be in \[0, 1\], got 1.5"),
     ("klt_config", {"wn": 11}, r"rop.klt_config: unknown field\(s\) \['wn'\]"),
+    ("zncc_texture_snr", -1.0, r"rop\.zncc_texture_snr: must be a non-negative number, got -1.0"),
 ])
 def test_rop_config_rejects_bad_values_in_one_line(field, value, message):
     """Every bad value of a RopConfig field: one-line EstimatorError naming ``rop.<field>``, the value

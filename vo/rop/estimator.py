@@ -108,7 +108,7 @@ class RopEstimator(Estimator):
                                                                                         self.focal)
         if tracker is not None and c.frontend != "klt":
             raise EstimatorError(f"rop: a tracker is the KLT front-end's; frontend is {c.frontend!r}")
-        self.klt = (tracker if tracker is not None else KltFourView(rig, c.klt_config, c.klt_refine)
+        self.klt = (tracker if tracker is not None else KltFourView(rig, c.klt_config, c.klt_refine, c.zncc_texture_snr)
                     ) if c.frontend == "klt" else None
         self.step_observer = step_observer
         self.rigidity = RigidityConfig.from_option(rigidity, "rop.rigidity")

@@ -52,8 +52,11 @@ class RopConfig:
     ``keyframe_baseline_ratio`` x the baseline or the tracks fall below ``keyframe_min_track_ratio`` of
     the keyframe's;
     ``klt_config`` (:class:`KltConfig` or a mapping of its fields), ``klt_refine`` "translation" |
-    "affine"; ``rop_loss`` final ROP fit: "gate" (inliers at the RANSAC gate, least squares) |
-    "tukey" | "cauchy" (robust, no step); ``cov`` "propagated" (first order) | "chain_bootstrap"
+    "affine"; ``zncc_texture_snr`` the ZNCC check of the LK matches (``klt_config.min_zncc``) applies only to
+    windows whose texture std is below this many times the image noise (0: to every window;
+    :mod:`vo.frontend.patch_check`, docs/estimators.md "What the ZNCC check drops on whole campus routes");
+    ``rop_loss`` final ROP fit: "gate" (inliers at the RANSAC gate, least squares) | "tukey" | "cauchy"
+    (robust, no step); ``cov`` "propagated" (first order) | "chain_bootstrap"
     (:mod:`vo.rop.chain_bootstrap`), ``bootstrap_replicates`` its replicate count; ``moving_objects``
     "prior" (keep the tracks of the rigid motion nearest the motion prior when several compete,
     :mod:`vo.rop.moving`) | "none" (seed 000: all tracks), ``moving_min_fraction`` a motion competes with
@@ -88,6 +91,7 @@ class RopConfig:
     keyframe_min_track_ratio: float = knob(0.5, ge=0, le=1)
     klt_config: KltConfig = knob(default_factory=KltConfig, parse=_klt_config)
     klt_refine: Literal[KltFourView.REFINES] = "translation"
+    zncc_texture_snr: float = knob(2.0, ge=0)
     rop_loss: Literal[LOSSES] = "gate"
     cov: Literal[COVS] = "propagated"
     bootstrap_replicates: int = knob(40, ge=MIN_REPLICATES)

@@ -38,7 +38,7 @@ from vo.frontend.depth_edge import off_edge
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells, stereo_gate
 from vo.frontend.lk_normalized import lk_fb_pyramids
-from vo.frontend.patch_check import zncc_mask
+from vo.frontend.patch_check import NoiseLevel, zncc_mask
 from vo.rop.relative import normalized_points
 from rigs.geometry.pinhole import to_normalized
 
@@ -81,11 +81,13 @@ class FourView:
         return x[p[0]][sel], x[p[1]][sel]
 
 
-def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[np.ndarray, np.ndarray]:
+def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_snr: float = 0.0,
+          noise=None) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``); ``ok``
     where both directions converge inside the image, the round trip ends < ``fb_threshold_px`` from
     ``p0`` and the two windows correlate (ZNCC >= ``config.min_zncc``, or the affine fit with ``config.zncc_affine``:
-    :mod:`vo.frontend.patch_check`). With
+    :mod:`vo.frontend.patch_check`; with ``texture_snr`` > 0 only on windows whose texture is below
+    ``texture_snr`` times the noise, ``noise`` image -> std). With
     ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
     :mod:`vo.frontend.lk_normalized` (seed 003's intensity-invariant residual; ``pyramid`` image -> pyramid,
     default ``config.pyramid``), else on the raw images."""
@@ -100,7 +102,8 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[
             lost = np.flatnonzero(~ok)
             p1[lost], ok[lost] = lk_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
                                        None if guess is None else np.asarray(guess)[lost])
-        return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine)
+        return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine, texture_snr,
+                             noise)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
     a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
@@ -116,19 +119,21 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None) -> tuple[
     ok = (st.ravel() == 1) & (st2.ravel() == 1) & np.all(np.isfinite(p1), axis=1)
     ok &= (p1[:, 0] >= 0) & (p1[:, 1] >= 0) & (p1[:, 0] <= w - 1) & (p1[:, 1] <= h - 1)
     ok &= np.linalg.norm(a2.reshape(-1, 2) - p0, axis=1) < config.fb_threshold_px
-    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine)
+    return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine, texture_snr, noise)
 
 
 class KltFourView:
     """Keyframe-anchored KLT tracks (see the module docstring). ``timings`` dicts get ``detect``,
-    ``track`` and ``stereo`` in ms."""
+    ``track`` and ``stereo`` in ms. ``texture_snr``: the ZNCC check of every LK match applies only to windows
+    whose texture is below that many times the image noise (0: to every window; :mod:`vo.frontend.patch_check`)."""
 
     REFINES = ("translation", "affine")
 
-    def __init__(self, rig, config: KltConfig = KltConfig(), refine: str = "translation"):
+    def __init__(self, rig, config: KltConfig = KltConfig(), refine: str = "translation", texture_snr: float = 0.0):
         if refine not in self.REFINES:
             raise VoError(f"rop.klt_refine: {refine!r}; valid: {', '.join(self.REFINES)}")
         self.rig, self.config, self.refine = rig, config, refine
+        self.texture_snr, self._noise = float(texture_snr), NoiseLevel()
         self._kf_imgs = None
         self.cams = rig.cameras[:2]
         cam = self.cams[0]
@@ -145,7 +150,7 @@ class KltFourView:
         return normalized_points(p, cam.K, cam.dist_coeffs)
 
     def _stereo(self, left, right, p_l, guess=None):
-        p_r, ok = lk_fb(left, right, p_l, self.config, guess, self._pyramid)
+        p_r, ok = lk_fb(left, right, p_l, self.config, guess, self._pyramid, self.texture_snr, self._noise)
         if ok.any():
             ok[ok] &= stereo_gate(self.rig, p_l[ok], p_r[ok], self.config)
         return p_r, ok
@@ -184,7 +189,8 @@ class KltFourView:
         """Track the keyframe features into the current stereo frame -> the current :class:`FourView`."""
         v = self.view
         t0 = cv2.getTickCount()
-        p3, ok = lk_fb(self._prev_left, left, v.p3, self.config, pyramid=self._pyramid)
+        p3, ok = lk_fb(self._prev_left, left, v.p3, self.config, pyramid=self._pyramid,
+                       texture_snr=self.texture_snr, noise=self._noise)
         A3, A4 = self._warps(v)
         t3, t4 = self._templates(v)
         if t3 is not None and ok.any():
