@@ -1,30 +1,26 @@
 """Conventional stereo VO of seed 003: stereo triangulation on keyframes, 3-D-to-2-D PnP + RANSAC each frame.
 
-``KltPnpEstimator`` ("klt-pnp"): KLT tracks (grid detection, LK forward-backward, epipolar check), new
-landmarks from empty cells on keyframes, seed 003's empty-cell / inlier keyframe criterion (the *next* frame
-becomes a keyframe, as in the paper). ``StereoPnpEstimator`` is the frame loop it shares with ``orb-pnp``.
-Failure handling: too few tracked landmarks -> status ``few_features`` ("N tracked < M"), PnP failure ->
-``lost``; the pose is coasted (constant velocity, the median translation of the last measured steps,
-:mod:`vo.estimators.coast_velocity`, for ``max_coast_frames``, then held; ``klt-pnp`` turns the coasted step by
-the rotation-only fit of its frame-to-frame tracks, :mod:`vo.estimators.coast_rotation`) and the next frame
-with a good stereo pair re-initialises a keyframe anchored at the current estimate -> ``reinit``. Never NaN.
-Timings per frame (ms): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
+``KltPnpEstimator`` ("klt-pnp"): KLT tracks (grid detection, LK forward-backward, epipolar check), new landmarks
+from empty cells on keyframes, seed 003's empty-cell / inlier keyframe criterion (the *next* frame is one).
+``StereoPnpEstimator`` is the frame loop it shares with ``orb-pnp``. Failure handling: too few tracked landmarks ->
+status ``few_features`` ("N tracked < M"), PnP failure -> ``lost``; the pose is coasted (constant velocity, the
+median translation of the last measured steps, ``coast_velocity``, for ``max_coast_frames``, then held; ``klt-pnp``
+turns the coasted step by the rotation-only fit of its frame-to-frame tracks, ``coast_rotation``) and the next frame
+with a good stereo pair re-initialises a keyframe at the current estimate -> ``reinit``. Never NaN. Timings (ms per
+frame): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
 
-Moving objects (our extension): each frame's PnP takes, among the rigid motions the landmarks hold, the one
-nearest the constant-velocity prediction (``pnp_config.consensus="prior"``, default;
-:mod:`vo.estimators.pnp_core`), not RANSAC's largest consensus, which in traffic is often a car ahead.
+Moving objects (our extension): each frame's PnP takes, among the rigid motions the landmarks hold, the one nearest
+the constant-velocity prediction (``pnp_config.consensus="prior"``; ``pnp_core``), not RANSAC's largest consensus.
 
 Stereo disparity offset (``klt-pnp``; not in seed 003): a calibration whose right principal point is off the
-images' (the real KITTI excerpt: about 1.2-1.4 px) makes far landmarks long and every step long; the offset is
-estimated online from the tracks and, where significant, landmark depths are corrected along their birth rays
-(:mod:`vo.estimators.disparity_offset`), and the frames tracked since the (re)initialisation are re-chained
-with the corrected depths (:mod:`vo.estimators.offset_replay`); with a consistent calibration nothing changes.
-The close/far split (ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works around the same offset is off
-by default (``pnp_config={near_baselines: 40}`` turns it on).
+images' (the real KITTI excerpt: about 1.2-1.4 px) makes every step long; the offset is estimated online from the
+tracks and, where significant, landmark depths are corrected along their birth rays (``disparity_offset``) and
+the frames since the (re)initialisation re-chained (``offset_replay``); with a consistent calibration nothing
+changes. The close/far split (ORB-SLAM2's rule, ``near_far``) is off by default (``pnp_config={near_baselines: 40}``).
 
-Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on their
-birth keyframe; no left-right re-match on later keyframes); PnP outliers are dropped from the tracks (``klt-pnp``:
-with ``disparity_offset.track_gate_px``, those beyond it of the pose, :mod:`vo.estimators.track_gate`).
+Simplifications against seed 003: no bundle adjustment (landmarks keep their birth keyframe's triangulation; no
+left-right re-match on later keyframes); PnP outliers leave the tracks (``klt-pnp``: those beyond
+``disparity_offset.track_gate_px`` of the pose; the others stay for the offset estimate only: ``track_gate``).
 """
 from __future__ import annotations
 
@@ -42,7 +38,7 @@ from vo.estimators.offset_replay import ChainRecord, rebased_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.estimators.rigidity import RigidityConfig, refine_pose, rigid_subset
 from vo.estimators.stage_timing import timed
-from vo.estimators.track_gate import kept_tracks
+from vo.estimators.track_gate import OffsetOnlyTracks, kept_tracks
 from vo.frontend.depth_edge import off_edge
 from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
@@ -131,9 +127,10 @@ class StereoPnpEstimator(Estimator):
         self._steps.push(T_prev_curr)
         return True
 
-    def _pnp(self, p_o, px_raw, timings):
+    def _pnp(self, p_o, px_raw, timings, use=None):
         px_raw = np.asarray(px_raw)
         keep = None if self.pnp_select is None else np.asarray(self.pnp_select(px_raw), bool)
+        keep = use if keep is None else (keep if use is None else keep & use)   # use (N,) bool: may define the pose
         with timed(timings, "pnp"):
             cam = self.rig.cameras[0]
             if keep is None:
@@ -197,6 +194,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         offset_config = OffsetConfig.from_option(disparity_offset, f"{self.name}.disparity_offset")
         self.offset = offset if offset is not None else DisparityOffset(offset_config, float(cam.K[0, 0]), rig.baseline)
         self._raw: dict = {}             # track id -> p_o (3,) as triangulated (before the offset's correction)
+        self._offset_only = OffsetOnlyTracks()   # tracks the offset estimate sees but the pose does not
         self._applied_offset = 0.0
         self._replayed_offset = 0.0      # the offset the recorded chain was last re-chained with
         self._chain = ChainRecord(offset_config.replay_frames if keyframe_adjuster is None else 0)
@@ -209,6 +207,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         self.landmarks.clear()
         self.near.clear()
         self._raw.clear()
+        self._offset_only.reset()
         self._chain.reset()
         if self.keyframe_adjuster is not None:
             self.keyframe_adjuster.reset()
@@ -298,7 +297,7 @@ class KltPnpEstimator(StereoPnpEstimator):
             return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}",
                               R_track())
         p_o = np.array([self.landmarks[int(i)] for i in ids])
-        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
+        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings, self._offset_only.pose_mask(ids))
         if T_o_c0 is not None and (self.pnp_config.near_baselines > 0 or self.rigidity.enabled):
             near = np.array([self.near[int(i)][0] for i in ids], bool)
             rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
@@ -310,7 +309,8 @@ class KltPnpEstimator(StereoPnpEstimator):
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked",
                               R_track())
-        self.tracker.keep(kept_tracks(T_o_c0, p_o, self.tracker.pts, inl, self.rig.cameras[0], self.offset.config))
+        kept = kept_tracks(T_o_c0, p_o, self.tracker.pts, inl, self.rig.cameras[0], self.offset.config)
+        self.tracker.keep(self._offset_only.keep(ids, inl, kept))
         status, msg = "ok", ""
         if self._next_keyframe:
             with timed(timings, "detect"):
@@ -334,7 +334,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         pts = self.tracker.pts
         px = undistort_px(pts, cam)
         x_n = to_normalized(px, cam.K)
-        self._chain.frame(self.T_o_c0, self.tracker.ids, px)
+        self._chain.frame(self.T_o_c0, *self._offset_only.pose_tracks(self.tracker.ids, px))
         self.offset.observe(self.tracker.ids, x_n, self.T_o_c0)
         if self.offset.delta_px != self._applied_offset:
             if abs(self.offset.delta_px - self._replayed_offset) > self.offset.config.replay_step_px:

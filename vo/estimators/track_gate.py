@@ -37,3 +37,34 @@ def kept_tracks(T_o_c0: np.ndarray, p_o: np.ndarray, px_raw: np.ndarray, inliers
     uv = (np.asarray(cam.K, float) @ (p_c / np.where(z > 0, z, 1.0)[:, None]).T).T[:, :2]
     res = np.linalg.norm(uv - undistort_px(np.asarray(px_raw, float).reshape(-1, 2), cam), axis=1)
     return inliers | ((z > 0) & (res < gate_px))
+
+
+class OffsetOnlyTracks:
+    """The tracks kept for the disparity-offset estimate only: the PnP outliers that :func:`kept_tracks` kept.
+    KLT goes on tracking them and the offset estimate observes them, but they are left out of every later
+    frame's PnP input (and of the re-chaining record that refits poses), so nothing that defines the pose sees
+    them; one that moves beyond the gate of a later pose leaves the tracks."""
+
+    def __init__(self):
+        self.ids: set = set()
+
+    def reset(self) -> None:
+        self.ids.clear()
+
+    def pose_mask(self, ids) -> np.ndarray | None:
+        """(N,) bool: which of the tracks ``ids`` (N,) may define the pose; None when all may."""
+        if not self.ids:
+            return None
+        return ~np.isin(np.asarray(ids, np.int64), np.fromiter(self.ids, np.int64, len(self.ids)))
+
+    def keep(self, ids, inliers: np.ndarray, kept: np.ndarray) -> np.ndarray:
+        """Record, of the tracks ``ids`` (N,), the ``kept`` (N,) bool ones that are not PnP ``inliers`` (N,) as
+        offset-only; returns ``kept``."""
+        extra = np.asarray(kept, bool) & ~np.asarray(inliers, bool)
+        self.ids = {int(i) for i in np.asarray(ids, np.int64)[extra]}
+        return kept
+
+    def pose_tracks(self, ids, px) -> tuple:
+        """The tracks ``ids`` (N,) and their pixels ``px`` (N,2) that may define the pose."""
+        use = self.pose_mask(ids)
+        return (ids, px) if use is None else (np.asarray(ids)[use], np.asarray(px)[use])
