@@ -36,13 +36,14 @@ def test_outliers_near_the_pose_stay_tracks():
     inl = off == 0.0
     kept = kept_tracks(T, p_o, px, inl, CAM, OffsetConfig(track_gate_px=4.0))
     assert np.array_equal(kept, off < 4.0)
+    assert OffsetConfig().track_gate_px == 4.0                                   # the default
 
 
 def test_seed_003_rule_without_the_gate_or_the_offset_estimate():
-    """Gate 0 (the default), or the offset estimate off: the PnP inliers only (seed 003 drops every outlier)."""
+    """Gate 0, or the offset estimate off: the PnP inliers only (seed 003 drops every outlier)."""
     T, p_o, px, off = _scene(1)
     inl = off == 0.0
-    for cfg in (OffsetConfig(), OffsetConfig(track_gate_px=4.0, enabled=False)):
+    for cfg in (OffsetConfig(track_gate_px=0.0), OffsetConfig(track_gate_px=4.0, enabled=False)):
         assert np.array_equal(kept_tracks(T, p_o, px, inl, CAM, cfg), inl)
     behind = transform_points(T, np.array([[0.0, 0.0, -5.0]]))                 # a landmark behind the camera
     assert not kept_tracks(T, behind, np.array([[319.5, 239.5]]), np.array([False]), CAM,

@@ -7,12 +7,15 @@ the 6 baselines that the online offset estimate waits for (:mod:`vo.estimators.d
 2 px inlier gate removes exactly the landmarks that carry the offset, and the estimate, fitted on the survivors,
 falls short of it: on the real KITTI turn 0.79 / 1.17 / 1.42 px with a 1 / 2 / 4 px PnP gate, on
 ``campus-realistic`` seed 0 (not applied) 0.27 / 0.29 / 0.40 px for the rig's 0.45 px (docs/estimators.md).
-Keeping, as tracks, the outliers within ``track_gate_px`` (4 px, twice the inlier gate, was measured) of the
-fitted pose lets the estimate see them; they do not enter that frame's pose (PnP already chose its inliers), and
-the next frame's PnP tests them again. Off by default (``track_gate_px`` 0: every outlier is dropped, as in seed
-003; also with the offset estimate off): the kept outliers make the next frames' PnP consensus search fit more
-candidate motions, +8-13 ms CPU per frame on ``campus-realistic`` (20 -> 28-33 ms), beyond ``klt-pnp``'s 20 ms
-budget, and they move the drift on consistent calibrations (docs/estimators.md).
+Keeping, as tracks, the outliers within ``track_gate_px`` (4 px, twice the inlier gate, was measured; the
+default) of the fitted pose lets the estimate see them. They are kept for the estimate only
+(:class:`OffsetOnlyTracks`): KLT tracks them and the estimate observes them, but they enter neither that frame's
+pose (PnP already chose its inliers) nor any later frame's PnP input, nor the re-chaining record that refits
+poses (:mod:`vo.estimators.offset_replay`); each frame they are tested against the new pose and leave beyond the
+gate. Kept as ordinary tracks instead (the next PnP testing them again), they made the PnP's consensus search
+fit more candidate motions, 28-33 ms CPU per frame on ``campus-realistic`` against the 20 ms budget; kept for
+the estimate only they cost no more than dropping them (measured figures in docs/estimators.md). ``track_gate_px``
+0 (or the offset estimate off) drops every outlier, as seed 003 does.
 """
 from __future__ import annotations
 
