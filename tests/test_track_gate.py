@@ -1,6 +1,7 @@
 """Which tracks ``klt-pnp`` keeps after its PnP (``vo.estimators.track_gate``), against exact projections."""
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -10,7 +11,7 @@ from vo.dataset import open_dataset
 from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 from vo.estimators.pnp import KltPnpEstimator
 from vo.estimators.track_gate import OffsetOnlyTracks, kept_tracks
-from vo.frontend.klt import stereo_klt
+from vo.frontend.klt import KltTracker, stereo_klt
 from vo.frontend.stereo import triangulate
 
 CAM = Camera("cam0", 640, 480, 500, 500, 319.5, 239.5)
@@ -133,3 +134,24 @@ def test_near_outliers_reach_the_offset_estimate_but_never_the_pnp(campus_short)
         assert only <= seen                                    # observed on the frame they are kept
         assert not only & est.pnp_ids.get(k + 1, set())        # never handed to the next frame's PnP
     assert n_kept > 0
+
+
+def test_offset_only_tracks_are_invisible_to_detection_and_the_keyframe_rule():
+    """On a textured image: with half the tracks offset-only, a keyframe's detection fills their cells exactly as
+    if they were gone (the same new corners), keeps them tracked where they were, and the empty-cell fraction of
+    the keyframe rule counts the pose tracks only."""
+    img = cv2.GaussianBlur(np.random.default_rng(3).integers(0, 255, (240, 320)).astype(np.uint8), (3, 3), 0)
+    tracker, alone = KltTracker(320, 240), KltTracker(320, 240)
+    ids = tracker.detect(img)
+    assert len(ids) > 20
+    only = np.arange(len(ids)) % 2 == 1
+    tracks = OffsetOnlyTracks()
+    tracks.keep(ids, ~only, np.ones(len(ids), bool))
+    alone.pts = tracker.pts[~only].copy()
+    assert tracks.empty_fraction(tracker) == alone.empty_fraction > tracker.empty_fraction
+    pts_only = tracker.pts[only].copy()
+    new = tracks.detect(tracker, img)
+    alone.detect(img)
+    assert len(new) == only.sum()
+    assert np.array_equal(tracker.pts[np.isin(tracker.ids, new)], alone.pts[-len(new):])
+    assert np.array_equal(tracker.pts[np.isin(tracker.ids, ids[only])], pts_only)

@@ -11,16 +11,14 @@ frame): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
 
 Moving objects (our extension): each frame's PnP takes, among the rigid motions the landmarks hold, the one nearest
 the constant-velocity prediction (``pnp_config.consensus="prior"``; ``pnp_core``), not RANSAC's largest consensus.
-
-Stereo disparity offset (``klt-pnp``; not in seed 003): a calibration whose right principal point is off the
-images' (the real KITTI excerpt: about 1.2-1.4 px) makes every step long; the offset is estimated online from the
-tracks and, where significant, landmark depths are corrected along their birth rays (``disparity_offset``) and
-the frames since the (re)initialisation re-chained (``offset_replay``); with a consistent calibration nothing
-changes. The close/far split (ORB-SLAM2's rule, ``near_far``) is off by default (``pnp_config={near_baselines: 40}``).
-
-Simplifications against seed 003: no bundle adjustment (landmarks keep their birth keyframe's triangulation; no
-left-right re-match on later keyframes); PnP outliers leave the tracks (``klt-pnp``: those beyond
-``disparity_offset.track_gate_px`` of the pose; the others stay for the offset estimate only: ``track_gate``).
+Stereo disparity offset (``klt-pnp``; not in seed 003): a calibration whose right principal point is off the images'
+(the real KITTI excerpt: about 1.2-1.4 px) makes every step long; the offset is estimated online from the tracks and,
+where significant, landmark depths are corrected along their birth rays (``disparity_offset``) and the frames since
+the (re)initialisation re-chained (``offset_replay``); with a consistent calibration nothing changes. The close/far
+split (ORB-SLAM2's rule, ``near_far``) is off by default (``pnp_config={near_baselines: 40}``). Simplifications
+against seed 003: no bundle adjustment (landmarks keep their birth keyframe's triangulation; no left-right re-match
+on later keyframes); PnP outliers leave the tracks (``klt-pnp``: beyond ``disparity_offset.track_gate_px``,
+``track_gate``).
 """
 from __future__ import annotations
 
@@ -159,11 +157,11 @@ class StereoPnpEstimator(Estimator):
 class KltPnpEstimator(StereoPnpEstimator):
     """Seed 003's optical-flow stereo VO. Options: ``klt_config`` (:class:`KltConfig`), ``pnp_config``.
     Collaborators (default: the product's): ``tracker``, a :class:`KltTracker` (or one that behaves as it);
-    ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks
-    in the current left camera (default: stereo KLT, the depth-edge test, triangulation);
-    ``keyframe_adjuster`` (default none: seed 003 without its keyframe optimization), an object with ``reset()``
-    and ``adjust(left, right, T_o_c0 (4,4), ids (N,), px (N,2), landmarks {id: p_o (3,)} of the tracked ids) -> (T_o_c0 (4,4),
-    landmarks {id: p_o (3,)}, rejected ids)``, called on every keyframe before its new tracks are triangulated
+    ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks in
+    the current left camera (default: stereo KLT, the depth-edge test, triangulation); ``keyframe_adjuster``
+    (default none: seed 003 without its keyframe optimization), an object with ``reset()`` and ``adjust(left, right,
+    T_o_c0 (4,4), ids (N,), px (N,2), landmarks {id: p_o (3,)} of the tracked ids) -> (T_o_c0 (4,4), landmarks {id:
+    p_o (3,)}, rejected ids)``, called on every keyframe before its new tracks are triangulated
     (``docs/studies/keyframe_ba.py`` supplies a windowed bundle adjustment). ``disparity_offset``
     (:class:`OffsetConfig`): the online stereo disparity-offset estimate (:mod:`vo.estimators.disparity_offset`)
     that corrects landmark depths under an inconsistent calibration; ``offset``, the estimate itself (a
@@ -171,8 +169,8 @@ class KltPnpEstimator(StereoPnpEstimator):
     (:class:`~vo.estimators.rigidity.RigidityConfig`, or its fields; off by default, measured in
     ``docs/estimators.md``): the distance-invariance test across frames (seed 001 eq. 2) on each frame's PnP
     inliers, their birth positions against a fresh stereo match; the flagged landmarks leave the inliers and the
-    pose is refined without them; ``rigidity_observer(px (M,2), kept (M,) bool)`` (studies) receives the left
-    pixels of the inliers it tested and its verdict."""
+    pose is refined without them; ``rigidity_observer(px (M,2), kept (M,) bool)`` (studies) receives the left pixels
+    of the inliers it tested and its verdict."""
 
     name = "klt-pnp"
 
@@ -265,7 +263,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         """The product's landmark source: stereo KLT (with ``klt_config.stereo_prior``, started for the corners it
         loses from zero disparity at the disparity of the nearest landmarks: :mod:`vo.frontend.stereo_prior`),
         the depth-edge test, triangulation in the left camera."""
-        known = np.isin(self.tracker.ids, np.fromiter(self.landmarks, np.int64, len(self.landmarks)))
+        known = self._offset_only.pose_all(self.tracker.ids) & np.isin(self.tracker.ids, list(self.landmarks))
         p_known = np.array([self.landmarks[int(i)] for i in self.tracker.ids[known]]).reshape(-1, 3)
         prior = disparity_guess(p_l, *landmark_refs(self.rig, inv_T(self.T_o_c0), p_known, self.tracker.pts[known])) \
             if self.klt_config.stereo_prior else None
@@ -283,7 +281,8 @@ class KltPnpEstimator(StereoPnpEstimator):
         p_prev = self.tracker.pts.copy()
         with timed(timings, "track"):
             alive = self.tracker.track(left)
-        return coast_rotation(p_prev[alive], self.tracker.pts, self.rig.cameras[0])
+        return coast_rotation(*self._offset_only.pose_rows(self.tracker.ids, p_prev[alive], self.tracker.pts),
+                              self.rig.cameras[0])
 
     def _step(self, t_ns, left, right, timings) -> FrameResult:
         p_prev = self.tracker.pts.copy()
@@ -291,13 +290,14 @@ class KltPnpEstimator(StereoPnpEstimator):
             alive = self.tracker.track(left)
             ids = self.tracker.ids
             self.landmarks = {int(i): self.landmarks[int(i)] for i in ids}
-        n_feat = len(ids)
-        R_track = lambda: coast_rotation(p_prev[alive], self.tracker.pts, self.rig.cameras[0])  # noqa: E731
+        use = self._offset_only.pose_all(ids)                         # the tracks that may define the pose
+        n_feat = int(use.sum())
+        R_track = lambda: coast_rotation(p_prev[alive][use], self.tracker.pts[use], self.rig.cameras[0])  # noqa: E731
         if n_feat < self.pnp_config.min_features:
             return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}",
                               R_track())
         p_o = np.array([self.landmarks[int(i)] for i in ids])
-        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings, self._offset_only.pose_mask(ids))
+        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings, None if use.all() else use)
         if T_o_c0 is not None and (self.pnp_config.near_baselines > 0 or self.rigidity.enabled):
             near = np.array([self.near[int(i)][0] for i in ids], bool)
             rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
@@ -314,13 +314,13 @@ class KltPnpEstimator(StereoPnpEstimator):
         status, msg = "ok", ""
         if self._next_keyframe:
             with timed(timings, "detect"):
-                new_ids = self.tracker.detect(left)
+                new_ids = self._offset_only.detect(self.tracker, left)
             n_new = self._add_landmarks(left, right, new_ids, timings)
             status, msg = "keyframe", f"{n_new} new landmarks"
         self.landmarks = {int(i): self.landmarks[int(i)] for i in self.tracker.ids}
         self.near = {i: self.near[i] for i in self.landmarks}
         self._update_offset()
-        self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
+        self._next_keyframe = is_keyframe(self._offset_only.empty_fraction(self.tracker), n_inl, self.klt_config)
         return self._result(t_ns, status, n_feat, n_inl, msg)
 
     def _update_offset(self) -> None:

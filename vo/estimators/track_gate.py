@@ -67,7 +67,34 @@ class OffsetOnlyTracks:
         self.ids = {int(i) for i in np.asarray(ids, np.int64)[extra]}
         return kept
 
+    def pose_all(self, ids) -> np.ndarray:
+        """(N,) bool: which of the tracks ``ids`` (N,) may define the pose (all True when all may)."""
+        use = self.pose_mask(ids)
+        return np.ones(len(ids), bool) if use is None else use
+
     def pose_tracks(self, ids, px) -> tuple:
         """The tracks ``ids`` (N,) and their pixels ``px`` (N,2) that may define the pose."""
+        return self.pose_rows(ids, ids, px)
+
+    def pose_rows(self, ids, *arrays) -> tuple:
+        """Each of ``arrays`` ((N, ...) each, one row per track of ``ids`` (N,)) at the tracks that may define the
+        pose."""
         use = self.pose_mask(ids)
-        return (ids, px) if use is None else (np.asarray(ids)[use], np.asarray(px)[use])
+        return arrays if use is None else tuple(np.asarray(a)[use] for a in arrays)
+
+    def detect(self, tracker, img) -> np.ndarray:
+        """``tracker.detect(img)`` (a :class:`~vo.frontend.klt.KltTracker`) as if the offset-only tracks were
+        not there: new corners fill the cells those hold too; returns the new ids."""
+        use = self.pose_mask(tracker.ids)
+        if use is None:
+            return tracker.detect(img)
+        pts_only, ids_only = tracker.pts[~use], tracker.ids[~use]
+        tracker.keep(use)
+        new_ids = tracker.detect(img)
+        tracker.pts, tracker.ids = np.vstack([tracker.pts, pts_only]), np.concatenate([tracker.ids, ids_only])
+        return new_ids
+
+    def empty_fraction(self, tracker) -> float:
+        """The tracker's empty-cell fraction (the keyframe rule's) counting the pose tracks only."""
+        use = self.pose_mask(tracker.ids)
+        return tracker.empty_fraction if use is None else tracker.grid.empty_fraction(tracker.pts[use])
