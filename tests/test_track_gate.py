@@ -66,6 +66,10 @@ def test_offset_only_tracks_leave_the_pose_input_until_they_leave():
     assert np.array_equal(ids_p, ids[off != 3.0]) and np.array_equal(px_p, px[off != 3.0])
     tracks.keep(ids, inl, inl)
     assert tracks.pose_mask(ids) is None
+    # only the outliers a later offset fit reads (landmarks of keyframes not fitted yet) stay
+    kept = tracks.keep(ids, inl, off < 4.0, pending=ids[:30])
+    assert np.array_equal(kept, inl | ((off == 3.0) & (np.arange(60) < 30)))
+    assert tracks.ids == set(range(120, 130))
 
 
 class _RecordingOffset(DisparityOffset):

@@ -247,6 +247,10 @@ class DisparityOffset:
         self.se_px = se
         self.delta_px = mean if abs(mean) - cfg.significance * se > floor else 0.0
 
+    def pending_ids(self) -> np.ndarray:
+        """(M,) int64: the landmarks of the keyframes not fitted yet (the only ones a later fit reads)."""
+        return np.concatenate([g[1] for g in self.keyframes.values()] + [np.zeros(0, np.int64)])
+
     @property
     def median_disparity_px(self) -> float:
         """The median raw disparity ``f b / z`` (px) of the tracked landmarks (inf with none)."""

@@ -310,7 +310,7 @@ class KltPnpEstimator(StereoPnpEstimator):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked",
                               R_track())
         kept = kept_tracks(T_o_c0, p_o, self.tracker.pts, inl, self.rig.cameras[0], self.offset.config)
-        self.tracker.keep(self._offset_only.keep(ids, inl, kept))
+        self.tracker.keep(self._offset_only.keep(ids, inl, kept, self.offset.pending_ids()))
         status, msg = "ok", ""
         if self._next_keyframe:
             with timed(timings, "detect"):

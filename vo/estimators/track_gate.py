@@ -60,12 +60,16 @@ class OffsetOnlyTracks:
             return None
         return ~np.isin(np.asarray(ids, np.int64), np.fromiter(self.ids, np.int64, len(self.ids)))
 
-    def keep(self, ids, inliers: np.ndarray, kept: np.ndarray) -> np.ndarray:
+    def keep(self, ids, inliers: np.ndarray, kept: np.ndarray, pending=None) -> np.ndarray:
         """Record, of the tracks ``ids`` (N,), the ``kept`` (N,) bool ones that are not PnP ``inliers`` (N,) as
-        offset-only; returns ``kept``."""
+        offset-only, only those among ``pending`` ids (the landmarks a later offset fit reads; default: all);
+        returns the tracks to keep: the inliers and the offset-only ones."""
+        ids = np.asarray(ids, np.int64)
         extra = np.asarray(kept, bool) & ~np.asarray(inliers, bool)
-        self.ids = {int(i) for i in np.asarray(ids, np.int64)[extra]}
-        return kept
+        if pending is not None:
+            extra &= np.isin(ids, pending)
+        self.ids = {int(i) for i in ids[extra]}
+        return np.asarray(inliers, bool) | extra
 
     def pose_all(self, ids) -> np.ndarray:
         """(N,) bool: which of the tracks ``ids`` (N,) may define the pose (all True when all may)."""
