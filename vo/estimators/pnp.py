@@ -290,11 +290,11 @@ class KltPnpEstimator(StereoPnpEstimator):
             alive = self.tracker.track(left)
             ids = self.tracker.ids
             self.landmarks = {int(i): self.landmarks[int(i)] for i in ids}
-        use = self._offset_only.pose_all(ids)                         # the tracks that may define the pose
-        n_feat = int(use.sum())
+        use = self._offset_only.pose_all(ids)
+        n_feat, n_pose = len(ids), int(use.sum())          # all tracks; those that may define the pose (use)
         R_track = lambda: coast_rotation(p_prev[alive][use], self.tracker.pts[use], self.rig.cameras[0])  # noqa: E731
-        if n_feat < self.pnp_config.min_features:
-            return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}",
+        if n_pose < self.pnp_config.min_features:
+            return self._fail(t_ns, "few_features", n_feat, 0, f"{n_pose} tracked < {self.pnp_config.min_features}",
                               R_track())
         p_o = np.array([self.landmarks[int(i)] for i in ids])
         T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings, None if use.all() else use)

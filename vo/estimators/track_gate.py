@@ -9,13 +9,16 @@ falls short of it: on the real KITTI turn 0.79 / 1.17 / 1.42 px with a 1 / 2 / 4
 ``campus-realistic`` seed 0 (not applied) 0.27 / 0.29 / 0.40 px for the rig's 0.45 px (docs/estimators.md).
 Keeping, as tracks, the outliers within ``track_gate_px`` (4 px, twice the inlier gate, was measured; the
 default) of the fitted pose lets the estimate see them. They are kept for the estimate only
-(:class:`OffsetOnlyTracks`): KLT tracks them and the estimate observes them, but they enter neither that frame's
-pose (PnP already chose its inliers) nor any later frame's PnP input, nor the re-chaining record that refits
-poses (:mod:`vo.estimators.offset_replay`); each frame they are tested against the new pose and leave beyond the
-gate. Kept as ordinary tracks instead (the next PnP testing them again), they made the PnP's consensus search
-fit more candidate motions, 28-33 ms CPU per frame on ``campus-realistic`` against the 20 ms budget; kept for
-the estimate only they cost no more than dropping them (measured figures in docs/estimators.md). ``track_gate_px``
-0 (or the offset estimate off) drops every outlier, as seed 003 does.
+(:class:`OffsetOnlyTracks`): KLT tracks them and the estimate observes them, but nothing that defines the pose
+sees them: not that frame's pose (PnP already chose its inliers), nor any later PnP input, the re-chaining record
+(:mod:`vo.estimators.offset_replay`), the keyframe rule's empty cells, new-corner detection, the ``min_features``
+count, the coasting rotation or the stereo prior; each frame they are tested against the new pose and leave
+beyond the gate, or once their birth keyframe has been fitted (no later fit reads them). Where no offset is
+applied the trajectory is therefore that of gate 0. Kept as ordinary tracks instead (the next PnP testing them
+again), they made the PnP's consensus search fit more candidate motions, 28-33 ms CPU per frame on
+``campus-realistic`` against the 20 ms budget; kept for the estimate only they cost 0.6-1.2 ms (tracking them,
+larger offset fits; docs/estimators.md). ``track_gate_px`` 0 (or the offset estimate off) drops every outlier,
+as seed 003 does.
 """
 from __future__ import annotations
 
