@@ -23,8 +23,8 @@ residual errors) is 0.15-0.51 % of the median disparity; on the seeded 0.44-0.49
 campus rig 2.3-2.6 % before it is applied (3.6-5.7 % after), on the real KITTI turn about 11 %: the default 1 %
 lies about a factor 2 from each side. A pixel floor, ``tolerance_px``, is 0 by default: a fixed pixel tolerance
 is too much for a far scene (small disparities, where an offset matters most) and too little for a near one.
-The tracks it is fitted on are ``klt-pnp``'s PnP inliers, a selection that pulls the estimate short of the
-offset (:mod:`vo.estimators.track_gate`, off by default, measures and removes it). Depths are then corrected
+The tracks it is fitted on are ``klt-pnp``'s PnP inliers and the outliers near the pose (the inliers alone are
+a selection that pulls the estimate short of the offset: :mod:`vo.estimators.track_gate`). Depths are then corrected
 along each landmark's birth ray: ``z' = f b / (f b / z + delta)``
 (exact on a rectified rig; on an unrectified one the offset of the equivalent rectified pair).
 
@@ -55,8 +55,8 @@ class OffsetConfig:
     frames since the (re)initialisation that ``klt-pnp`` re-chains when the offset is first applied
     (:mod:`vo.estimators.offset_replay`; 0: none, the frames before keep their long steps), again whenever the
     applied offset has moved by more than ``replay_step_px`` since; ``track_gate_px`` PnP outliers within it of
-    the fitted pose stay tracks, for the estimate to see (:mod:`vo.estimators.track_gate`; 0, the default: all
-    dropped)."""
+    the fitted pose stay tracks for the estimate to see, out of every later PnP (:mod:`vo.estimators.track_gate`;
+    0: all dropped, as in seed 003)."""
 
     enabled: bool = True
     min_travel_baselines: float = knob(6.0, gt=0)
@@ -65,7 +65,7 @@ class OffsetConfig:
     tolerance_px: float = knob(0.0, ge=0)
     min_depth_error: float = knob(0.01, ge=0)
     significance: float = knob(3.0, ge=0)
-    track_gate_px: float = knob(0.0, ge=0)
+    track_gate_px: float = knob(4.0, ge=0)
     replay_frames: int = knob(200, ge=0)
     replay_step_px: float = knob(0.1, ge=0)
 
@@ -246,6 +246,10 @@ class DisparityOffset:
         floor = max(cfg.tolerance_px, cfg.min_depth_error * self.median_disparity_px)
         self.se_px = se
         self.delta_px = mean if abs(mean) - cfg.significance * se > floor else 0.0
+
+    def pending_ids(self) -> np.ndarray:
+        """(M,) int64: the landmarks of the keyframes not fitted yet (the only ones a later fit reads)."""
+        return np.concatenate([g[1] for g in self.keyframes.values()] + [np.zeros(0, np.int64)])
 
     @property
     def median_disparity_px(self) -> float:

@@ -1,30 +1,24 @@
 """Conventional stereo VO of seed 003: stereo triangulation on keyframes, 3-D-to-2-D PnP + RANSAC each frame.
 
-``KltPnpEstimator`` ("klt-pnp"): KLT tracks (grid detection, LK forward-backward, epipolar check), new
-landmarks from empty cells on keyframes, seed 003's empty-cell / inlier keyframe criterion (the *next* frame
-becomes a keyframe, as in the paper). ``StereoPnpEstimator`` is the frame loop it shares with ``orb-pnp``.
-Failure handling: too few tracked landmarks -> status ``few_features`` ("N tracked < M"), PnP failure ->
-``lost``; the pose is coasted (constant velocity, the median translation of the last measured steps,
-:mod:`vo.estimators.coast_velocity`, for ``max_coast_frames``, then held; ``klt-pnp`` turns the coasted step by
-the rotation-only fit of its frame-to-frame tracks, :mod:`vo.estimators.coast_rotation`) and the next frame
-with a good stereo pair re-initialises a keyframe anchored at the current estimate -> ``reinit``. Never NaN.
-Timings per frame (ms): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
+``KltPnpEstimator`` ("klt-pnp"): KLT tracks (grid detection, LK forward-backward, epipolar check), new landmarks
+from empty cells on keyframes, seed 003's empty-cell / inlier keyframe criterion (the *next* frame is one).
+``StereoPnpEstimator`` is the frame loop it shares with ``orb-pnp``. Failure handling: too few tracked landmarks ->
+status ``few_features`` ("N tracked < M"), PnP failure -> ``lost``; the pose is coasted (constant velocity, the
+median translation of the last measured steps, ``coast_velocity``, for ``max_coast_frames``, then held; ``klt-pnp``
+turns the coasted step by the rotation-only fit of its frame-to-frame tracks, ``coast_rotation``) and the next frame
+with a good stereo pair re-initialises a keyframe at the current estimate -> ``reinit``. Never NaN. Timings (ms per
+frame): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
 
-Moving objects (our extension): each frame's PnP takes, among the rigid motions the landmarks hold, the one
-nearest the constant-velocity prediction (``pnp_config.consensus="prior"``, default;
-:mod:`vo.estimators.pnp_core`), not RANSAC's largest consensus, which in traffic is often a car ahead.
-
-Stereo disparity offset (``klt-pnp``; not in seed 003): a calibration whose right principal point is off the
-images' (the real KITTI excerpt: about 1.2-1.4 px) makes far landmarks long and every step long; the offset is
-estimated online from the tracks and, where significant, landmark depths are corrected along their birth rays
-(:mod:`vo.estimators.disparity_offset`), and the frames tracked since the (re)initialisation are re-chained
-with the corrected depths (:mod:`vo.estimators.offset_replay`); with a consistent calibration nothing changes.
-The close/far split (ORB-SLAM2's rule, :mod:`vo.estimators.near_far`) that works around the same offset is off
-by default (``pnp_config={near_baselines: 40}`` turns it on).
-
-Simplifications against seed 003: no bundle adjustment (landmarks keep the position triangulated on their
-birth keyframe; no left-right re-match on later keyframes); PnP outliers are dropped from the tracks (``klt-pnp``:
-with ``disparity_offset.track_gate_px``, those beyond it of the pose, :mod:`vo.estimators.track_gate`).
+Moving objects (our extension): each frame's PnP takes, among the rigid motions the landmarks hold, the one nearest
+the constant-velocity prediction (``pnp_config.consensus="prior"``; ``pnp_core``), not RANSAC's largest consensus.
+Stereo disparity offset (``klt-pnp``; not in seed 003): a calibration whose right principal point is off the images'
+(the real KITTI excerpt: about 1.2-1.4 px) makes every step long; the offset is estimated online from the tracks and,
+where significant, landmark depths are corrected along their birth rays (``disparity_offset``) and the frames since
+the (re)initialisation re-chained (``offset_replay``); with a consistent calibration nothing changes. The close/far
+split (ORB-SLAM2's rule, ``near_far``) is off by default (``pnp_config={near_baselines: 40}``). Simplifications
+against seed 003: no bundle adjustment (landmarks keep their birth keyframe's triangulation; no left-right re-match
+on later keyframes); PnP outliers leave the tracks (``klt-pnp``: beyond ``disparity_offset.track_gate_px``,
+``track_gate``).
 """
 from __future__ import annotations
 
@@ -42,7 +36,7 @@ from vo.estimators.offset_replay import ChainRecord, rebased_near
 from vo.estimators.pnp_core import PnpConfig, solve_pnp
 from vo.estimators.rigidity import RigidityConfig, refine_pose, rigid_subset
 from vo.estimators.stage_timing import timed
-from vo.estimators.track_gate import kept_tracks
+from vo.estimators.track_gate import OffsetOnlyTracks, kept_tracks
 from vo.frontend.depth_edge import off_edge
 from rigs.image import to_gray
 from vo.frontend.klt import KltConfig, KltTracker, is_keyframe, stereo_klt
@@ -131,9 +125,10 @@ class StereoPnpEstimator(Estimator):
         self._steps.push(T_prev_curr)
         return True
 
-    def _pnp(self, p_o, px_raw, timings):
+    def _pnp(self, p_o, px_raw, timings, use=None):
         px_raw = np.asarray(px_raw)
         keep = None if self.pnp_select is None else np.asarray(self.pnp_select(px_raw), bool)
+        keep = use if keep is None else (keep if use is None else keep & use)   # use (N,) bool: may define the pose
         with timed(timings, "pnp"):
             cam = self.rig.cameras[0]
             if keep is None:
@@ -162,11 +157,11 @@ class StereoPnpEstimator(Estimator):
 class KltPnpEstimator(StereoPnpEstimator):
     """Seed 003's optical-flow stereo VO. Options: ``klt_config`` (:class:`KltConfig`), ``pnp_config``.
     Collaborators (default: the product's): ``tracker``, a :class:`KltTracker` (or one that behaves as it);
-    ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks
-    in the current left camera (default: stereo KLT, the depth-edge test, triangulation);
-    ``keyframe_adjuster`` (default none: seed 003 without its keyframe optimization), an object with ``reset()``
-    and ``adjust(left, right, T_o_c0 (4,4), ids (N,), px (N,2), landmarks {id: p_o (3,)} of the tracked ids) -> (T_o_c0 (4,4),
-    landmarks {id: p_o (3,)}, rejected ids)``, called on every keyframe before its new tracks are triangulated
+    ``landmark_source(left, right, ids (N,), p_l (N, 2)) -> (p_c0 (N, 3), ok (N,))``, the landmarks of new tracks in
+    the current left camera (default: stereo KLT, the depth-edge test, triangulation); ``keyframe_adjuster``
+    (default none: seed 003 without its keyframe optimization), an object with ``reset()`` and ``adjust(left, right,
+    T_o_c0 (4,4), ids (N,), px (N,2), landmarks {id: p_o (3,)} of the tracked ids) -> (T_o_c0 (4,4), landmarks {id:
+    p_o (3,)}, rejected ids)``, called on every keyframe before its new tracks are triangulated
     (``docs/studies/keyframe_ba.py`` supplies a windowed bundle adjustment). ``disparity_offset``
     (:class:`OffsetConfig`): the online stereo disparity-offset estimate (:mod:`vo.estimators.disparity_offset`)
     that corrects landmark depths under an inconsistent calibration; ``offset``, the estimate itself (a
@@ -174,8 +169,8 @@ class KltPnpEstimator(StereoPnpEstimator):
     (:class:`~vo.estimators.rigidity.RigidityConfig`, or its fields; off by default, measured in
     ``docs/estimators.md``): the distance-invariance test across frames (seed 001 eq. 2) on each frame's PnP
     inliers, their birth positions against a fresh stereo match; the flagged landmarks leave the inliers and the
-    pose is refined without them; ``rigidity_observer(px (M,2), kept (M,) bool)`` (studies) receives the left
-    pixels of the inliers it tested and its verdict."""
+    pose is refined without them; ``rigidity_observer(px (M,2), kept (M,) bool)`` (studies) receives the left pixels
+    of the inliers it tested and its verdict."""
 
     name = "klt-pnp"
 
@@ -197,6 +192,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         offset_config = OffsetConfig.from_option(disparity_offset, f"{self.name}.disparity_offset")
         self.offset = offset if offset is not None else DisparityOffset(offset_config, float(cam.K[0, 0]), rig.baseline)
         self._raw: dict = {}             # track id -> p_o (3,) as triangulated (before the offset's correction)
+        self._offset_only = OffsetOnlyTracks()   # tracks the offset estimate sees but the pose does not
         self._applied_offset = 0.0
         self._replayed_offset = 0.0      # the offset the recorded chain was last re-chained with
         self._chain = ChainRecord(offset_config.replay_frames if keyframe_adjuster is None else 0)
@@ -209,6 +205,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         self.landmarks.clear()
         self.near.clear()
         self._raw.clear()
+        self._offset_only.reset()
         self._chain.reset()
         if self.keyframe_adjuster is not None:
             self.keyframe_adjuster.reset()
@@ -266,7 +263,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         """The product's landmark source: stereo KLT (with ``klt_config.stereo_prior``, started for the corners it
         loses from zero disparity at the disparity of the nearest landmarks: :mod:`vo.frontend.stereo_prior`),
         the depth-edge test, triangulation in the left camera."""
-        known = np.isin(self.tracker.ids, np.fromiter(self.landmarks, np.int64, len(self.landmarks)))
+        known = self._offset_only.pose_all(self.tracker.ids) & np.isin(self.tracker.ids, list(self.landmarks))
         p_known = np.array([self.landmarks[int(i)] for i in self.tracker.ids[known]]).reshape(-1, 3)
         prior = disparity_guess(p_l, *landmark_refs(self.rig, inv_T(self.T_o_c0), p_known, self.tracker.pts[known])) \
             if self.klt_config.stereo_prior else None
@@ -284,7 +281,8 @@ class KltPnpEstimator(StereoPnpEstimator):
         p_prev = self.tracker.pts.copy()
         with timed(timings, "track"):
             alive = self.tracker.track(left)
-        return coast_rotation(p_prev[alive], self.tracker.pts, self.rig.cameras[0])
+        return coast_rotation(*self._offset_only.pose_rows(self.tracker.ids, p_prev[alive], self.tracker.pts),
+                              self.rig.cameras[0])
 
     def _step(self, t_ns, left, right, timings) -> FrameResult:
         p_prev = self.tracker.pts.copy()
@@ -292,13 +290,14 @@ class KltPnpEstimator(StereoPnpEstimator):
             alive = self.tracker.track(left)
             ids = self.tracker.ids
             self.landmarks = {int(i): self.landmarks[int(i)] for i in ids}
-        n_feat = len(ids)
-        R_track = lambda: coast_rotation(p_prev[alive], self.tracker.pts, self.rig.cameras[0])  # noqa: E731
-        if n_feat < self.pnp_config.min_features:
-            return self._fail(t_ns, "few_features", n_feat, 0, f"{n_feat} tracked < {self.pnp_config.min_features}",
+        use = self._offset_only.pose_all(ids)
+        n_feat, n_pose = len(ids), int(use.sum())          # all tracks; those that may define the pose (use)
+        R_track = lambda: coast_rotation(p_prev[alive][use], self.tracker.pts[use], self.rig.cameras[0])  # noqa: E731
+        if n_pose < self.pnp_config.min_features:
+            return self._fail(t_ns, "few_features", n_feat, 0, f"{n_pose} tracked < {self.pnp_config.min_features}",
                               R_track())
         p_o = np.array([self.landmarks[int(i)] for i in ids])
-        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings)
+        T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings, None if use.all() else use)
         if T_o_c0 is not None and (self.pnp_config.near_baselines > 0 or self.rigidity.enabled):
             near = np.array([self.near[int(i)][0] for i in ids], bool)
             rays = tuple(np.array([self.near[int(i)][k] for i in ids]).reshape(-1, 3) for k in (1, 2))
@@ -310,17 +309,18 @@ class KltPnpEstimator(StereoPnpEstimator):
         if T_o_c0 is None or not self._accept_pose(T_o_c0):
             return self._fail(t_ns, "lost", n_feat, n_inl, f"PnP failed: {n_inl} inliers of {n_feat} tracked",
                               R_track())
-        self.tracker.keep(kept_tracks(T_o_c0, p_o, self.tracker.pts, inl, self.rig.cameras[0], self.offset.config))
+        kept = kept_tracks(T_o_c0, p_o, self.tracker.pts, inl, self.rig.cameras[0], self.offset.config)
+        self.tracker.keep(self._offset_only.keep(ids, inl, kept, self.offset.pending_ids()))
         status, msg = "ok", ""
         if self._next_keyframe:
             with timed(timings, "detect"):
-                new_ids = self.tracker.detect(left)
+                new_ids = self._offset_only.detect(self.tracker, left)
             n_new = self._add_landmarks(left, right, new_ids, timings)
             status, msg = "keyframe", f"{n_new} new landmarks"
         self.landmarks = {int(i): self.landmarks[int(i)] for i in self.tracker.ids}
         self.near = {i: self.near[i] for i in self.landmarks}
         self._update_offset()
-        self._next_keyframe = is_keyframe(self.tracker.empty_fraction, n_inl, self.klt_config)
+        self._next_keyframe = is_keyframe(self._offset_only.empty_fraction(self.tracker), n_inl, self.klt_config)
         return self._result(t_ns, status, n_feat, n_inl, msg)
 
     def _update_offset(self) -> None:
@@ -334,7 +334,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         pts = self.tracker.pts
         px = undistort_px(pts, cam)
         x_n = to_normalized(px, cam.K)
-        self._chain.frame(self.T_o_c0, self.tracker.ids, px)
+        self._chain.frame(self.T_o_c0, *self._offset_only.pose_tracks(self.tracker.ids, px))
         self.offset.observe(self.tracker.ids, x_n, self.T_o_c0)
         if self.offset.delta_px != self._applied_offset:
             if abs(self.offset.delta_px - self._replayed_offset) > self.offset.config.replay_step_px:

@@ -7,12 +7,18 @@ the 6 baselines that the online offset estimate waits for (:mod:`vo.estimators.d
 2 px inlier gate removes exactly the landmarks that carry the offset, and the estimate, fitted on the survivors,
 falls short of it: on the real KITTI turn 0.79 / 1.17 / 1.42 px with a 1 / 2 / 4 px PnP gate, on
 ``campus-realistic`` seed 0 (not applied) 0.27 / 0.29 / 0.40 px for the rig's 0.45 px (docs/estimators.md).
-Keeping, as tracks, the outliers within ``track_gate_px`` (4 px, twice the inlier gate, was measured) of the
-fitted pose lets the estimate see them; they do not enter that frame's pose (PnP already chose its inliers), and
-the next frame's PnP tests them again. Off by default (``track_gate_px`` 0: every outlier is dropped, as in seed
-003; also with the offset estimate off): the kept outliers make the next frames' PnP consensus search fit more
-candidate motions, +8-13 ms CPU per frame on ``campus-realistic`` (20 -> 28-33 ms), beyond ``klt-pnp``'s 20 ms
-budget, and they move the drift on consistent calibrations (docs/estimators.md).
+Keeping, as tracks, the outliers within ``track_gate_px`` (4 px, twice the inlier gate, was measured; the
+default) of the fitted pose lets the estimate see them. They are kept for the estimate only
+(:class:`OffsetOnlyTracks`): KLT tracks them and the estimate observes them, but nothing that defines the pose
+sees them: not that frame's pose (PnP already chose its inliers), nor any later PnP input, the re-chaining record
+(:mod:`vo.estimators.offset_replay`), the keyframe rule's empty cells, new-corner detection, the ``min_features``
+count, the coasting rotation or the stereo prior; each frame they are tested against the new pose and leave
+beyond the gate, or once their birth keyframe has been fitted (no later fit reads them). Where no offset is
+applied the trajectory is therefore that of gate 0. Kept as ordinary tracks instead (the next PnP testing them
+again), they made the PnP's consensus search fit more candidate motions, 28-33 ms CPU per frame on
+``campus-realistic`` against the 20 ms budget; kept for the estimate only they cost 0.6-1.2 ms (tracking them,
+larger offset fits; docs/estimators.md). ``track_gate_px`` 0 (or the offset estimate off) drops every outlier,
+as seed 003 does.
 """
 from __future__ import annotations
 
@@ -37,3 +43,65 @@ def kept_tracks(T_o_c0: np.ndarray, p_o: np.ndarray, px_raw: np.ndarray, inliers
     uv = (np.asarray(cam.K, float) @ (p_c / np.where(z > 0, z, 1.0)[:, None]).T).T[:, :2]
     res = np.linalg.norm(uv - undistort_px(np.asarray(px_raw, float).reshape(-1, 2), cam), axis=1)
     return inliers | ((z > 0) & (res < gate_px))
+
+
+class OffsetOnlyTracks:
+    """The tracks kept for the disparity-offset estimate only: the PnP outliers that :func:`kept_tracks` kept.
+    KLT goes on tracking them and the offset estimate observes them, but they are left out of every later
+    frame's PnP input (and of the re-chaining record that refits poses), so nothing that defines the pose sees
+    them; one that moves beyond the gate of a later pose leaves the tracks."""
+
+    def __init__(self):
+        self.ids: set = set()
+
+    def reset(self) -> None:
+        self.ids.clear()
+
+    def pose_mask(self, ids) -> np.ndarray | None:
+        """(N,) bool: which of the tracks ``ids`` (N,) may define the pose; None when all may."""
+        if not self.ids:
+            return None
+        return ~np.isin(np.asarray(ids, np.int64), np.fromiter(self.ids, np.int64, len(self.ids)))
+
+    def keep(self, ids, inliers: np.ndarray, kept: np.ndarray, pending=None) -> np.ndarray:
+        """Record, of the tracks ``ids`` (N,), the ``kept`` (N,) bool ones that are not PnP ``inliers`` (N,) as
+        offset-only, only those among ``pending`` ids (the landmarks a later offset fit reads; default: all);
+        returns the tracks to keep: the inliers and the offset-only ones."""
+        ids = np.asarray(ids, np.int64)
+        extra = np.asarray(kept, bool) & ~np.asarray(inliers, bool)
+        if pending is not None:
+            extra &= np.isin(ids, pending)
+        self.ids = {int(i) for i in ids[extra]}
+        return np.asarray(inliers, bool) | extra
+
+    def pose_all(self, ids) -> np.ndarray:
+        """(N,) bool: which of the tracks ``ids`` (N,) may define the pose (all True when all may)."""
+        use = self.pose_mask(ids)
+        return np.ones(len(ids), bool) if use is None else use
+
+    def pose_tracks(self, ids, px) -> tuple:
+        """The tracks ``ids`` (N,) and their pixels ``px`` (N,2) that may define the pose."""
+        return self.pose_rows(ids, ids, px)
+
+    def pose_rows(self, ids, *arrays) -> tuple:
+        """Each of ``arrays`` ((N, ...) each, one row per track of ``ids`` (N,)) at the tracks that may define the
+        pose."""
+        use = self.pose_mask(ids)
+        return arrays if use is None else tuple(np.asarray(a)[use] for a in arrays)
+
+    def detect(self, tracker, img) -> np.ndarray:
+        """``tracker.detect(img)`` (a :class:`~vo.frontend.klt.KltTracker`) as if the offset-only tracks were
+        not there: new corners fill the cells those hold too; returns the new ids."""
+        use = self.pose_mask(tracker.ids)
+        if use is None:
+            return tracker.detect(img)
+        pts_only, ids_only = tracker.pts[~use], tracker.ids[~use]
+        tracker.keep(use)
+        new_ids = tracker.detect(img)
+        tracker.pts, tracker.ids = np.vstack([tracker.pts, pts_only]), np.concatenate([tracker.ids, ids_only])
+        return new_ids
+
+    def empty_fraction(self, tracker) -> float:
+        """The tracker's empty-cell fraction (the keyframe rule's) counting the pose tracks only."""
+        use = self.pose_mask(tracker.ids)
+        return tracker.empty_fraction if use is None else tracker.grid.empty_fraction(tracker.pts[use])
