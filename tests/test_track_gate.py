@@ -37,7 +37,7 @@ def test_outliers_near_the_pose_stay_tracks():
     inl = off == 0.0
     kept = kept_tracks(T, p_o, px, inl, CAM, OffsetConfig(track_gate_px=4.0))
     assert np.array_equal(kept, off < 4.0)
-    assert OffsetConfig().track_gate_px == 4.0                                   # the default
+    assert OffsetConfig().track_gate_px == 0.0                                   # off by default
 
 
 def test_seed_003_rule_without_the_gate_or_the_offset_estimate():

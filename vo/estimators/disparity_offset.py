@@ -56,7 +56,7 @@ class OffsetConfig:
     (:mod:`vo.estimators.offset_replay`; 0: none, the frames before keep their long steps), again whenever the
     applied offset has moved by more than ``replay_step_px`` since; ``track_gate_px`` PnP outliers within it of
     the fitted pose stay tracks for the estimate to see, out of every later PnP (:mod:`vo.estimators.track_gate`;
-    0: all dropped, as in seed 003)."""
+    0, the default: all dropped, as in seed 003)."""
 
     enabled: bool = True
     min_travel_baselines: float = knob(6.0, gt=0)
@@ -65,7 +65,7 @@ class OffsetConfig:
     tolerance_px: float = knob(0.0, ge=0)
     min_depth_error: float = knob(0.01, ge=0)
     significance: float = knob(3.0, ge=0)
-    track_gate_px: float = knob(4.0, ge=0)
+    track_gate_px: float = knob(0.0, ge=0)
     replay_frames: int = knob(200, ge=0)
     replay_step_px: float = knob(0.1, ge=0)
 
