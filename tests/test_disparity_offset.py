@@ -11,11 +11,14 @@ from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 F, B = 700.0, 0.5
 
 
-def _drive(delta_true: float, scale: float, noise_px: float = 0.0, n_kf: int = 6, seed: int = 0):
+def _drive(delta_true: float, scale: float, noise_px: float = 0.0, n_kf: int = 6, seed: int = 0, delta_odd=None,
+           odd_pose: bool = True):
     """A camera driving forward 1 m per frame while turning 2 deg per frame; a new keyframe of 60 landmarks
     (depth 4-60 m) every 2 frames, raw disparities short by ``delta_true`` px; the poses handed to the
     estimate are the true ones with the translation ``scale`` times too long (a chain pulled long by the
-    offset). Returns the estimate and the keyframes' landmarks ``(ids, p_true_o, p_raw_o)``."""
+    offset). ``delta_odd``: the odd landmarks' raw disparities short by that instead; ``odd_pose`` False: they are
+    observed as tracks kept for the estimate only (not defining the pose). Returns the estimate and the
+    keyframes' landmarks ``(ids, p_true_o, p_raw_o)``."""
     rng = np.random.default_rng(seed)
     est = DisparityOffset(OffsetConfig(), F, B)
     poses_true, poses_est = [], []
@@ -35,14 +38,15 @@ def _drive(delta_true: float, scale: float, noise_px: float = 0.0, n_kf: int = 6
             p_c = transform_points(inv_T(T_true), np.array([landmarks[i][0] for i in ids]))
             x_n = p_c[:, :2] / p_c[:, 2:3] + rng.normal(0.0, noise_px / F, (len(ids), 2))
             keep = np.all(np.abs(x_n) < 0.8, axis=1)
-            est.observe(ids[keep], x_n[keep], T_est)
+            est.observe(ids[keep], x_n[keep], T_est, None if odd_pose else ids[keep] % 2 == 0)
         if k % 2 == 0 and k < 2 * n_kf:
             z = rng.uniform(4.0, 60.0, 60)
             x_n = rng.uniform(-0.6, 0.6, (60, 2)) * [1.0, 0.3]
             p_c_true = np.c_[x_n * z[:, None], z]
-            z_raw = F * B / (F * B / z - delta_true)
-            p_c_raw = p_c_true * (z_raw / z)[:, None]
             ids = np.arange(next_id, next_id + 60)
+            delta = np.where((ids % 2 == 1) & (delta_odd is not None), delta_odd or 0.0, delta_true)
+            z_raw = F * B / (F * B / z - delta)
+            p_c_raw = p_c_true * (z_raw / z)[:, None]
             next_id += 60
             dir_o = (R @ np.c_[x_n, np.ones(60)].T).T
             est.add(ids, c_est, dir_o, z_raw)
@@ -83,6 +87,20 @@ def test_applied_when_it_matters_for_depth(delta_true, applied):
     ratio = abs(delta_true) / est.median_disparity_px
     assert (0.02 < ratio < 0.03) if applied else (0.003 < ratio < 0.006), ratio
     assert est.delta_px == (pytest.approx(delta_true, abs=0.002) if applied else 0.0)
+
+
+def test_the_pose_tracks_decide_whether_there_is_an_offset():
+    """A consistent rig (the pose tracks exact) whose other half of the tracks, kept for the estimate only, look
+    1.4 px short in disparity (as landmarks on vehicles driving with the camera do to the fit): fitted together
+    the mean is significant and would be applied, but the fits on the pose tracks alone find no offset, so none
+    is applied. The same tracks defining the pose (nothing to tell them apart): applied."""
+    est, _ = _drive(0.0, scale=1.0, delta_odd=1.4, odd_pose=False)
+    mean, se, significant = est._significant(est.fits)
+    assert significant and mean > 0.3, (mean, se)
+    assert np.allclose([f[0] for f in est.pose_fits], 0.0, atol=0.002)
+    assert est.delta_px == 0.0
+    both, _ = _drive(0.0, scale=1.0, delta_odd=1.4, odd_pose=True)
+    assert both.delta_px == pytest.approx(mean, abs=1e-9)
 
 
 def test_correction_moves_landmarks_to_true_depth():

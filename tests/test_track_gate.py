@@ -37,7 +37,7 @@ def test_outliers_near_the_pose_stay_tracks():
     inl = off == 0.0
     kept = kept_tracks(T, p_o, px, inl, CAM, OffsetConfig(track_gate_px=4.0))
     assert np.array_equal(kept, off < 4.0)
-    assert OffsetConfig().track_gate_px == 0.0                                   # off by default
+    assert OffsetConfig().track_gate_px == 4.0                                   # the default
 
 
 def test_seed_003_rule_without_the_gate_or_the_offset_estimate():
@@ -79,9 +79,9 @@ class _RecordingOffset(DisparityOffset):
         super().__init__(*args)
         self.seen: list = []
 
-    def observe(self, ids, x_n, T_o_c0):
+    def observe(self, ids, x_n, T_o_c0, pose=None):
         self.seen.append({int(i) for i in ids})
-        super().observe(ids, x_n, T_o_c0)
+        super().observe(ids, x_n, T_o_c0, pose)
 
 
 class _RecordingKltPnp(KltPnpEstimator):

@@ -65,7 +65,7 @@ class OffsetConfig:
     tolerance_px: float = knob(0.0, ge=0)
     min_depth_error: float = knob(0.01, ge=0)
     significance: float = knob(3.0, ge=0)
-    track_gate_px: float = knob(0.0, ge=0)
+    track_gate_px: float = knob(4.0, ge=0)
     replay_frames: int = knob(200, ge=0)
     replay_step_px: float = knob(0.1, ge=0)
 
@@ -98,8 +98,9 @@ class DisparityOffset:
         self.config, self.f, self.fb, self.baseline_m = config, f_px, f_px * baseline_m, baseline_m
         self.births: dict = {}       # id -> (birth centre (3,), raw depth)
         self.keyframes: dict = {}    # birth frame -> (centre (3,), ids (N,), rays (N,3), raw depths (N,)) until fitted
-        self.history: list = []      # (frame, T_o_c0 (4,4), ids (N,), normalised points (N,2))
+        self.history: list = []      # (frame, T_o_c0 (4,4), ids (N,), normalised points (N,2), pose mask (N,) | None)
         self.fits: list = []         # (delta, variance) per fitted keyframe
+        self.pose_fits: list = []    # the same fits on the observations of pose-defining tracks only
         self.delta_px = 0.0
         self.se_px = float("nan")    # standard error of the average (nan until min_keyframes fits)
         self._frame = 0
@@ -120,16 +121,18 @@ class DisparityOffset:
         alive = {int(i) for i in alive_ids}
         self.births = {i: b for i, b in self.births.items() if i in alive}
 
-    def observe(self, ids, x_n: np.ndarray, T_o_c0: np.ndarray) -> None:
+    def observe(self, ids, x_n: np.ndarray, T_o_c0: np.ndarray, pose=None) -> None:
         """The current frame: the estimated pose ``T_o_c0`` (4,4) and the normalised points ``x_n`` (N,2) of the
-        tracked landmarks ``ids`` (N,). Fits the keyframes the camera is now far enough from
-        (:meth:`fit_keyframe`) and updates :attr:`delta_px`."""
+        tracked landmarks ``ids`` (N,), of which ``pose`` (N,) bool (default all) define the pose (the others are
+        kept for this estimate only, :mod:`vo.estimators.track_gate`). Fits the keyframes the camera is now far
+        enough from (:meth:`fit_keyframe`) on all of them, and again on the pose tracks alone where they differ,
+        and updates :attr:`delta_px` (:meth:`_update`)."""
         cfg = self.config
         if not cfg.enabled:
             return
         self._frame += 1
         self.history.append((self._frame, np.asarray(T_o_c0, float).copy(), np.asarray(ids, np.int64).copy(),
-                             np.asarray(x_n, float).copy()))
+                             np.asarray(x_n, float).copy(), None if pose is None else np.asarray(pose, bool).copy()))
         c_k = T_o_c0[:3, 3]
         due = [k for k, g in self.keyframes.items()
                if np.linalg.norm(c_k - g[0]) >= cfg.min_travel_baselines * self.baseline_m]
@@ -138,9 +141,17 @@ class DisparityOffset:
             later = [h for h in self.history if h[0] > k and np.any(h[1][:3, 3] != g[0])]
             n_pick = min(len(later), self.max_frames)
             pick = np.unique(np.round(np.linspace(0, len(later) - 1, n_pick)).astype(int))
-            fit = self.fit_keyframe(*g, [later[j] for j in pick]) if later else None
+            frames = [later[j] for j in pick]
+            fit = self.fit_keyframe(*g, [h[:4] for h in frames]) if later else None
+            if any(h[4] is not None and not h[4].all() for h in frames):
+                fit_pose = self.fit_keyframe(*g, [(k_, T, i[m], x[m]) if m is not None else (k_, T, i, x)
+                                                  for k_, T, i, x, m in frames])
+            else:
+                fit_pose = fit
             if fit is not None:
                 self.fits.append(fit)
+            if fit_pose is not None:
+                self.pose_fits.append(fit_pose)
         oldest = min(self.keyframes, default=self._frame)
         self.history = [h for h in self.history if h[0] > oldest]
         if due:
@@ -234,18 +245,27 @@ class DisparityOffset:
         return float(f"{sol.x[0]:.9g}"), float(f"{var:.9g}")
 
     def _update(self) -> None:
+        """:attr:`delta_px`: the mean of the fits, applied when it passes :meth:`_significant` and so does the mean
+        of the fits on the pose tracks alone. The tracks kept for this estimate only (PnP outliers near the pose)
+        remove the inlier gate's selection from the fitted value, but in traffic they include landmarks on
+        moving actors, which bias it on a consistent rig; the pose tracks decide whether there is an offset."""
+        mean, self.se_px, significant = self._significant(self.fits)
+        self.delta_px = mean if significant and self._significant(self.pose_fits)[2] else 0.0
+
+    def _significant(self, fits) -> tuple:
+        """``(mean, se, significant)`` of keyframe fits ``[(delta, variance)]``: the weighted mean, its standard
+        error from the keyframes' spread (their variances ignore the chain's rotation errors), and whether it is
+        beyond what matters for depth (``min_depth_error`` of the median disparity, at least ``tolerance_px``)
+        by ``significance`` standard errors (fewer than ``min_keyframes`` fits: ``(0, nan, False)``)."""
         cfg = self.config
-        if len(self.fits) < cfg.min_keyframes:
-            return
-        d = np.array([f[0] for f in self.fits])
-        w = 1.0 / np.array([max(f[1], 1e-6) for f in self.fits])
+        if len(fits) < cfg.min_keyframes:
+            return 0.0, float("nan"), False
+        d = np.array([f[0] for f in fits])
+        w = 1.0 / np.array([max(f[1], 1e-6) for f in fits])
         mean = float(np.sum(w * d) / np.sum(w))
-        # standard error from the keyframes' spread (their variances ignore the chain's rotation errors)
         se = float(np.sqrt(np.sum(w * (d - mean) ** 2) / np.sum(w) / max(len(d) - 1, 1)))
-        # significantly beyond what matters for depth (min_depth_error of the median disparity; no landmark: inf)
         floor = max(cfg.tolerance_px, cfg.min_depth_error * self.median_disparity_px)
-        self.se_px = se
-        self.delta_px = mean if abs(mean) - cfg.significance * se > floor else 0.0
+        return mean, se, abs(mean) - cfg.significance * se > floor
 
     def pending_ids(self) -> np.ndarray:
         """(M,) int64: the landmarks of the keyframes not fitted yet (the only ones a later fit reads)."""
@@ -277,8 +297,8 @@ class DisparityOffset:
             if c.tobytes() in moved:
                 T_new, R_new_old = moved[c.tobytes()]
                 self.keyframes[k] = (T_new[:3, 3].copy(), ids, dirs @ R_new_old.T, z)
-        self.history = [(k, moved[T[:3, 3].tobytes()][0].copy() if T[:3, 3].tobytes() in moved else T, ids, x)
-                        for k, T, ids, x in self.history]
+        self.history = [(k, moved[T[:3, 3].tobytes()][0].copy() if T[:3, 3].tobytes() in moved else T, ids, x, m)
+                        for k, T, ids, x, m in self.history]
 
     def correct(self, i: int, p_raw_o: np.ndarray) -> np.ndarray:
         """Landmark ``i``'s raw position ``p_raw_o`` (3,) moved along its birth ray to the depth the offset

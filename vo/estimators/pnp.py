@@ -335,7 +335,7 @@ class KltPnpEstimator(StereoPnpEstimator):
         px = undistort_px(pts, cam)
         x_n = to_normalized(px, cam.K)
         self._chain.frame(self.T_o_c0, *self._offset_only.pose_tracks(self.tracker.ids, px))
-        self.offset.observe(self.tracker.ids, x_n, self.T_o_c0)
+        self.offset.observe(self.tracker.ids, x_n, self.T_o_c0, self._offset_only.pose_all(self.tracker.ids))
         if self.offset.delta_px != self._applied_offset:
             if abs(self.offset.delta_px - self._replayed_offset) > self.offset.config.replay_step_px:
                 self._replay_chain()
