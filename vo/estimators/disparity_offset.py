@@ -24,7 +24,9 @@ campus rig 2.3-2.6 % before it is applied (3.6-5.7 % after), on the real KITTI t
 lies about a factor 2 from each side. A pixel floor, ``tolerance_px``, is 0 by default: a fixed pixel tolerance
 is too much for a far scene (small disparities, where an offset matters most) and too little for a near one.
 The tracks it is fitted on are ``klt-pnp``'s PnP inliers and the outliers near the pose (the inliers alone are
-a selection that pulls the estimate short of the offset: :mod:`vo.estimators.track_gate`). Depths are then corrected
+a selection that pulls the estimate short of the offset: :mod:`vo.estimators.track_gate`); the fits on the pose
+tracks (the inliers) alone must pass the same test, since in traffic the outliers near the pose include actors
+moving with the camera, which bias the estimate. Depths are then corrected
 along each landmark's birth ray: ``z' = f b / (f b / z + delta)``
 (exact on a rectified rig; on an unrectified one the offset of the equivalent rectified pair).
 
@@ -56,7 +58,7 @@ class OffsetConfig:
     (:mod:`vo.estimators.offset_replay`; 0: none, the frames before keep their long steps), again whenever the
     applied offset has moved by more than ``replay_step_px`` since; ``track_gate_px`` PnP outliers within it of
     the fitted pose stay tracks for the estimate to see, out of every later PnP (:mod:`vo.estimators.track_gate`;
-    0, the default: all dropped, as in seed 003)."""
+    0: all dropped, as in seed 003)."""
 
     enabled: bool = True
     min_travel_baselines: float = knob(6.0, gt=0)

@@ -17,11 +17,13 @@ beyond the gate, or once their birth keyframe has been fitted (no later fit read
 applied the trajectory is therefore that of gate 0. Kept as ordinary tracks instead (the next PnP testing them
 again), they made the PnP's consensus search fit more candidate motions, 28-33 ms CPU per frame on
 ``campus-realistic`` against the 20 ms budget; kept for the estimate only they cost 0.6-1.2 ms (tracking them,
-larger offset fits; docs/estimators.md). ``track_gate_px`` 0 (the default, or the offset estimate off) drops every outlier,
-as seed 003 does. Off by default: in traffic the outliers near the pose include landmarks on moving actors and on
-depth edges, and the estimate they feed is biased on a consistent rig (``urban-dynamic`` seed 0, full route:
--0.84 px at frame 100, -0.36 px at frame 600, applied, drift 3.87 -> 10.45 %), while on the real KITTI turn it
-takes ``klt-pnp`` 2.58 -> 0.55 % (docs/estimators.md).
+larger offset fits; docs/estimators.md). ``track_gate_px`` 0 (or the offset estimate off) drops every outlier,
+as seed 003 does. In traffic the outliers near the pose include landmarks on actors moving with the camera,
+which the fit reads as depths too long: on a consistent rig (``urban-dynamic`` seed 0, full route) the estimate
+with them reached -0.84 px at frame 100 and -0.36 px at frame 600, applied, drift 3.87 -> 10.45 %. So the pose
+tracks alone decide whether an offset is applied (:meth:`DisparityOffset._update`: their own fits must pass the
+test too) and the kept outliers only sharpen its value: ``urban-dynamic`` 0 stays at 3.87 %, the real KITTI
+turn goes 2.58 -> 0.55 % (docs/estimators.md).
 """
 from __future__ import annotations
 
