@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from rigs.geometry import inv_T, transform_points
+from rigs.geometry.pinhole import project
 from vo.frontend.stereo import undistort_px
 
 
@@ -45,7 +46,7 @@ def kept_tracks(T_o_c0: np.ndarray, p_o: np.ndarray, px_raw: np.ndarray, inliers
         return inliers
     p_c = transform_points(inv_T(T_o_c0), np.asarray(p_o, float).reshape(-1, 3))
     z = p_c[:, 2]
-    uv = (np.asarray(cam.K, float) @ (p_c / np.where(z > 0, z, 1.0)[:, None]).T).T[:, :2]
+    uv = project(np.column_stack([p_c[:, :2], np.where(z > 0, z, 1.0)]), np.asarray(cam.K, float))
     res = np.linalg.norm(uv - undistort_px(np.asarray(px_raw, float).reshape(-1, 2), cam), axis=1)
     return inliers | ((z > 0) & (res < gate_px))
 
