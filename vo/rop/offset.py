@@ -14,10 +14,11 @@ The estimate is ``klt-pnp``'s (:class:`~vo.estimators.disparity_offset.Disparity
 stereo depth and left ray at the estimator's pose) and observed on every later frame at its current left
 point (``FourView.x3``) with the estimator's pose. The pose tracks of ``klt-pnp``'s guard are the track
 filter's PnP inliers (:attr:`vo.rop.moving.TrackFilter.inliers`): an offset is applied only when the fits on
-them alone pass the test too. In traffic the other tracks include actors moving with the camera, which read
-as a negative offset (``urban-dynamic`` seed 0, a consistent rig: -0.39 px, se 0.10, at frame 102 without the
-guard). Once an offset is applied, the four-view tracker stores
-every new right-image match with the right principal point corrected by it
+them alone pass the test too (``klt-pnp`` needs that guard against actors moving with the camera among its
+kept outliers). It does not hold the early keyframes of ``urban-dynamic`` seed 0 (a consistent rig), whose fits
+sit at the test's edge on the pose tracks as on all tracks (-0.39 px, se 0.10, at frame 102: applied on and off
+for a few frames; docs/estimators.md, "``rop``: the same offset estimate"). Once an offset is applied, the
+four-view tracker stores every new right-image match with the right principal point corrected by it
 (:attr:`vo.rop.tracks.KltFourView.right_shift_px`), so the ROPs and the triangulations read the corrected
 disparities; on a consistent rig nothing is applied and ``rop`` computes exactly what it does without the
 estimate. Not in seed 000 (whose rig is calibrated): like ``klt-pnp``'s, an online self-calibration of
