@@ -313,6 +313,12 @@ class KltTracker:
         self.image = img
         return ids
 
+    def append(self, pts: np.ndarray, ids: np.ndarray) -> None:
+        """Add existing tracks (pixels ``pts`` (M,2), ids ``ids`` (M,) taken from this tracker earlier) after the
+        current ones, e.g. tracks set aside by :meth:`keep` while :meth:`detect` filled the cells."""
+        self.pts = np.vstack([self.pts, np.asarray(pts, np.float64).reshape(-1, 2)])
+        self.ids = np.concatenate([self.ids, np.asarray(ids, np.int64)])
+
     def keep(self, mask: np.ndarray) -> None:
         """Keep only the tracks where ``mask`` (N,) is True."""
         self.pts, self.ids = self.pts[mask], self.ids[mask]
