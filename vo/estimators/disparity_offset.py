@@ -198,20 +198,31 @@ class DisparityOffset:
             return None
         d_raw = self.fb / z_raw
         n_f, fb, f = len(frames), self.fb, self.f
+        memo: dict = {}          # the model at the last points LM evaluated (its Jacobian comes at one of them)
+
+        def per_frame():
+            """Each frame's observations (obs_f is sorted): (slice, landmark indices, their rays)."""
+            ends = np.searchsorted(obs_f, np.arange(n_f + 1))
+            return [(slice(a, b), obs_l[a:b], dir_b[obs_l[a:b]]) for a, b in zip(ends[:-1], ends[1:])]
 
         def model(v):
             """Per observation: camera-frame point (K,3), d p_c / d rvec (K,3,3), d p_c / d delta (K,3)."""
+            key = v.tobytes()
+            if key in memo:
+                return memo[key]
             den = np.maximum(d_raw + v[0], 1e-3)
             p_o = c_b[None, :] + dir_b * (fb / den)[:, None]
             p_c, dp_r, dp_d = np.empty((len(obs_f), 3)), np.empty((len(obs_f), 3, 3)), np.empty((len(obs_f), 3))
-            for f_i in range(n_f):
-                m = obs_f == f_i
+            for f_i, (m, lm, dirs) in enumerate(frame_obs):
                 R, dR = cv2.Rodrigues(v[1 + 6 * f_i:4 + 6 * f_i].reshape(3, 1))
-                p = p_o[obs_l[m]]
+                p = p_o[lm]
                 p_c[m] = p @ R.T + v[4 + 6 * f_i:7 + 6 * f_i]
                 dp_r[m] = np.einsum("kij,nj->nik", dR.reshape(3, 3, 3), p)
-                dp_d[m] = (dir_b[obs_l[m]] @ R.T) * (-fb / den[obs_l[m]] ** 2)[:, None]
-            return p_c, dp_r, dp_d
+                dp_d[m] = (dirs @ R.T) * (-fb / den[lm] ** 2)[:, None]
+            if len(memo) >= 4:
+                memo.pop(next(iter(memo)))
+            memo[key] = p_c, dp_r, dp_d
+            return memo[key]
 
         def residuals(v):
             p_c = model(v)[0]
@@ -239,6 +250,7 @@ class DisparityOffset:
             return None
         # MINPACK's LM (its own QR: no threaded BLAS, whose small SVDs cost much CPU on a loaded machine), then
         # again without the observations beyond the PnP inlier gate (2 px) of the first fit.
+        frame_obs = per_frame()
         try:
             sol = least_squares(residuals, np.array(v0), jac=jacobian, method="lm", x_scale="jac", max_nfev=50)
             keep = np.linalg.norm(sol.fun.reshape(-1, 2), axis=1) < 2.0
@@ -246,6 +258,8 @@ class DisparityOffset:
                     or np.bincount(obs_f[keep], minlength=n_f).min() < MIN_FRAME_LANDMARKS:
                 return None
             obs_f, obs_l, obs_x = obs_f[keep], obs_l[keep], obs_x[keep]
+            frame_obs = per_frame()
+            memo.clear()
             sol = least_squares(residuals, sol.x, jac=jacobian, method="lm", x_scale="jac", max_nfev=50)
             J = sol.jac
             dof = max(J.shape[0] - J.shape[1], 1)
