@@ -115,6 +115,12 @@ def test_correction_moves_landmarks_to_true_depth():
         errs.append(np.linalg.norm(est.correct(i, p_raw) - p_true))
     assert np.median(errs_raw) > 0.5
     assert np.max(errs) < 0.02 * np.max(errs_raw) + 0.05
+    raw = {i: lms[i][1] for i in lms}
+    raw[-1] = np.ones(3)                      # a landmark the estimate does not know stays where it is
+    together = est.correct_all(raw)
+    assert list(together) == list(raw) and together[-1] is raw[-1]
+    for i in est.births:                      # the same arithmetic as one at a time: equal to the bit
+        np.testing.assert_array_equal(together[i], est.correct(i, raw[i]))
 
 
 def test_config_checked():

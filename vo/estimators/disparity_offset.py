@@ -339,6 +339,20 @@ class DisparityOffset:
         z_new = self.fb / (self.fb / b[1] + self.delta_px)
         return b[0] + (p_raw_o - b[0]) * (z_new / b[1])
 
+    def correct_all(self, raw_o: dict) -> dict:
+        """:meth:`correct` of every landmark of ``raw_o`` ({id: raw position (3,)}) in one pass -> {id: position
+        (3,)}, in the same order (the same arithmetic, element by element)."""
+        known = [i for i in raw_o if i in self.births] if self.delta_px != 0.0 else []
+        if not known:
+            return dict(raw_o)
+        c_b = np.array([self.births[i][0] for i in known])
+        z = np.array([self.births[i][1] for i in known])
+        z_new = self.fb / (self.fb / z + self.delta_px)
+        moved = c_b + (np.array([raw_o[i] for i in known]) - c_b) * (z_new / z)[:, None]
+        out = dict(raw_o)
+        out.update(zip(known, moved))
+        return out
+
 
 def _seen(ids, frames) -> list:
     """The observations of the landmarks ``ids`` (M,) on ``frames`` ((frame, T_o_c0, ids, x_n) each) that
