@@ -113,7 +113,7 @@ def test_runner_replaces_nan_pose():
 def test_runner_blank_dataset_klt_pnp():
     res = run_estimator("klt-pnp", FakeDataset(make_rig(), 3), progress=False)
     assert [f.status for f in res.frames] == ["few_features"] * 3 and res.n_lost == 3
-    assert set(res.timings_ms) == {"detect", "track", "stereo", "pnp", "total"}
+    assert set(res.timings_ms) == {"detect", "track", "stereo", "pnp", "total", "cpu"}
 
 
 def synth_dataset(tmp_path):
@@ -165,3 +165,26 @@ def test_cli_run_external_and_registered(tmp_path, monkeypatch):
                                  "--max-frames", "3", "--out", str(out)])
     assert r.exit_code == 0, r.output
     assert "step: 3 frames, 0 lost, path 0.20 m" in r.output
+
+
+class SleepyEstimator(Estimator):
+    """Waits 30 ms per frame (no CPU), then spins until 20 ms of this process's CPU time have passed."""
+
+    name = "sleepy"
+
+    def process(self, frame):
+        import time
+        time.sleep(0.030)
+        c0 = time.process_time()
+        while time.process_time() - c0 < 0.020:
+            pass
+        return FrameResult(frame.t_ns, np.eye(4), "ok")
+
+
+def test_runner_cpu_stage_counts_cpu_not_waiting():
+    """The runner's ``cpu`` stage is the CPU time of each ``process`` call: the 20 ms spun, not the 30 ms slept
+    (process_time's resolution is well under a millisecond on Linux; the loop overshoots by one tick at most)."""
+    res = run_estimator("test_estimators_registry:SleepyEstimator", FakeDataset(make_rig(), 4), progress=False)
+    cpu = [f.timings_ms["cpu"] for f in res.frames]
+    assert all(20.0 <= c < 28.0 for c in cpu), cpu
+    assert res.timings_ms["cpu"] == pytest.approx(np.mean(cpu))

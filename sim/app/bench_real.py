@@ -17,6 +17,7 @@ import numpy as np
 from vo.dataset import open_dataset
 from vo.errors import DatasetError
 from vo.estimators.registry import check_spec
+from vo.estimators.runner import CPU_STAGE
 from vo.eval.kitti_segments import KITTI_LENGTHS_M, kitti_errors
 from vo.pipeline import prepare_out_dir, run_and_evaluate
 
@@ -45,6 +46,7 @@ class RealBenchRow:
     ms_per_frame: float
     status_counts: dict = field(default_factory=dict)
     plot: str = ""
+    cpu_ms_per_frame: float = float("nan")   # CPU ms of the estimator's calls (the runner's ``cpu`` stage)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -79,7 +81,7 @@ def row_of(recording: str, name: str, res) -> RealBenchRow:
     return RealBenchRow(recording, name, len(run.frames), float(ev.drift.gt_length_m), float(ev.drift.drift_ratio_pct),
                         float(ev.drift.end_diff_m), float(ev.drift.est_length_m), float(ev.ape.trans.rmse),
                         float(ev.rpe_frame.trans.rmse), float(ev.rpe_frame.rot_deg.rmse), t_err, r_err, n_seg,
-                        float(total), counts)
+                        float(total), counts, cpu_ms_per_frame=float(run.timings_ms.get(CPU_STAGE, float("nan"))))
 
 
 def ground_axes(positions: np.ndarray) -> tuple:
@@ -149,11 +151,11 @@ def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: 
 def format_rows(rows) -> str:
     """Plain-text table of :class:`RealBenchRow` (segment errors "-" where the route is under 100 m)."""
     lines = [f"{'recording':<22}{'estimator':<10}{'frames':>7}{'path m':>9}{'drift %':>9}{'est m':>9}{'ATE m':>8}"
-             f"{'RPE m':>8}{'RPE deg':>9}{'KITTI %':>9}{'deg/100m':>9}{'ms/frame':>10}  frames by status"]
+             f"{'RPE m':>8}{'RPE deg':>9}{'KITTI %':>9}{'deg/100m':>9}{'ms/frame':>10}{'CPU ms':>8}  frames by status"]
     for r in rows:
         kt = f"{r.kitti_t_err_pct:9.2f}{r.kitti_r_err_deg_per_100m:9.3f}" if r.kitti_segments else f"{'-':>9}{'-':>9}"
         st = " ".join(f"{k} {v}" for k, v in sorted(r.status_counts.items()))
         lines.append(f"{r.recording:<22}{r.estimator:<10}{r.n_frames:7d}{r.path_length_m:9.1f}{r.drift_pct:9.2f}"
                      f"{r.est_length_m:9.1f}{r.ate_rmse_m:8.3f}{r.rpe_trans_rmse_m:8.3f}{r.rpe_rot_rmse_deg:9.3f}{kt}"
-                     f"{r.ms_per_frame:10.1f}  {st}")
+                     f"{r.ms_per_frame:10.1f}{r.cpu_ms_per_frame:8.1f}  {st}")
     return "\n".join(lines)

@@ -21,12 +21,14 @@ from rigs.trajectory import Trajectory
 from rigs.trajfile import write_kitti, write_tum
 
 LOST_STATUSES = ("few_features", "lost")
+CPU_STAGE = "cpu"             # the runner's own stage: CPU ms of the estimator's ``process`` call
 
 
 @dataclass
 class RunResult:
     """``trajectory`` of ``T_o_c0`` (ref "o", frame "c0"); ``frames`` per-frame results (empty for external
-    commands); ``timings_ms`` mean ms per stage over frames; ``n_lost`` frames with status few_features/lost.
+    commands); ``timings_ms`` mean ms per stage over frames (the
+    estimator's wall-clock stages, and the runner's ``cpu``: CPU ms of each ``process`` call); ``n_lost`` frames with status few_features/lost.
     Each pose has a class (:data:`~vo.estimators.base.FRAME_CLASSES`); evaluation uses the produced ones
     (:meth:`estimated`), a placeholder (init, lost) counts as not covered."""
 
@@ -130,7 +132,10 @@ def run_estimator(spec: str, dataset, options: dict | None = None, progress: boo
 
 
 def _checked(est, frame, last: FrameResult | None) -> FrameResult:
-    """Call ``est.process``; wrap foreign exceptions; enforce a finite 4x4 pose and a known status."""
+    """Call ``est.process``; wrap foreign exceptions; enforce a finite 4x4 pose and a known status. The CPU
+    time of the call (:func:`time.process_time`: every thread of the process, so a machine shared with other
+    jobs does not inflate it as it does the estimator's wall-clock stages) is the frame's ``cpu`` stage (ms)."""
+    c0 = time.process_time()
     try:
         res = est.process(frame)
     except VoError:
@@ -138,6 +143,7 @@ def _checked(est, frame, last: FrameResult | None) -> FrameResult:
     except Exception as e:  # a plug-in's bug: report it with the frame, one line
         raise EstimatorError(f"{est.name or type(est).__name__}: frame {frame.index} (t_ns={frame.t_ns}) "
                              f"raised {type(e).__name__}: {e}") from e
+    res.timings_ms = {**(res.timings_ms or {}), CPU_STAGE: (time.process_time() - c0) * 1e3}
     T = np.asarray(res.T_o_c0, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         res.T_o_c0 = last.T_o_c0.copy() if last is not None else np.eye(4)
