@@ -101,6 +101,17 @@ def test_out_in_an_unwritable_place(synth, tmp_path, capsys):
     assert_one_line_exit_2(code, err, "cannot write output folder")
 
 
+@pytest.mark.parametrize("estimator, opt, needle", [
+    ("rop", "disparity_offset={min_keyframes: 0}", "rop.disparity_offset.min_keyframes: must be >= 1"),
+    ("klt-pnp", "disparity_offset={track_gate_px: -1}", "klt-pnp.disparity_offset.track_gate_px"),
+])
+def test_run_bad_estimator_option_leaves_no_output_folder(estimator, opt, needle, synth, tmp_path, capsys):
+    code, _, err = vo_testbed(capsys, "run", "--dataset", synth / "ds", "--estimator", estimator, "--opt", opt,
+                              "--out", tmp_path / "o", "--no-progress")
+    assert_one_line_exit_2(code, err, needle)
+    assert not (tmp_path / "o").exists()
+
+
 def test_demo_unknown_estimator_refused_before_rendering(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("VO_TESTBED_CACHE", str(tmp_path / "cache"))
     code, out, err = vo_testbed(capsys, "demo", "--scenario", "smoke", "--estimators", "klt-pnp,nosuch",

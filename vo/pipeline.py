@@ -7,6 +7,8 @@ given, an external program on every frame of the dataset.
 """
 from __future__ import annotations
 
+import contextlib
+
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -76,8 +78,15 @@ def run_dataset(dataset_dir, estimator: str, out_dir, options: Optional[dict] = 
     ds = open_dataset(dataset_dir)
     refuse_dataset_as_out(ds, dataset_dir, out_dir)
     ds = for_estimators(ds)            # fisheye cameras: the cv2.fisheye-rectified view
+    created = not Path(out_dir).expanduser().exists()
     out = prepare_out_dir(out_dir)
-    run = run_estimator(estimator, ds, options=options or {}, progress=progress, max_frames=max_frames, seed=seed)
+    try:
+        run = run_estimator(estimator, ds, options=options or {}, progress=progress, max_frames=max_frames, seed=seed)
+    except BaseException:              # a bad option or a failed run: no empty folder left where results would be
+        if created:
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise
     run.save(out)                      # kept even when the evaluation then fails
     if ds.groundtruth is None or len(run.estimated()) < 2:
         return run, None

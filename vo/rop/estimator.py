@@ -65,8 +65,9 @@ from vo.rop.cov_models import make_uncertainty
 from vo.rop.epochs import EpochRecord
 from vo.rop.initial_eops import initial_eops
 from vo.rop.moving import TrackFilter, filter_tracks
+from vo.rop.offset import RopOffset
 from vo.rop.ropset import PAIRS
-from vo.rop.rotation_only import MIN_ROTATION_TRACKS, rotation_only
+from vo.rop.rotation_only import MIN_ROTATION_TRACKS, rotation_only, rotation_only_step
 from vo.rop.rotation_test import RotationTester, readjusted_step
 from vo.rop.tracks import KltFourView
 from vo.rop.uncertainty import Step, UncertaintyModel
@@ -87,12 +88,13 @@ class RopEstimator(Estimator):
     frame's ROP solve (studies: what a step was solved from); ``rigidity``
     (:class:`~vo.estimators.rigidity.RigidityConfig`, or its fields) the distance-invariance test across frames
     (seed 001 eq. 2) on the four-view tracks the track filter kept: keyframe stereo points against the current
-    frame's; flagged tracks leave the view."""
+    frame's; flagged tracks leave the view; ``disparity_offset`` (:class:`~vo.estimators.disparity_offset.
+    OffsetConfig`, or its fields) the online estimate of a right principal-point error (:mod:`vo.rop.offset`)."""
 
     name = "rop"
 
     def __init__(self, rig, config: RopConfig | None = None, uncertainty: UncertaintyModel | None = None,
-                 tracker=None, step_observer=None, rigidity=None, **options):
+                 tracker=None, step_observer=None, rigidity=None, disparity_offset=None, **options):
         super().__init__(rig, **options)
         if config is not None and options:
             raise EstimatorError(f"rop: give either config or options, not both (options {sorted(options)})")
@@ -113,6 +115,7 @@ class RopEstimator(Estimator):
         self.step_observer = step_observer
         self.rigidity = RigidityConfig.from_option(rigidity, "rop.rigidity")
         self._rigidity_rng = np.random.default_rng(self.rigidity.seed)   # partner draws
+        self.offset = RopOffset.of(rig, disparity_offset, self.klt)     # None: no estimate
         self.track_filter_config = f = PnpConfig(ransac_reproj_px=c.moving_reproj_px,
                                                  min_model_fraction=c.moving_min_fraction)
         self.rotation_tester = RotationTester(c.pnp_rotation_prob, c.moving_reproj_px, f.max_depth,
@@ -163,6 +166,8 @@ class RopEstimator(Estimator):
             return v
         t0 = time.perf_counter()
         self._filter = f = filter_tracks(v, self.rig, self._prior(), self.track_filter_config)
+        if self.offset is not None:
+            self.offset.filtered(v.ids, f.inliers)
         if f.keep is not None:          # fewer than min_matches left: a failed frame (coasts), not the car's motion
             v = self.klt.view = v.subset(f.keep)
         timings["track"] += (time.perf_counter() - t0) * 1e3
@@ -237,12 +242,7 @@ class RopEstimator(Estimator):
 
     # ------------------------------------------------------------------------------- solving
     def _rotation_only_step(self, R_1_3, parallax, n, disparity) -> tuple:
-        cov = np.zeros((6, 6))
-        s_rot = 3.0 * max(parallax, 0.1) / (self.focal * np.sqrt(max(n, 1)))
-        s_pos = self.baseline * max(parallax, 0.5 * self.config.min_parallax_px) / max(disparity, 1.0)
-        cov[:3, :3], cov[3:, 3:] = s_rot ** 2 * np.eye(3), s_pos ** 2 * np.eye(3)
-        T = make_T(R_1_3, np.zeros(3))
-        return T, cov, ("rotation_only", T, T, None, None)
+        return rotation_only_step(R_1_3, parallax, n, disparity, self.focal, self.baseline, self.config.min_parallax_px)
 
     def rop_set(self, pairs, R_1_3, priors):
         """The four ROPs of one step from its pairs (``{pair: (x_i, x_j)}``), the rotation-only ``R_1_3`` and
@@ -309,6 +309,8 @@ class RopEstimator(Estimator):
 
     # ------------------------------------------------------------------------------- frames
     def _result(self, frame, status, n_feat, n_inl, msg, timings, t0, pose_class="ok") -> FrameResult:
+        if self.offset is not None:      # the frame's pose is set: feed the offset estimate (vo.rop.offset)
+            self.klt.right_shift_px = self.offset.frame(self.klt.view, self.T_o_c0, self.klt.right_shift_px)
         timings["total"] = (time.perf_counter() - t0) * 1e3
         return FrameResult(frame.t_ns, self.T_o_c0.copy(), status, int(n_feat), int(n_inl), self.cov.copy(), msg,
                            timings, pose_class)

@@ -32,13 +32,14 @@ GROSS_STEP_FRACTION = 0.5     # one rigid motion: ROP and PnP steps of the same 
 class TrackFilter:
     """The track filter's verdict on one frame: ``keep`` (N,) bool tracks to keep, None for all of them
     (one rigid motion, or too few triangulated tracks to tell); ``T_kf_c`` the PnP pose keyframe -> current
-    of the chosen motion (None without a fit); ``n_inliers`` its inliers; ``prior_offset_m`` distance of its
-    camera position from the prior's."""
+    of the chosen motion (None without a fit); ``n_inliers`` its inliers (``inliers`` which tracks, None
+    without a fit); ``prior_offset_m`` distance of its camera position from the prior's."""
 
     keep: np.ndarray | None
     T_kf_c: np.ndarray | None = None
     n_inliers: int = 0
     prior_offset_m: float = float("inf")
+    inliers: np.ndarray | None = None    # (N,) bool: the tracks that are PnP inliers of the chosen motion
 
     def frame_pose(self, trusted_prior: bool, prior_gate_m: float, min_inliers: int) -> np.ndarray | None:
         """The PnP pose ``T_kf_c`` (4,4) when it may stand for the frame's: >= ``min_inliers`` inliers and, when
@@ -76,9 +77,8 @@ def filter_tracks(view, rig, T_kf_c_prior: np.ndarray, config: PnpConfig) -> Tra
     T_c_kf, inl, competing = chosen
     T_kf_c = inv_T(T_c_kf)
     offset = float(np.linalg.norm(T_kf_c[:3, 3] - np.asarray(T_kf_c_prior, float)[:3, 3]))
-    keep = None
-    if competing:
-        keep = ~tri
-        keep[tri] = inl
-    return TrackFilter(keep, T_kf_c, int(inl.sum()), offset)
+    inliers = np.zeros(len(tri), bool)
+    inliers[tri] = inl
+    keep = (~tri | inliers) if competing else None
+    return TrackFilter(keep, T_kf_c, int(inl.sum()), offset, inliers)
 

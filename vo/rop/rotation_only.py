@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rigs.geometry import make_T
+
 MIN_ROTATION_TRACKS = 8     # tracks for a rotation-only fit of a failed or coasted frame (rop, klt-pnp)
 
 
@@ -43,3 +45,16 @@ def rotation_only(x_1: np.ndarray, x_3: np.ndarray, focal: float) -> tuple[np.nd
             R_3_1 = kabsch(b1[keep], b3[keep])
     res = np.linalg.norm(b3 - b1 @ R_3_1.T, axis=1) * focal
     return R_3_1.T, float(np.median(res)), res
+
+
+def rotation_only_step(R_1_3: np.ndarray, parallax: float, n: int, disparity: float, focal: float, baseline: float,
+                       min_parallax_px: float) -> tuple:
+    """A "no translation" epoch ``T_kf_c = (R_1_3, 0)`` -> ``(T (4,4), cov (6,6), epoch)``: rotation sigma
+    ``3 max(parallax, 0.1 px) / (f sqrt(n))``, position sigma ``baseline x max(parallax, min_parallax / 2) /
+    median disparity`` per axis (``n`` tracks, ``disparity`` their median keyframe disparity, px)."""
+    cov = np.zeros((6, 6))
+    s_rot = 3.0 * max(parallax, 0.1) / (focal * np.sqrt(max(n, 1)))
+    s_pos = baseline * max(parallax, 0.5 * min_parallax_px) / max(disparity, 1.0)
+    cov[:3, :3], cov[3:, 3:] = s_rot ** 2 * np.eye(3), s_pos ** 2 * np.eye(3)
+    T = make_T(R_1_3, np.zeros(3))
+    return T, cov, ("rotation_only", T, T, None, None)

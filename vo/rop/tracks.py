@@ -12,6 +12,10 @@ with no further matching. When the current frame becomes a keyframe its ``(p3, p
 new ``(p1, p2)`` (tracks without a valid ``p4`` are dropped) and new corners fill the empty cells.
 Every track has an identity (``FourView.ids``, kept across keyframes), which the chain bootstrap
 (:mod:`vo.rop.chain_bootstrap`) uses to resample a track the same way in every step it enters.
+Right-image points are stored with the right camera's principal point corrected by
+:attr:`KltFourView.right_shift_px` (``stored = measured - shift`` along x; 0 unless ``rop``'s online
+disparity-offset estimate applies one, :mod:`vo.rop.offset`), so every triangulation and ROP reads the
+corrected disparity; the images are always sampled at the measured positions.
 
 ``refine="affine"`` (not in seed 003; see :mod:`vo.frontend.affine_lk`): every LK result is then
 refined by an affine window warp against the KEYFRAME template: ``p2`` from ``p1`` (stereo), ``p3``
@@ -142,6 +146,7 @@ class KltFourView:
         self._prev_left = None
         self._ids = TrackIds()       # identities of new tracks
         self._pyramid = config.pyramid_cache()   # normalised pyramids of the last images (None: raw LK)
+        self.right_shift_px = 0.0    # principal-point correction of the stored right points (module docstring)
 
     def normalize(self, p, k):
         cam = self.cams[k]
@@ -149,8 +154,17 @@ class KltFourView:
             return to_normalized(p, cam.K)
         return normalized_points(p, cam.K, cam.dist_coeffs)
 
+    @property
+    def _shift(self) -> np.ndarray:
+        """(2,) stored minus measured right-image position (:attr:`right_shift_px` along x)."""
+        return np.array([self.right_shift_px, 0.0])
+
     def _stereo(self, left, right, p_l, guess=None):
-        p_r, ok = lk_fb(left, right, p_l, self.config, guess, self._pyramid, self.texture_snr, self._noise)
+        """Right points of left points ``p_l`` (N,2) -> ``(p_r stored (N,2), ok (N,))``; ``guess`` stored too."""
+        s = self._shift
+        p_r, ok = lk_fb(left, right, p_l, self.config, None if guess is None else guess + s, self._pyramid,
+                        self.texture_snr, self._noise)
+        p_r = p_r - s
         if ok.any():
             ok[ok] &= stereo_gate(self.rig, p_l[ok], p_r[ok], self.config)
         return p_r, ok
@@ -169,7 +183,7 @@ class KltFourView:
         t1 = cv2.getTickCount()
         new_r, ok = self._stereo(left, right, new)
         if ok.any():
-            ok[ok] &= off_edge(left, right, new[ok], new_r[ok], self.config)
+            ok[ok] &= off_edge(left, right, new[ok], new_r[ok] + self._shift, self.config)
         if self.refine == "affine" and ok.any():
             new_r[ok], _, ok[ok] = self._refine_right(affine_template(left, new[ok], self.config.win), right,
                                                       new_r[ok], None, new[ok])
@@ -215,7 +229,8 @@ class KltFourView:
     def _refine_right(self, template: AffineTemplate, right, p_right, A, p_left) -> tuple:
         """Affine refinement of right-image points ``p_right`` against ``template``, then the calibrated
         epipolar check against the left points ``p_left`` -> ``(p_right, A, ok)``."""
-        p_right, A, ok = refine_to(template, right, p_right, A)
+        p_right, A, ok = refine_to(template, right, p_right + self._shift, A)
+        p_right = p_right - self._shift
         return p_right, A, ok & stereo_gate(self.rig, p_left, p_right, self.config)
 
     def _templates(self, v: FourView) -> tuple:
@@ -225,7 +240,8 @@ class KltFourView:
             return None, None
         if v.tmpl3 is None:
             win = self.config.win
-            v.tmpl3, v.tmpl4 = affine_template(self._kf_imgs[0], v.p1, win), affine_template(self._kf_imgs[1], v.p2, win)
+            v.tmpl3 = affine_template(self._kf_imgs[0], v.p1, win)
+            v.tmpl4 = affine_template(self._kf_imgs[1], v.p2 + self._shift, win)
         return v.tmpl3, v.tmpl4
 
     @staticmethod
