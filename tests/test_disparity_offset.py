@@ -6,7 +6,7 @@ import pytest
 
 from rigs.geometry import inv_T, make_T, rot_y, transform_points
 from vo.errors import EstimatorError
-from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
+from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig, _Pending
 
 F, B = 700.0, 0.5
 
@@ -103,6 +103,20 @@ def test_the_pose_tracks_decide_whether_there_is_an_offset():
     assert both.delta_px == pytest.approx(mean, abs=1e-9)
 
 
+def test_pose_track_fits_are_made_only_when_the_decision_needs_them():
+    """Half the tracks kept for the estimate only. A consistent rig: the fits on all tracks find no significant
+    offset, so the keyframes' fits on the pose tracks alone wait unmade (their cost saved); read, they are
+    made, one per keyframe fit, each near 0 (exact pose tracks). Offset-only tracks 1.4 px short: the fits on
+    all tracks are significant, the decision reads the pose-track fits, and none waits."""
+    est, _ = _drive(0.0, scale=1.0, odd_pose=False)
+    assert len(est.fits) >= 3 and not est._significant(est.fits)[2] and est.delta_px == 0.0
+    assert all(isinstance(e, _Pending) for e in est._pose_fits) and len(est._pose_fits) == len(est.fits)
+    assert np.allclose([f[0] for f in est.pose_fits], 0.0, atol=0.002) and len(est.pose_fits) == len(est.fits)
+    assert not any(isinstance(e, _Pending) for e in est._pose_fits)
+    odd, _ = _drive(0.0, scale=1.0, delta_odd=1.4, odd_pose=False)
+    assert odd._significant(odd.fits)[2] and not any(isinstance(e, _Pending) for e in odd._pose_fits)
+
+
 def test_correction_moves_landmarks_to_true_depth():
     """With the offset applied, a landmark born under the offset (its raw depth long) moves along its birth ray
     to the true depth up to the chain's scale (here exact poses: to the true point)."""
@@ -115,6 +129,12 @@ def test_correction_moves_landmarks_to_true_depth():
         errs.append(np.linalg.norm(est.correct(i, p_raw) - p_true))
     assert np.median(errs_raw) > 0.5
     assert np.max(errs) < 0.02 * np.max(errs_raw) + 0.05
+    raw = {i: lms[i][1] for i in lms}
+    raw[-1] = np.ones(3)                      # a landmark the estimate does not know stays where it is
+    together = est.correct_all(raw)
+    assert list(together) == list(raw) and together[-1] is raw[-1]
+    for i in est.births:                      # the same arithmetic as one at a time: equal to the bit
+        np.testing.assert_array_equal(together[i], est.correct(i, raw[i]))
 
 
 def test_config_checked():

@@ -91,6 +91,23 @@ def test_tracker_keeps_ids_and_correspondences():
     assert len(p_a) > 30 and np.abs(p_b - p_a - [-1.5, 0.5]).max() < 0.05
 
 
+def test_tracker_append_restores_tracks_set_aside_after_the_new_ones():
+    """keep() a subset, detect() into the cells the others held, append() them back: the set-aside tracks come
+    back unchanged (ids and pixels) after the kept ones and the new corners, and no id is reused."""
+    img = np.round(texture(5)).astype(np.uint8)
+    tr = KltTracker(320, 240, KltConfig())
+    tr.detect(img)
+    pts, ids = tr.pts.copy(), tr.ids.copy()
+    aside = np.arange(len(ids)) % 2 == 1
+    tr.keep(~aside)
+    new = tr.detect(img)
+    assert len(new) == aside.sum() and not np.isin(new, ids).any()
+    tr.append(pts[aside], ids[aside])
+    np.testing.assert_array_equal(tr.ids, np.concatenate([ids[~aside], new, ids[aside]]))
+    np.testing.assert_array_equal(tr.pts[-aside.sum():], pts[aside])
+    assert tr.pts.shape == (len(tr.ids), 2) and tr.pts.dtype == np.float64 and tr.ids.dtype == np.int64
+
+
 def test_klt_config_from_option_takes_a_mapping_and_names_bad_fields():
     import pytest
     from vo.errors import VoError

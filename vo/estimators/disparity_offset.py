@@ -36,6 +36,7 @@ stereo self-calibration of the principal-point offset, and reads nothing but the
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -81,6 +82,13 @@ class OffsetConfig:
         return from_mapping(cls, value, EstimatorError, where)
 
 
+class _Pending(NamedTuple):
+    """A keyframe fit not made yet (:attr:`DisparityOffset.pose_fits`): the keyframe ``(c_b, ids, rays, raw
+    depths)`` and its observations (:func:`_seen`)."""
+    keyframe: tuple
+    seen: list
+
+
 # Landmarks a later frame must see to enter a keyframe's adjustment: with fewer, its pose (6 parameters) is
 # undetermined, the normal matrix is singular, and whether the fit then fails or returns an arbitrary offset
 # follows the last bits of the arithmetic (which differ with the arrays' memory alignment from process to
@@ -102,7 +110,7 @@ class DisparityOffset:
         self.keyframes: dict = {}    # birth frame -> (centre (3,), ids (N,), rays (N,3), raw depths (N,)) until fitted
         self.history: list = []      # (frame, T_o_c0 (4,4), ids (N,), normalised points (N,2), pose mask (N,) | None)
         self.fits: list = []         # (delta, variance) per fitted keyframe
-        self.pose_fits: list = []    # the same fits on the observations of pose-defining tracks only
+        self._pose_fits: list = []   # pose_fits, each fit or a _Pending one until read
         self.delta_px = 0.0
         self.se_px = float("nan")    # standard error of the average (nan until min_keyframes fits)
         self._frame = 0
@@ -127,8 +135,8 @@ class DisparityOffset:
         """The current frame: the estimated pose ``T_o_c0`` (4,4) and the normalised points ``x_n`` (N,2) of the
         tracked landmarks ``ids`` (N,), of which ``pose`` (N,) bool (default all) define the pose (the others are
         kept for this estimate only, :mod:`vo.estimators.track_gate`). Fits the keyframes the camera is now far
-        enough from (:meth:`fit_keyframe`) on all of them, and again on the pose tracks alone where they differ,
-        and updates :attr:`delta_px` (:meth:`_update`)."""
+        enough from (:meth:`fit_keyframe`) on all of them, and (when first read, :attr:`pose_fits`) again on the
+        pose tracks alone where they differ, and updates :attr:`delta_px` (:meth:`_update`)."""
         cfg = self.config
         if not cfg.enabled:
             return
@@ -145,15 +153,13 @@ class DisparityOffset:
             pick = np.unique(np.round(np.linspace(0, len(later) - 1, n_pick)).astype(int))
             frames = [later[j] for j in pick]
             fit = self.fit_keyframe(*g, [h[:4] for h in frames]) if later else None
-            if any(h[4] is not None and not h[4].all() for h in frames):
-                fit_pose = self.fit_keyframe(*g, [(k_, T, i[m], x[m]) if m is not None else (k_, T, i, x)
-                                                  for k_, T, i, x, m in frames])
+            if any(h[4] is not None and not h[4].all() for h in frames):    # fitted when read (pose_fits)
+                self._pose_fits.append(_Pending(g, _seen(g[1], [(k_, T, i[m], x[m]) if m is not None else
+                                                                (k_, T, i, x) for k_, T, i, x, m in frames])))
             else:
-                fit_pose = fit
+                self._pose_fits.append(fit)
             if fit is not None:
                 self.fits.append(fit)
-            if fit_pose is not None:
-                self.pose_fits.append(fit_pose)
         oldest = min(self.keyframes, default=self._frame)
         self.history = [h for h in self.history if h[0] > oldest]
         if due:
@@ -167,14 +173,22 @@ class DisparityOffset:
         adjusted together (reprojection error, LM, refitted without observations beyond 2 px; each landmark at
         depth ``f b / (D + delta)`` along its birth ray) -> ``(delta, variance)`` or None (fewer than
         ``min_landmarks`` landmarks seen after birth, or no solution)."""
-        ids = np.asarray(ids, np.int64)
-        order = np.argsort(ids)
-        seen = []                                    # (frame, landmark indices, their points) of the usable frames
-        for fr in frames:
-            pos = np.minimum(np.searchsorted(ids[order], fr[2]), len(ids) - 1)
-            hit = ids[order][pos] == fr[2]
-            if hit.sum() >= MIN_FRAME_LANDMARKS:
-                seen.append((fr, order[pos[hit]], fr[3][hit]))
+        return self._fit_seen(c_b, dir_b, z_raw, _seen(ids, frames))
+
+    @property
+    def pose_fits(self) -> list:
+        """The keyframe fits (``(delta, variance)`` each) on the observations of pose-defining tracks only. A
+        keyframe whose picked frames held no offset-only track has its :attr:`fits` entry; the others are
+        fitted here, on first reading: only :meth:`_update` reads them, and only once the fits on all tracks
+        are significant (on a consistent rig, never), so they cost nothing until then and the same after."""
+        for j, e in enumerate(self._pose_fits):
+            if isinstance(e, _Pending):
+                (c_b, _, dir_b, z_raw), seen = e
+                self._pose_fits[j] = self._fit_seen(c_b, dir_b, z_raw, seen)
+        return [f for f in self._pose_fits if f is not None]
+
+    def _fit_seen(self, c_b, dir_b, z_raw, seen) -> tuple | None:
+        """:meth:`fit_keyframe` on the observations ``seen`` (:func:`_seen`) of its landmarks."""
         if not seen:
             return None
         frames = [fr for fr, _, _ in seen]
@@ -184,20 +198,31 @@ class DisparityOffset:
             return None
         d_raw = self.fb / z_raw
         n_f, fb, f = len(frames), self.fb, self.f
+        memo: dict = {}          # the model at the last points LM evaluated (its Jacobian comes at one of them)
+
+        def per_frame():
+            """Each frame's observations (obs_f is sorted): (slice, landmark indices, their rays)."""
+            ends = np.searchsorted(obs_f, np.arange(n_f + 1))
+            return [(slice(a, b), obs_l[a:b], dir_b[obs_l[a:b]]) for a, b in zip(ends[:-1], ends[1:])]
 
         def model(v):
             """Per observation: camera-frame point (K,3), d p_c / d rvec (K,3,3), d p_c / d delta (K,3)."""
+            key = v.tobytes()
+            if key in memo:
+                return memo[key]
             den = np.maximum(d_raw + v[0], 1e-3)
             p_o = c_b[None, :] + dir_b * (fb / den)[:, None]
             p_c, dp_r, dp_d = np.empty((len(obs_f), 3)), np.empty((len(obs_f), 3, 3)), np.empty((len(obs_f), 3))
-            for f_i in range(n_f):
-                m = obs_f == f_i
+            for f_i, (m, lm, dirs) in enumerate(frame_obs):
                 R, dR = cv2.Rodrigues(v[1 + 6 * f_i:4 + 6 * f_i].reshape(3, 1))
-                p = p_o[obs_l[m]]
+                p = p_o[lm]
                 p_c[m] = p @ R.T + v[4 + 6 * f_i:7 + 6 * f_i]
                 dp_r[m] = np.einsum("kij,nj->nik", dR.reshape(3, 3, 3), p)
-                dp_d[m] = (dir_b[obs_l[m]] @ R.T) * (-fb / den[obs_l[m]] ** 2)[:, None]
-            return p_c, dp_r, dp_d
+                dp_d[m] = (dirs @ R.T) * (-fb / den[lm] ** 2)[:, None]
+            if len(memo) >= 4:
+                memo.pop(next(iter(memo)))
+            memo[key] = p_c, dp_r, dp_d
+            return memo[key]
 
         def residuals(v):
             p_c = model(v)[0]
@@ -218,13 +243,14 @@ class DisparityOffset:
             return J.reshape(2 * len(z), -1)
 
         v0 = [0.0]
-        for _, T_o_c, _, _ in frames:
+        for _, T_o_c in frames:
             T_c_o = inv_T(T_o_c)
             v0 += [*cv2.Rodrigues(T_c_o[:3, :3])[0].ravel(), *T_c_o[:3, 3]]
         if len(obs_f) * 2 <= len(v0):
             return None
         # MINPACK's LM (its own QR: no threaded BLAS, whose small SVDs cost much CPU on a loaded machine), then
         # again without the observations beyond the PnP inlier gate (2 px) of the first fit.
+        frame_obs = per_frame()
         try:
             sol = least_squares(residuals, np.array(v0), jac=jacobian, method="lm", x_scale="jac", max_nfev=50)
             keep = np.linalg.norm(sol.fun.reshape(-1, 2), axis=1) < 2.0
@@ -232,6 +258,8 @@ class DisparityOffset:
                     or np.bincount(obs_f[keep], minlength=n_f).min() < MIN_FRAME_LANDMARKS:
                 return None
             obs_f, obs_l, obs_x = obs_f[keep], obs_l[keep], obs_x[keep]
+            frame_obs = per_frame()
+            memo.clear()
             sol = least_squares(residuals, sol.x, jac=jacobian, method="lm", x_scale="jac", max_nfev=50)
             J = sol.jac
             dof = max(J.shape[0] - J.shape[1], 1)
@@ -310,3 +338,32 @@ class DisparityOffset:
             return p_raw_o
         z_new = self.fb / (self.fb / b[1] + self.delta_px)
         return b[0] + (p_raw_o - b[0]) * (z_new / b[1])
+
+    def correct_all(self, raw_o: dict) -> dict:
+        """:meth:`correct` of every landmark of ``raw_o`` ({id: raw position (3,)}) in one pass -> {id: position
+        (3,)}, in the same order (the same arithmetic, element by element)."""
+        known = [i for i in raw_o if i in self.births] if self.delta_px != 0.0 else []
+        if not known:
+            return dict(raw_o)
+        c_b = np.array([self.births[i][0] for i in known])
+        z = np.array([self.births[i][1] for i in known])
+        z_new = self.fb / (self.fb / z + self.delta_px)
+        moved = c_b + (np.array([raw_o[i] for i in known]) - c_b) * (z_new / z)[:, None]
+        out = dict(raw_o)
+        out.update(zip(known, moved))
+        return out
+
+
+def _seen(ids, frames) -> list:
+    """The observations of the landmarks ``ids`` (M,) on ``frames`` ((frame, T_o_c0, ids, x_n) each) that
+    :meth:`DisparityOffset.fit_keyframe` uses: ``[((frame, T_o_c0), landmark indices (K,), their points (K,2))]``
+    for the frames that see at least :data:`MIN_FRAME_LANDMARKS` of them."""
+    ids = np.asarray(ids, np.int64)
+    order = np.argsort(ids)
+    seen = []
+    for fr in frames:
+        pos = np.minimum(np.searchsorted(ids[order], fr[2]), len(ids) - 1)
+        hit = ids[order][pos] == fr[2]
+        if hit.sum() >= MIN_FRAME_LANDMARKS:
+            seen.append((fr[:2], order[pos[hit]], fr[3][hit]))
+    return seen

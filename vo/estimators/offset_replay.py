@@ -133,8 +133,8 @@ class ChainRecord:
                 z_new = fb / (fb / z + delta_px)
                 p_o_raw = transform_points(T_new, fr.p_c)
                 p_o = transform_points(T_new, fr.p_c * (z_new / z)[:, None])
-                for i, pr, pc in zip(fr.born, p_o_raw, p_o):
-                    raw_o[int(i)], corrected[int(i)] = pr, pc
+                for i, pr, pc in zip(fr.born.tolist(), p_o_raw, p_o):
+                    raw_o[i], corrected[i] = pr, pc
             pairs.append((fr.T_o_c0, T_new))
             T_prev_old, T_prev_new = fr.T_o_c0, T_new
         self.frames = deque((ChainFrame(T_new, fr.ids, fr.px, fr.born, fr.p_c)
@@ -145,10 +145,10 @@ class ChainRecord:
 def _refit(T_o_c0: np.ndarray, fr: ChainFrame, corrected: dict, K: np.ndarray) -> np.ndarray:
     """Frame ``fr``'s pose refitted (LM, started at ``T_o_c0``) on its tracked landmarks that were born earlier
     in the record, at their corrected positions; ``T_o_c0`` itself with fewer than :data:`MIN_REFIT_POINTS`."""
-    use = np.array([int(i) in corrected for i in fr.ids], bool)
+    use = np.array([i in corrected for i in fr.ids.tolist()], bool)
     if use.sum() < MIN_REFIT_POINTS:
         return T_o_c0
-    p_o = np.array([corrected[int(i)] for i in fr.ids[use]], np.float64)
+    p_o = np.array([corrected[i] for i in fr.ids[use].tolist()], np.float64)
     try:
         T = refine_pose(inv_T(T_o_c0), p_o, fr.px[use], K)
     except cv2.error:

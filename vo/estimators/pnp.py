@@ -245,7 +245,7 @@ class KltPnpEstimator(StereoPnpEstimator):
                 self._raw[int(i)] = p
                 self.landmarks[int(i)] = self.offset.correct(int(i), p)
                 self.near[int(i)] = (bool(c), self.T_o_c0[:3, 3].copy(), d)
-            self.tracker.keep(np.array([int(i) in self.landmarks for i in self.tracker.ids], bool))
+            self.tracker.keep(np.array([i in self.landmarks for i in self.tracker.ids.tolist()], bool))
         return int(ok.sum())
 
     def _adjust_keyframe(self, left, right) -> None:
@@ -289,14 +289,14 @@ class KltPnpEstimator(StereoPnpEstimator):
         with timed(timings, "track"):
             alive = self.tracker.track(left)
             ids = self.tracker.ids
-            self.landmarks = {int(i): self.landmarks[int(i)] for i in ids}
+            self.landmarks = {i: self.landmarks[i] for i in ids.tolist()}
         use = self._offset_only.pose_all(ids)
         n_feat, n_pose = len(ids), int(use.sum())          # all tracks; those that may define the pose (use)
         R_track = lambda: coast_rotation(p_prev[alive][use], self.tracker.pts[use], self.rig.cameras[0])  # noqa: E731
         if n_pose < self.pnp_config.min_features:
             return self._fail(t_ns, "few_features", n_feat, 0, f"{n_pose} tracked < {self.pnp_config.min_features}",
                               R_track())
-        p_o = np.array([self.landmarks[int(i)] for i in ids])
+        p_o = np.array([self.landmarks[i] for i in ids.tolist()])
         T_o_c0, inl = self._pnp(p_o, self.tracker.pts, timings, None if use.all() else use)
         if T_o_c0 is not None and (self.pnp_config.near_baselines > 0 or self.rigidity.enabled):
             near = np.array([self.near[int(i)][0] for i in ids], bool)
@@ -317,7 +317,7 @@ class KltPnpEstimator(StereoPnpEstimator):
                 new_ids = self._offset_only.detect(self.tracker, left)
             n_new = self._add_landmarks(left, right, new_ids, timings)
             status, msg = "keyframe", f"{n_new} new landmarks"
-        self.landmarks = {int(i): self.landmarks[int(i)] for i in self.tracker.ids}
+        self.landmarks = {i: self.landmarks[i] for i in self.tracker.ids.tolist()}
         self.near = {i: self.near[i] for i in self.landmarks}
         self._update_offset()
         self._next_keyframe = is_keyframe(self._offset_only.empty_fraction(self.tracker), n_inl, self.klt_config)
@@ -340,7 +340,7 @@ class KltPnpEstimator(StereoPnpEstimator):
             if abs(self.offset.delta_px - self._replayed_offset) > self.offset.config.replay_step_px:
                 self._replay_chain()
             self._applied_offset = self.offset.delta_px
-            self.landmarks = {i: self.offset.correct(i, self._raw[i]) for i in self.landmarks}
+            self.landmarks = self.offset.correct_all({i: self._raw[i] for i in self.landmarks})
 
     def _replay_chain(self) -> None:
         """The applied offset moved by more than ``replay_step_px``: re-chain the frames recorded since the

@@ -104,7 +104,7 @@ class OffsetOnlyTracks:
         pts_only, ids_only = tracker.pts[~use], tracker.ids[~use]
         tracker.keep(use)
         new_ids = tracker.detect(img)
-        tracker.pts, tracker.ids = np.vstack([tracker.pts, pts_only]), np.concatenate([tracker.ids, ids_only])
+        tracker.append(pts_only, ids_only)
         return new_ids
 
     def empty_fraction(self, tracker) -> float:

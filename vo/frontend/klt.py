@@ -13,6 +13,7 @@ import numpy as np
 
 from vo.errors import VoError
 from vo.frontend.grid import Grid
+from vo.frontend.klt_pyramids import LkPyramids, lk_raw_levels
 from vo.frontend.lk_invariant import lk_illumination_invariant
 from vo.frontend.lk_normalized import PyramidCache, lk_pyramids, normalized_pyramid
 from vo.frontend.epipolar_offset import offset_epipolar_mask
@@ -183,7 +184,8 @@ def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = K
        pyramids: tuple | None = None, guess: np.ndarray | None = None) -> tuple:
     """One-directional pyramidal LK -> ``(p1 (N,2), ok (N,))``: the illumination-invariant one when
     ``config.illumination_invariant``, else OpenCV's on the normalised pyramids (``pyramids``, the two
-    images' :meth:`KltConfig.pyramid`, built here when None) or, with ``normalize_box = 0``, on the raw images.
+    images' :meth:`KltConfig.pyramid`, built here when None) or, with ``normalize_box = 0``, on the raw images
+    (``pyramids``: their raw pyramids, :meth:`LkPyramids.raw`, or None).
     ``guess`` (N,2): start points in ``img1`` (OpenCV's LK only; default zero flow)."""
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
     if p0.shape[0] == 0:
@@ -195,9 +197,12 @@ def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = K
         return lk_pyramids(pyr0, pyr1, p0, config.win, config.lk_iters, config.lk_eps, guess)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     start = None if guess is None else np.asarray(guess, np.float32).reshape(-1, 1, 2).copy()
-    p1, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, p0.astype(np.float32).reshape(-1, 1, 2), start,
-                                         winSize=(config.win, config.win), maxLevel=config.max_level,
-                                         criteria=crit, flags=0 if guess is None else cv2.OPTFLOW_USE_INITIAL_FLOW)
+    if pyramids is not None:
+        p1, st = lk_raw_levels(*pyramids, p0, config.win, config.lk_iters, config.lk_eps, start)
+    else:
+        p1, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, p0.astype(np.float32).reshape(-1, 1, 2), start,
+                                             winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit,
+                                             flags=0 if guess is None else cv2.OPTFLOW_USE_INITIAL_FLOW)
     p1 = p1.reshape(-1, 2).astype(np.float64)
     h, w = img1.shape[:2]
     ok = st.reshape(-1).astype(bool) & np.all(np.isfinite(p1), axis=1)
@@ -209,7 +214,8 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
              pyramid=None, guess: np.ndarray | None = None) -> tuple:
     """LK ``img0 -> img1`` then back; keep points whose round trip ends < ``fb_threshold_px`` from the start
     and whose windows correlate (ZNCC >= ``min_zncc``, :mod:`vo.frontend.patch_check`).
-    ``pyramid`` (image -> normalised pyramid, e.g. a :class:`PyramidCache`) defaults to ``config.pyramid``;
+    ``pyramid`` (image -> normalised pyramid, e.g. a :class:`PyramidCache`) defaults to ``config.pyramid``; an
+    :class:`LkPyramids` also gives the raw pyramids of the raw-image LK (built once per image);
     ``guess`` (N,2) start points of the forward LK in ``img1`` (default: zero flow).
 
     Returns ``(p1 (N,2) float64, ok (N,) bool)``.
@@ -219,16 +225,18 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
         return np.zeros((0, 2)), np.zeros(0, bool)
     pyramid = pyramid or config.pyramid
     pyr = (pyramid(img0), pyramid(img1)) if config.box and not config.illumination_invariant else None
+    if not config.box and not config.illumination_invariant and isinstance(pyramid, LkPyramids):
+        pyr = tuple(pyramid.raw(im, config.win, config.max_level) for im in (img0, img1))
     if config.illumination_invariant:
         guess = None
     p1, ok_f = lk(img0, img1, p0, config, pyr, guess)
     p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config, None if pyr is None else pyr[::-1],
                    None if guess is None else p0)
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
-    if pyr is not None and config.raw_fallback and not ok.all():
+    if config.box and pyr is not None and config.raw_fallback and not ok.all():
         lost = np.flatnonzero(~ok)
         p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
-                                      guess=None if guess is None else np.asarray(guess)[lost])
+                                      pyramid, None if guess is None else np.asarray(guess)[lost])
     return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine)
 
 
@@ -290,7 +298,7 @@ class KltTracker:
         self.ids = np.zeros(0, np.int64)
         self.image = None
         self._ids = TrackIds()
-        self.pyramid = config.pyramid_cache()     # normalised pyramids of the last images (None: raw LK)
+        self.pyramid = LkPyramids(config.levels, config.box) if config.box else None   # of the last images
 
     def track(self, img: np.ndarray) -> np.ndarray:
         """Track all points into ``img`` (forward-backward checked); drop failures. Returns the
@@ -312,6 +320,12 @@ class KltTracker:
         self.ids = np.concatenate([self.ids, ids])
         self.image = img
         return ids
+
+    def append(self, pts: np.ndarray, ids: np.ndarray) -> None:
+        """Add existing tracks (pixels ``pts`` (M,2), ids ``ids`` (M,) taken from this tracker earlier) after the
+        current ones, e.g. tracks set aside by :meth:`keep` while :meth:`detect` filled the cells."""
+        self.pts = np.vstack([self.pts, np.asarray(pts, np.float64).reshape(-1, 2)])
+        self.ids = np.concatenate([self.ids, np.asarray(ids, np.int64)])
 
     def keep(self, mask: np.ndarray) -> None:
         """Keep only the tracks where ``mask`` (N,) is True."""
