@@ -78,3 +78,17 @@ def test_lk_footprint_structure():
         lk_noise_cov(tex, pts, 10, 1.0)
     with pytest.raises(VoError, match="pts"):
         lk_noise_cov(tex, [[np.nan, 1.0]], 11, 1.0)
+
+
+@pytest.mark.parametrize("shape", [(3, 3), (7, 12), (480, 720), (376, 1241)])
+def test_noise_level_8bit_path_equals_float_path(shape):
+    """8-bit images take the integer histogram path; the same pixels as float32 take the sorting path
+    (``np.quantile``). Exact truth: the same float for textured, noisy, partly clipped and constant images and
+    for several flat fractions (``(n - 1) f`` an integer for 376 x 1241 at 0.2: no interpolation there)."""
+    rng = np.random.default_rng(7)
+    tex = cv2.resize(_texture(rng), shape[::-1], interpolation=cv2.INTER_LINEAR)
+    images = [np.clip(np.rint(1.6 * tex - 80 + rng.normal(0, 1.5, shape)), 0, 255).astype(np.uint8),
+              rng.integers(0, 256, shape).astype(np.uint8), np.full(shape, 255, np.uint8)]
+    for img in images:
+        for f in (0.2, 0.05, 0.5, 1.0):
+            assert estimate_noise_sigma(img, f) == estimate_noise_sigma(img.astype(np.float32), f), (img.mean(), f)

@@ -150,3 +150,24 @@ def test_noise_level_remembers_the_last_images_by_identity():
     assert nl(imgs[1]) == estimate_noise_sigma(imgs[1])
     big = np.clip(np.round(120 + 2.0 * rng.standard_normal((480, 640))), 0, 255).astype(np.uint8)
     assert abs(NoiseLevel()(big) - np.sqrt(4.0 + 1 / 12)) < 0.1              # noise 2 + rounding
+
+
+def test_zncc_mask_with_texture_gate_is_the_composition_of_zncc_and_weak_texture():
+    """``zncc_mask`` computes each window once (the texture gate reuses the ZNCC's windows); exact truth: the
+    same mask, match by match, as :func:`zncc` < gate, then :func:`weak_texture` on the failing matches, on an
+    8-bit view whose left half is textured and right half flat under noise (matches 0-3 px off)."""
+    rng = np.random.default_rng(11)
+    f0 = texture(5)
+    f0[:, f0.shape[1] // 2:] = 128.0
+    img0 = np.clip(np.rint(f0 + rng.normal(0, 2.0, f0.shape)), 0, 255).astype(np.uint8)
+    img1 = np.clip(np.rint(shifted(f0, 1.5, 0.0) + rng.normal(0, 2.0, f0.shape)), 0, 255).astype(np.uint8)
+    p0 = grid_points(*f0.shape, step=12, margin=15)
+    p1 = p0 + [1.5, 0.0] + rng.uniform(-3, 3, p0.shape) * (rng.random((len(p0), 1)) < 0.3)
+    ok = rng.random(len(p0)) < 0.9
+    for snr in (0.0, 2.0, 6.0):
+        got = zncc_mask(img0, img1, p0, p1, ok, 21, 0.5, texture_snr=snr, noise=estimate_noise_sigma)
+        bad = ok & (zncc(img0, img1, p0, p1, 21) < 0.5)
+        if snr > 0:
+            bad[bad] = weak_texture(img0, img1, p0[bad], p1[bad], 21, snr)
+        assert 0 < bad.sum() < ok.sum(), snr
+        assert (got == (ok & ~bad)).all(), snr

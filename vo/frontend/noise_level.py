@@ -32,9 +32,40 @@ _KERNEL = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 def estimate_noise_sigma(img: np.ndarray, flat_fraction: float = 0.2) -> float:
     """Noise std (grey levels) of a (H,W) image, H, W >= 3 (module docstring)."""
     img = _check(img, flat_fraction, "estimate_noise_sigma")
+    if img.dtype == np.uint8:
+        return _estimate_uint8(img, flat_fraction)
     r, g = _laplacian_sobel(img)
     flat = g <= np.quantile(g, flat_fraction)
     return _immerkaer(r[flat])
+
+
+def _estimate_uint8(img: np.ndarray, flat_fraction: float) -> float:
+    """:func:`estimate_noise_sigma` of an 8-bit image in integer arithmetic, to the same float: both filter
+    responses of 8-bit pixels are integers (|Laplacian difference| <= 4080, Sobel magnitude <= 2040, exact in
+    16 bits), so the ``flat_fraction`` quantile of the Sobel magnitude (NumPy's default linear interpolation
+    between the order statistics at ``floor`` and ``floor + 1`` of ``(n - 1) flat_fraction``) is found from
+    its histogram, and the mean of the integer responses up to it is an exact integer sum over the count.
+    ~1 ms of CPU against ~5 ms for sorting the float image (``tests/test_frontend_lk_noise.py`` checks that the
+    two give the same float)."""
+    r = _abs16(cv2.filter2D(img, cv2.CV_16S, _KERNEL))[1:-1, 1:-1]
+    g = cv2.add(_abs16(cv2.Sobel(img, cv2.CV_16S, 1, 0)), _abs16(cv2.Sobel(img, cv2.CV_16S, 0, 1)))[1:-1, 1:-1]
+    g, r = np.ascontiguousarray(g).view(np.uint16), np.ascontiguousarray(r)
+    n = g.size
+    virtual = (n - 1) * float(flat_fraction)
+    lo = min(int(np.floor(virtual)), n - 1)
+    below = np.cumsum(cv2.calcHist([g], [0], None, [4096], [0, 4096]).ravel().astype(np.int64))   # count <= v
+    v_lo = int(np.searchsorted(below, lo, side="right"))         # the order statistics at lo and lo + 1
+    v_hi = int(np.searchsorted(below, min(lo + 1, n - 1), side="right"))
+    gamma = virtual - lo                                          # NumPy's interpolated quantile, as np.quantile
+    q = v_hi - (v_hi - v_lo) * (1.0 - gamma) if gamma >= 0.5 else v_lo + (v_hi - v_lo) * gamma
+    flat = (g <= (v_hi if q >= v_hi else v_lo)).view(np.uint8)         # 1 where flat
+    total = cv2.sumElems(cv2.bitwise_and(r, r, mask=flat))[0]    # an integer sum, exact in double
+    return float(np.sqrt(np.pi / 2.0) * (total / cv2.countNonZero(flat)) / 6.0)
+
+
+def _abs16(a: np.ndarray) -> np.ndarray:
+    """|a| of a CV_16S image (exact below 32768)."""
+    return cv2.absdiff(a, np.zeros_like(a))
 
 
 def _check(img: np.ndarray, flat_fraction: float, name: str) -> np.ndarray:

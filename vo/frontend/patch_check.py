@@ -41,6 +41,8 @@ times the noise, and 92 % of the temporal ones lie within 0.5 px of their true e
 """
 from __future__ import annotations
 
+import functools
+
 import cv2
 import numpy as np
 
@@ -61,6 +63,12 @@ def zncc(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarray, win
     return _zncc_rows(_windows(img0, p0, win), _windows(img1, p1, win))
 
 
+def _row_std(centred: np.ndarray) -> np.ndarray:
+    """(N,) ``x.std(axis=1)`` of windows ``x`` (N, M) from their zero-mean rows (as :func:`_zncc_rows` leaves
+    them): NumPy's own steps after the mean's subtraction, so the same floats."""
+    return np.sqrt(np.add.reduce(centred * centred, axis=1) / centred.shape[1])
+
+
 def _zncc_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """ZNCC (N,) of the rows of ``a`` and ``b`` (N, M) float64 (changed in place: zero mean); 0 for a row
     without variance."""
@@ -73,12 +81,19 @@ def _zncc_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _windows(img: np.ndarray, p: np.ndarray, win: int) -> np.ndarray:
     """(N, win*win) float64 samples of ``img`` on a ``win`` x ``win`` grid centred on each point of ``p``."""
-    r = (np.arange(win, dtype=np.float32) - (win - 1) / 2.0)
-    dx, dy = np.meshgrid(r, r)
-    mx = (p[:, 0, None].astype(np.float32) + dx.ravel()[None, :]).astype(np.float32)
-    my = (p[:, 1, None].astype(np.float32) + dy.ravel()[None, :]).astype(np.float32)
+    dx, dy = _offsets(win)
+    mx = p[:, 0, None].astype(np.float32) + dx
+    my = p[:, 1, None].astype(np.float32) + dy
     out = cv2.remap(np.asarray(img, np.float32), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     return out.astype(np.float64)
+
+
+@functools.lru_cache(maxsize=8)
+def _offsets(win: int) -> tuple:
+    """(1, win*win) float32 column and row offsets of a ``win`` x ``win`` window's samples from its centre."""
+    r = (np.arange(win, dtype=np.float32) - (win - 1) / 2.0)
+    dx, dy = np.meshgrid(r, r)
+    return dx.ravel()[None, :], dy.ravel()[None, :]
 
 
 def affine_zncc(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarray, win: int) -> tuple:
@@ -98,9 +113,10 @@ def affine_zncc(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarr
 class NoiseLevel:
     """Noise std (grey levels) of an image, :func:`estimate_noise_sigma` of the whole image, remembered for the
     last ``keep`` images (by identity: the caller passes the same array objects for the same frame). Computed
-    only for images where a match fails the ZNCC gate. (An estimate from a quarter of the rows, 1-1.5 ms instead
-    of ~8 ms of CPU, was within 5 % on `campus` and `indoor-realistic` but 0.01-0.7 against 0.46-1.25 grey
-    levels on the real KITTI turn, whose flattest pixels there are clipped sky.)"""
+    only for images where a match fails the ZNCC gate; ~1 ms of CPU for a 720x480 8-bit image (the integer path
+    of :func:`estimate_noise_sigma`). (An estimate from a quarter of the rows was within 5 % on `campus` and
+    `indoor-realistic` but 0.01-0.7 against 0.46-1.25 grey levels on the real KITTI turn, whose flattest pixels
+    there are clipped sky.)"""
 
     def __init__(self, keep: int = 3):
         self.keep, self._seen = keep, []          # [(image, sigma)], newest last
@@ -136,9 +152,14 @@ def zncc_mask(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, p1: np.ndarray
         return ok
     idx = np.flatnonzero(ok)
     p0s, p1s = np.asarray(p0, np.float64).reshape(-1, 2)[idx], np.asarray(p1, np.float64).reshape(-1, 2)[idx]
-    bad = zncc(img0, img1, p0s, p1s, win) < min_zncc
+    f0, f1 = np.asarray(img0, np.float32), np.asarray(img1, np.float32)     # converted once for both uses
+    a, b = _windows(f0, p0s, win), _windows(f1, p1s, win)
+    bad = _zncc_rows(a, b) < min_zncc                 # a, b now zero-mean: their rows' std as weak_texture's
     if texture_snr > 0 and bad.any():
-        bad[bad] = weak_texture(img0, img1, p0s[bad], p1s[bad], win, texture_snr, noise or estimate_noise_sigma)
+        noise = noise or estimate_noise_sigma
+        s0 = _row_std(a[bad]) / max(noise(img0), 1e-6)
+        s1 = _row_std(b[bad]) / max(noise(img1), 1e-6)
+        bad[bad] = np.minimum(s0, s1) < texture_snr
     if affine and bad.any():
         z, c, fitted = affine_zncc(img0, img1, p0s[bad], p1s[bad], win)
         near = np.linalg.norm(c - p1s[bad], axis=1) <= AFFINE_MAX_MOVE_PX
