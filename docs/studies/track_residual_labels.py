@@ -12,7 +12,11 @@ tracked landmark its residual ``r(a) = track pixel - projection of the landmark 
 in docs/estimators.md), "big-step edge" (that window spans >= 3 px of disparity), "plane" (the rest).
 
 Statistics of the landmarks that reach age ``K`` (a label-free test could use each of them at age K):
-``|r(K)|`` (px), ``|mean r(1..K)|``, the least-squares slope ``|sum a r(a) / sum a^2|`` (px per frame), and the
+``|r(K)|`` (px), ``|mean r(1..K)|``, the residual along the parallax direction (the image direction in which a
+change of the landmark's depth along its birth ray moves its projection; Jacobian ``J``, px per unit relative
+depth) divided by its expected sigma from the stereo disparity noise and the track noise ("parallax chi": depth
+from motion against depth from stereo), the residual across it, the relative depth error ``|r . J| / |J|^2`` where
+``|J| > 50`` px, the least-squares slope ``|sum a r(a) / sum a^2|`` (px per frame), and the
 growth of ``|r|`` relative to the frame's median ``|r|`` of landmarks of the same age (a pose error shared by
 all landmarks cancels). Prints ROC areas (Mann-Whitney) edge vs plane and big-step edge vs plane, and the shares
 removed at a few thresholds::
@@ -55,6 +59,11 @@ def roc_area(pos: np.ndarray, neg: np.ndarray) -> float:
     return float((r[:len(pos)].sum() - len(pos) * (len(pos) + 1) / 2) / (len(pos) * len(neg)))
 
 
+EPS = 0.01            # relative depth step of the parallax Jacobian
+SIGMA_D_PX = 0.1      # stereo disparity sigma (px), the measured robust std (docs/estimators.md)
+SIGMA_PX = 0.35       # KLT track sigma per axis (px), likewise
+
+
 def record(ds, max_frames: int, options: dict):
     """Run ``klt-pnp``; -> (labels {id: (dyn, edge, big)}, residuals {id: {age: r (2,)}}, median |r| by (k, age))."""
     labels = FeatureLabels.of(ds)
@@ -82,11 +91,16 @@ def record(ds, max_frames: int, options: dict):
         old = ids[~new]
         p_o = np.array([est.landmarks[int(i)] for i in old])
         p_c = transform_points(inv_T(est.T_o_c0), p_o)
-        r = pts[~new] - project(p_c, cam.K, cam.dist)
+        uv = project(p_c, cam.K, cam.dist)
+        r = pts[~new] - uv
+        c_birth = np.array([est.near[int(i)][1] for i in old])       # the birth camera's centre, odometry frame
+        p_far = c_birth + (p_o - c_birth) * (1.0 + EPS)               # the landmark 1 % farther along its birth ray
+        J = (project(transform_points(inv_T(est.T_o_c0), p_far), cam.K, cam.dist) - uv) / EPS
+        sig_rel = SIGMA_D_PX * np.linalg.norm(p_o - c_birth, axis=1) / fb   # relative depth sigma of the stereo point
         by_age = defaultdict(list)
-        for i, ri in zip(old, r):
+        for i, ri, ji, si in zip(old, r, J, sig_rel):
             a = k - born[int(i)]
-            res[int(i)][a] = ri
+            res[int(i)][a] = (ri, ji, si)
             by_age[a].append(float(np.hypot(*ri)))
         for a, v in by_age.items():
             med[(k, a)] = float(np.median(v))
@@ -102,9 +116,15 @@ def statistics(born, lab, res, med, K: int) -> dict:
     for i, rs in res.items():
         if lab[i][0] or not all(a in rs for a in range(1, K + 1)):
             continue
-        R = np.array([rs[a] for a in range(1, K + 1)])
+        R = np.array([rs[a][0] for a in range(1, K + 1)])
         a = np.arange(1, K + 1, dtype=float)
+        r, J, sig = rs[K]
+        j = np.hypot(*J)
+        u = J / max(j, 1e-9)
         out["|r(K)|"].append(np.hypot(*R[-1]))
+        out["parallax chi"].append(abs(r @ u) / np.hypot(j * sig, SIGMA_PX))
+        out["|r across parallax|"].append(abs(r[0] * u[1] - r[1] * u[0]))
+        out["|rel depth err| (J > 50 px)"].append(abs(r @ u) / j if j > 50 else np.nan)
         out["|mean r(1..K)|"].append(np.hypot(*R.mean(0)))
         out["|slope|"].append(np.hypot(*(a @ R / (a @ a))))
         out["|r(K)| / median"].append(np.hypot(*R[-1]) / max(med[(born[i] + K, K)], 1e-3))
@@ -126,16 +146,17 @@ def main() -> None:
     static = [i for i in lab if not lab[i][0]]
     print(f"{a.dataset}, frames 0-{n - 1}: {len(lab)} landmarks, {len(static)} static, "
           f"{sum(lab[i][1] for i in static)} on depth edges ({sum(lab[i][2] for i in static)} big-step)")
-    print("| age K | statistic | n plane / edge / big | ROC edge vs plane | ROC big vs plane | "
+    print("| age K | statistic | n plane / edge / big | ROC edge vs plane | ROC big vs plane | ROC small vs plane | "
           "median plane / edge / big | removed at plane's 90 % quantile: edge / big |")
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     for K in a.ages:
         stats, cls = statistics(born, lab, res, med, K)
         for name, v in stats.items():
-            p, e, b = v[cls == 0], v[cls >= 1], v[cls == 2]
+            fin = np.isfinite(v)
+            p, e, b = v[fin & (cls == 0)], v[fin & (cls >= 1)], v[fin & (cls == 2)]
             q = np.quantile(p, 0.9) if len(p) else np.nan
             print(f"| {K} | {name} | {len(p)} / {len(e)} / {len(b)} | {roc_area(e, p):.3f} | {roc_area(b, p):.3f} | "
-                  f"{np.median(p):.2f} / {np.median(e):.2f} / {np.median(b):.2f} | "
+                  f"{roc_area(v[fin & (cls == 1)], p):.3f} | {np.median(p):.2f} / {np.median(e):.2f} / {np.median(b):.2f} | "
                   f"{100 * np.mean(e > q):.0f} % / {100 * np.mean(b > q):.0f} % |", flush=True)
 
 
