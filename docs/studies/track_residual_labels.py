@@ -18,8 +18,10 @@ depth) divided by its expected sigma from the stereo disparity noise and the tra
 from motion against depth from stereo), the residual across it, the relative depth error ``|r . J| / |J|^2`` where
 ``|J| > 50`` px, the least-squares slope ``|sum a r(a) / sum a^2|`` (px per frame), and the
 growth of ``|r|`` relative to the frame's median ``|r|`` of landmarks of the same age (a pose error shared by
-all landmarks cancels). Prints ROC areas (Mann-Whitney) edge vs plane and big-step edge vs plane, and the shares
-removed at a few thresholds::
+all landmarks cancels); and the mean signed residual along the parallax direction per class (the systematic part,
+``J`` points where the projection goes when the landmark moves farther along its birth ray, so a positive mean
+says the tracks move as if their points were farther than their stereo depth). Prints ROC areas (Mann-Whitney)
+of all / big-step / small-step edges against plane, and the share of the edges above the plane's 90 % quantile::
 
     vo-testbed generate --scenario urban-dynamic --segmentation --depth --seed N --duration 30 --out DATA
     python docs/studies/track_residual_labels.py DATA [--max-frames 300] [--ages 3 5 8] [--opt KEY=VALUE]
@@ -123,6 +125,7 @@ def statistics(born, lab, res, med, K: int) -> dict:
         u = J / max(j, 1e-9)
         out["|r(K)|"].append(np.hypot(*R[-1]))
         out["parallax chi"].append(abs(r @ u) / np.hypot(j * sig, SIGMA_PX))
+        out["signed r along parallax"].append(r @ u)
         out["|r across parallax|"].append(abs(r[0] * u[1] - r[1] * u[0]))
         out["|rel depth err| (J > 50 px)"].append(abs(r @ u) / j if j > 50 else np.nan)
         out["|mean r(1..K)|"].append(np.hypot(*R.mean(0)))
@@ -152,11 +155,17 @@ def main() -> None:
     for K in a.ages:
         stats, cls = statistics(born, lab, res, med, K)
         for name, v in stats.items():
+            if name.startswith("signed"):
+                print(f"| {K} | {name}: mean +- s.e. px | " + " / ".join(
+                    f"{np.mean(v[c]):+.3f} +- {np.std(v[c]) / np.sqrt(max(len(v[c]), 1)):.3f}" for c in
+                    (cls == 0, cls == 1, cls == 2)) + " (plane / small-step edge / big-step edge) | | | | | |")
+                continue
             fin = np.isfinite(v)
             p, e, b = v[fin & (cls == 0)], v[fin & (cls >= 1)], v[fin & (cls == 2)]
             q = np.quantile(p, 0.9) if len(p) else np.nan
             print(f"| {K} | {name} | {len(p)} / {len(e)} / {len(b)} | {roc_area(e, p):.3f} | {roc_area(b, p):.3f} | "
-                  f"{roc_area(v[fin & (cls == 1)], p):.3f} | {np.median(p):.2f} / {np.median(e):.2f} / {np.median(b):.2f} | "
+                  f"{roc_area(v[fin & (cls == 1)], p):.3f} | "
+                  f"{np.median(p):.2f} / {np.median(e):.2f} / {np.median(b):.2f} | "
                   f"{100 * np.mean(e > q):.0f} % / {100 * np.mean(b > q):.0f} % |", flush=True)
 
 
