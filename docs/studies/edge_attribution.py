@@ -7,7 +7,7 @@ drops plane landmarks. This study separates the two with the truth (same runner,
 tracks, oracle segmentation: moving features out of the PnP): per variant it drops
 
 * ``edges >= S px``: the edge landmarks whose 5x5 window spans at least ``S`` px of true disparity
-  (``S`` = 0 is the ablation's row "edge landmarks dropped"); the rest stay;
+  (``S`` = 0 is the ablation's row "edge landmarks dropped", ``S`` = inf drops none: the product); the rest stay;
 * ``+ plane P``: in addition a share ``P`` of the plane landmarks, drawn at random (seeded): the false
   positives of a test that removes that share of them.
 
@@ -60,7 +60,7 @@ def main() -> None:
     for step, share in variants:
         inputs = type("Inputs", (StepInputs,), {"step_px": step, "plane_share": share})
         r = upda.run(ds, abl, a.max_frames, {"disp": 0.0, "px": 0.0}, {}, inputs=inputs)
-        name = ("no edges" if step == np.inf else f"edges >= {step:g} px") + (f" + {100 * share:.0f} % plane"
+        name = ("none (the product)" if step == np.inf else f"edges >= {step:g} px") + (f" + {100 * share:.0f} % plane"
                                                                               if share else "")
         print(f"| {name} | {r['rot'][2]:+.2f} | {r['rot'][0]:+.2f} | {r['step'][2]:+.2f} / {r['step'][0]:+.2f} | "
               f"{r['drift']:.2f} | {r['vert']:+.2f} |", flush=True)
