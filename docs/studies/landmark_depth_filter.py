@@ -3,11 +3,12 @@
 ``klt-pnp`` keeps each landmark at its birth keyframe's stereo triangulation. A corner on an occlusion boundary
 (a T-junction) gets a stereo disparity between the two surfaces' (the 21x21 window straddles both), and such
 landmarks' tracks then move, against the estimated poses, as if their points lay farther than their stereo depth
-(urban-dynamic seed 0: a mean signed residual along the parallax direction of +0.15-0.68 px after 2-5 frames,
-against +0.01-0.08 px for plane landmarks; ``docs/studies/track_residual_labels.py``); their bias turns the pose
+(urban-dynamic seeds 0 and 4: a mean signed residual along the parallax direction of +0.1-0.7 px after 2-5 frames,
+against +0.01-0.06 px for plane landmarks; ``docs/studies/track_residual_labels.py``); their bias turns the pose
 (docs/estimators.md, "Cause of klt-pnp's remaining urban drift"). One landmark's bias is below its track noise, so
-no per-landmark test separates them (ROC area 0.59-0.74), but the temporal baseline, metres after a few frames
-against the stereo pair's 0.5 m, measures each landmark's depth again.
+no per-landmark statistic separates them (ROC areas 0.54-0.78), but the temporal baseline, metres after a few
+frames against the stereo pair's 0.5 m, measures each landmark's depth again. Results (the drift does not fall):
+docs/estimators.md, "Depth-edge landmarks across frames".
 
 Each landmark is a point on its birth ray, ``p_o = c + d / rho`` (``c`` the birth camera centre, ``d`` the birth
 bearing with unit depth, both in the odometry frame; ``rho`` inverse depth). Its prior is the stereo point with
