@@ -151,11 +151,12 @@ class ExactTracker(KltTracker):
         return ok
 
 
-def instrumented(ds, abl: Ablation, noise: dict, seed: int, labels=None, landmark_source=None, **options):
+def instrumented(ds, abl: Ablation, noise: dict, seed: int, labels=None, landmark_source=None, inputs=None, **options):
     """``(klt-pnp, TruthInputs)``: the estimator built with the ablation's truth inputs; with ``labels``
     (:class:`FeatureLabels`) its PnP sees only the truly static features (``pnp_select``); ``landmark_source``
-    (default: :meth:`TruthInputs.landmarks`) wraps the truth's for a study that records more."""
-    truth = TruthInputs(ds, abl, noise, seed)
+    (default: :meth:`TruthInputs.landmarks`) wraps the truth's for a study that records more; ``inputs`` (default
+    :class:`TruthInputs`) the class of the truth inputs, for a study that selects landmarks otherwise."""
+    truth = (inputs or TruthInputs)(ds, abl, noise, seed)
     cam = ds.rig.cameras[0]
     tracker = ExactTracker(truth, cam.width, cam.height, KltConfig.from_option(options.get("klt_config")))
     select = (lambda px: ~labels.dynamic(truth.k, px)) if labels is not None else None
@@ -169,9 +170,9 @@ def rotvec_deg(R: np.ndarray) -> np.ndarray:
     return np.degrees(Rotation.from_matrix(R).as_rotvec())
 
 
-def run(ds, abl: Ablation, max_frames: int, noise: dict, options: dict, seed: int = 0) -> dict:
+def run(ds, abl: Ablation, max_frames: int, noise: dict, options: dict, seed: int = 0, inputs=None) -> dict:
     labels = FeatureLabels.of(ds)
-    est, truth = instrumented(ds, abl, noise, seed, labels=labels, **options)
+    est, truth = instrumented(ds, abl, noise, seed, labels=labels, inputs=inputs, **options)
     T_w_c = truth.T_w_c
     n = min(max_frames, len(ds))
     T_est, steps = [], []
