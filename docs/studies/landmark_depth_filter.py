@@ -40,7 +40,7 @@ estimator). Prints the end drift (first-pose alignment) and the filter's CPU tim
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import argparse
 import time
@@ -70,27 +70,6 @@ class DepthFilterConfig:
         for name in ("disparity_sigma_px", "image_sigma_px", "chi2_gate", "min_rho"):
             if not getattr(self, name) > 0:
                 raise VoError(f"DepthFilterConfig.{name}: must be > 0, got {getattr(self, name)!r}")
-
-    @classmethod
-    def from_option(cls, value, where: str = "depth_filter") -> "DepthFilterConfig":
-        """An estimator's ``depth_filter`` option: None (defaults), a config, a bool (``enabled``) or a mapping of
-        field names (``--opt 'depth_filter={enabled: true}'``)."""
-        if value is None:
-            return cls()
-        if isinstance(value, cls):
-            return value
-        if isinstance(value, bool):
-            return cls(enabled=value)
-        if not isinstance(value, dict):
-            raise VoError(f"{where}: {value!r}; expected a mapping of DepthFilterConfig fields, e.g. {{enabled: true}}")
-        known = {f.name for f in fields(cls)}
-        bad = sorted(set(value) - known)
-        if bad:
-            raise VoError(f"{where}: unknown field(s) {bad}; valid: {sorted(known)}")
-        try:
-            return cls(**value)
-        except TypeError as e:
-            raise VoError(f"{where}: {e}") from None
 
 
 class DepthFilter:
