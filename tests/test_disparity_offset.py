@@ -6,7 +6,7 @@ import pytest
 
 from rigs.geometry import inv_T, make_T, rot_y, transform_points
 from vo.errors import EstimatorError
-from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig, _Pending
+from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 
 F, B = 700.0, 0.5
 
@@ -101,20 +101,6 @@ def test_the_pose_tracks_decide_whether_there_is_an_offset():
     assert est.delta_px == 0.0
     both, _ = _drive(0.0, scale=1.0, delta_odd=1.4, odd_pose=True)
     assert both.delta_px == pytest.approx(mean, abs=1e-9)
-
-
-def test_pose_track_fits_are_made_only_when_the_decision_needs_them():
-    """Half the tracks kept for the estimate only. A consistent rig: the fits on all tracks find no significant
-    offset, so the keyframes' fits on the pose tracks alone wait unmade (their cost saved); read, they are
-    made, one per keyframe fit, each near 0 (exact pose tracks). Offset-only tracks 1.4 px short: the fits on
-    all tracks are significant, the decision reads the pose-track fits, and none waits."""
-    est, _ = _drive(0.0, scale=1.0, odd_pose=False)
-    assert len(est.fits) >= 3 and not est._significant(est.fits)[2] and est.delta_px == 0.0
-    assert all(isinstance(e, _Pending) for e in est._pose_fits) and len(est._pose_fits) == len(est.fits)
-    assert np.allclose([f[0] for f in est.pose_fits], 0.0, atol=0.002) and len(est.pose_fits) == len(est.fits)
-    assert not any(isinstance(e, _Pending) for e in est._pose_fits)
-    odd, _ = _drive(0.0, scale=1.0, delta_odd=1.4, odd_pose=False)
-    assert odd._significant(odd.fits)[2] and not any(isinstance(e, _Pending) for e in odd._pose_fits)
 
 
 def test_correction_moves_landmarks_to_true_depth():

@@ -36,7 +36,6 @@ stereo self-calibration of the principal-point offset, and reads nothing but the
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -82,13 +81,6 @@ class OffsetConfig:
         return from_mapping(cls, value, EstimatorError, where)
 
 
-class _Pending(NamedTuple):
-    """A keyframe fit not made yet (:attr:`DisparityOffset.pose_fits`): the keyframe ``(c_b, ids, rays, raw
-    depths)`` and its observations (:func:`_seen`)."""
-    keyframe: tuple
-    seen: list
-
-
 # Landmarks a later frame must see to enter a keyframe's adjustment: with fewer, its pose (6 parameters) is
 # undetermined, the normal matrix is singular, and whether the fit then fails or returns an arbitrary offset
 # follows the last bits of the arithmetic (which differ with the arrays' memory alignment from process to
@@ -110,7 +102,7 @@ class DisparityOffset:
         self.keyframes: dict = {}    # birth frame -> (centre (3,), ids (N,), rays (N,3), raw depths (N,)) until fitted
         self.history: list = []      # (frame, T_o_c0 (4,4), ids (N,), normalised points (N,2), pose mask (N,) | None)
         self.fits: list = []         # (delta, variance) per fitted keyframe
-        self._pose_fits: list = []   # pose_fits, each fit or a _Pending one until read
+        self.pose_fits: list = []    # the same fits on the observations of pose-defining tracks only
         self.delta_px = 0.0
         self.se_px = float("nan")    # standard error of the average (nan until min_keyframes fits)
         self._frame = 0
@@ -135,8 +127,10 @@ class DisparityOffset:
         """The current frame: the estimated pose ``T_o_c0`` (4,4) and the normalised points ``x_n`` (N,2) of the
         tracked landmarks ``ids`` (N,), of which ``pose`` (N,) bool (default all) define the pose (the others are
         kept for this estimate only, :mod:`vo.estimators.track_gate`). Fits the keyframes the camera is now far
-        enough from (:meth:`fit_keyframe`) on all of them, and (when first read, :attr:`pose_fits`) again on the
-        pose tracks alone where they differ, and updates :attr:`delta_px` (:meth:`_update`)."""
+        enough from (:meth:`fit_keyframe`) on all of them, and again on the pose tracks alone where they differ,
+        and updates :attr:`delta_px` (:meth:`_update`). Both fits are made at once: made only when the decision
+        reads them, the pose-track fits would keep every keyframe's observations until then, on a consistent rig
+        for the whole route."""
         cfg = self.config
         if not cfg.enabled:
             return
@@ -153,13 +147,15 @@ class DisparityOffset:
             pick = np.unique(np.round(np.linspace(0, len(later) - 1, n_pick)).astype(int))
             frames = [later[j] for j in pick]
             fit = self.fit_keyframe(*g, [h[:4] for h in frames]) if later else None
-            if any(h[4] is not None and not h[4].all() for h in frames):    # fitted when read (pose_fits)
-                self._pose_fits.append(_Pending(g, _seen(g[1], [(k_, T, i[m], x[m]) if m is not None else
-                                                                (k_, T, i, x) for k_, T, i, x, m in frames])))
+            if any(h[4] is not None and not h[4].all() for h in frames):
+                fit_pose = self.fit_keyframe(*g, [(k_, T, i[m], x[m]) if m is not None else (k_, T, i, x)
+                                                  for k_, T, i, x, m in frames])
             else:
-                self._pose_fits.append(fit)
+                fit_pose = fit
             if fit is not None:
                 self.fits.append(fit)
+            if fit_pose is not None:
+                self.pose_fits.append(fit_pose)
         oldest = min(self.keyframes, default=self._frame)
         self.history = [h for h in self.history if h[0] > oldest]
         if due:
@@ -174,18 +170,6 @@ class DisparityOffset:
         depth ``f b / (D + delta)`` along its birth ray) -> ``(delta, variance)`` or None (fewer than
         ``min_landmarks`` landmarks seen after birth, or no solution)."""
         return self._fit_seen(c_b, dir_b, z_raw, _seen(ids, frames))
-
-    @property
-    def pose_fits(self) -> list:
-        """The keyframe fits (``(delta, variance)`` each) on the observations of pose-defining tracks only. A
-        keyframe whose picked frames held no offset-only track has its :attr:`fits` entry; the others are
-        fitted here, on first reading: only :meth:`_update` reads them, and only once the fits on all tracks
-        are significant (on a consistent rig, never), so they cost nothing until then and the same after."""
-        for j, e in enumerate(self._pose_fits):
-            if isinstance(e, _Pending):
-                (c_b, _, dir_b, z_raw), seen = e
-                self._pose_fits[j] = self._fit_seen(c_b, dir_b, z_raw, seen)
-        return [f for f in self._pose_fits if f is not None]
 
     def _fit_seen(self, c_b, dir_b, z_raw, seen) -> tuple | None:
         """:meth:`fit_keyframe` on the observations ``seen`` (:func:`_seen`) of its landmarks."""
