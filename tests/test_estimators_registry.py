@@ -183,8 +183,9 @@ class SleepyEstimator(Estimator):
 
 def test_runner_cpu_stage_counts_cpu_not_waiting():
     """The runner's ``cpu`` stage is the CPU time of each ``process`` call: the 20 ms spun, not the 30 ms slept
-    (process_time's resolution is well under a millisecond on Linux; the loop overshoots by one tick at most)."""
+    (counted, the sleep would make it >= 50 ms; the bound leaves 20 ms for other threads of the test process,
+    e.g. BLAS workers spinning down, which process_time counts too)."""
     res = run_estimator("test_estimators_registry:SleepyEstimator", FakeDataset(make_rig(), 4), progress=False)
     cpu = [f.timings_ms["cpu"] for f in res.frames]
-    assert all(20.0 <= c < 28.0 for c in cpu), cpu
+    assert all(20.0 <= c < 40.0 for c in cpu), cpu
     assert res.timings_ms["cpu"] == pytest.approx(np.mean(cpu))
