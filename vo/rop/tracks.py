@@ -87,7 +87,7 @@ class FourView:
 
 
 def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_snr: float = 0.0,
-          noise=None, raw_pyramid=None) -> tuple[np.ndarray, np.ndarray]:
+          noise=None) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``); ``ok``
     where both directions converge inside the image, the round trip ends < ``fb_threshold_px`` from
     ``p0`` and the two windows correlate (ZNCC >= ``config.min_zncc``, or the affine fit with ``config.zncc_affine``:
@@ -95,8 +95,8 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_s
     ``texture_snr`` times the noise, ``noise`` image -> std). With
     ``config.normalize_box`` (the default) on the local-mean-normalised pyramids of
     :mod:`vo.frontend.lk_normalized` (seed 003's intensity-invariant residual; ``pyramid`` image -> pyramid,
-    default ``config.pyramid``), else on the raw images (``raw_pyramid`` image -> OpenCV's pyramid of it,
-    :meth:`vo.frontend.klt_pyramids.LkPyramids.raw`: the same LK from pyramids built once per image)."""
+    default ``config.pyramid``), else on the raw images (from their raw pyramids when ``pyramid`` is an
+    :class:`~vo.frontend.klt_pyramids.LkPyramids`: the same LK from pyramids built once per image)."""
     n = len(p0)
     if n == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
@@ -107,12 +107,13 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_s
         if config.raw_fallback and not ok.all():       # the lost points: brightness constancy on the raw images
             lost = np.flatnonzero(~ok)
             p1[lost], ok[lost] = lk_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
-                                       None if guess is None else np.asarray(guess)[lost], raw_pyramid=raw_pyramid)
+                                       None if guess is None else np.asarray(guess)[lost], pyramid)
         return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine, texture_snr,
                              noise)
     a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
-    b, st = _lk_raw(img0, img1, a, guess, config, raw_pyramid)
-    a2, st2 = _lk_raw(img1, img0, b, a, config, raw_pyramid)
+    raws = pyramid if isinstance(pyramid, LkPyramids) else None
+    b, st = _lk_raw(img0, img1, a, guess, config, raws)
+    a2, st2 = _lk_raw(img1, img0, b, a, config, raws)
     p1 = b.reshape(-1, 2).astype(np.float64)
     h, w = img1.shape[:2]
     ok = (st.ravel() == 1) & (st2.ravel() == 1) & np.all(np.isfinite(p1), axis=1)
@@ -121,13 +122,13 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_s
     return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine, texture_snr, noise)
 
 
-def _lk_raw(img0, img1, pts, init, config: KltConfig, raw_pyramid=None) -> tuple:
+def _lk_raw(img0, img1, pts, init, config: KltConfig, pyramids: LkPyramids | None = None) -> tuple:
     """OpenCV's pyramidal LK of ``pts`` (N,1,2) float32 from ``img0`` into ``img1``, started at ``init``
-    (None: zero flow) -> ``(next (N,1,2) float32, status (N,1))``; from the pyramids of ``raw_pyramid`` (built
-    for ``config``'s window and levels) when given, to the same bits."""
-    if raw_pyramid is not None:
-        return lk_raw_levels(raw_pyramid(img0), raw_pyramid(img1), pts, config.win, config.lk_iters, config.lk_eps,
-                             init)
+    (None: zero flow) -> ``(next (N,1,2) float32, status (N,1))``; from the raw pyramids of ``pyramids`` (for
+    ``config``'s window and levels) when given, to the same bits."""
+    if pyramids is not None:
+        pyr0, pyr1 = (pyramids.raw(im, config.win, config.max_level) for im in (img0, img1))
+        return lk_raw_levels(pyr0, pyr1, pts, config.win, config.lk_iters, config.lk_eps, init)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
     kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
     if init is None:
@@ -157,10 +158,8 @@ class KltFourView:
         self.view = None             # the current FourView
         self._prev_left = None
         self._ids = TrackIds()       # identities of new tracks
-        self._pyramid = config.pyramid_cache()   # normalised pyramids of the last images (None: raw LK)
+        self._pyramid = LkPyramids(config.levels, config.box)   # normalised and raw pyramids of the last images
         self.right_shift_px = 0.0    # principal-point correction of the stored right points (module docstring)
-        raws = LkPyramids(config.levels, config.box)          # OpenCV's raw pyramids, for the raw LK
-        self._raw_pyramid = lambda img: raws.raw(img, config.win, config.max_level)
 
     def normalize(self, p, k):
         cam = self.cams[k]
@@ -177,7 +176,7 @@ class KltFourView:
         """Right points of left points ``p_l`` (N,2) -> ``(p_r stored (N,2), ok (N,))``; ``guess`` stored too."""
         s = self._shift
         p_r, ok = lk_fb(left, right, p_l, self.config, None if guess is None else guess + s, self._pyramid,
-                        self.texture_snr, self._noise, self._raw_pyramid)
+                        self.texture_snr, self._noise)
         p_r = p_r - s
         if ok.any():
             ok[ok] &= stereo_gate(self.rig, p_l[ok], p_r[ok], self.config)
@@ -218,7 +217,7 @@ class KltFourView:
         v = self.view
         t0 = cv2.getTickCount()
         p3, ok = lk_fb(self._prev_left, left, v.p3, self.config, pyramid=self._pyramid,
-                       texture_snr=self.texture_snr, noise=self._noise, raw_pyramid=self._raw_pyramid)
+                       texture_snr=self.texture_snr, noise=self._noise)
         A3, A4 = self._warps(v)
         t3, t4 = self._templates(v)
         if t3 is not None and ok.any():
