@@ -7,7 +7,7 @@ import numpy as np
 
 from sim.scenarios import cached_dataset, get_scenario
 from vo.dataset import open_dataset
-from vo.estimators.runner import CPU_STAGE, run_estimator
+from vo.estimators.runner import CPU_STAGE, run_estimator, wall_and_cpu_ms
 from vo.pipeline import evaluate_run, reference_truth
 
 
@@ -70,10 +70,8 @@ def format_rows(rows) -> str:
     lines = [f"{'scenario':<17}{'estimator':<10}{'path m':>8}{'drift %':>9}{'RMSD x':>8}{'RMSD y':>8}{'RMSD z':>8}"
              f"{'ATE m':>8}{'lost':>6}{'init':>6}{'ms/frame':>10}{'CPU ms':>8}  stages (ms)"]
     for r in rows:
-        wall = {k: v for k, v in r.ms_per_frame.items() if k != CPU_STAGE}
-        total = wall.get("total", sum(wall.values()))
-        cpu = r.ms_per_frame.get(CPU_STAGE, float("nan"))
-        stages = " ".join(f"{k} {v:.1f}" for k, v in sorted(wall.items()) if k != "total")
+        total, cpu = wall_and_cpu_ms(r.ms_per_frame)
+        stages = " ".join(f"{k} {v:.1f}" for k, v in sorted(r.ms_per_frame.items()) if k not in ("total", CPU_STAGE))
         lines.append(f"{r.scenario:<17}{r.estimator:<10}{r.path_length_m:8.1f}{r.drift_pct:9.2f}"
                      f"{r.gcp_rmsd_m[0]:8.3f}{r.gcp_rmsd_m[1]:8.3f}{r.gcp_rmsd_m[2]:8.3f}{r.ate_rmse_m:8.3f}"
                      f"{r.n_lost:6d}{r.n_init:6d}{total:10.1f}{cpu:8.1f}  {stages}")

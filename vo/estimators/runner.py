@@ -24,6 +24,13 @@ LOST_STATUSES = ("few_features", "lost")
 CPU_STAGE = "cpu"             # the runner's own stage: CPU ms of the estimator's ``process`` call
 
 
+def wall_and_cpu_ms(timings: dict) -> tuple[float, float]:
+    """Mean ms per frame of a run's ``timings_ms`` -> ``(wall clock: the "total" stage, else the sum of the
+    estimator's stages; CPU: the runner's ``cpu`` stage, nan without it)``."""
+    wall = {k: v for k, v in timings.items() if k != CPU_STAGE}
+    return float(wall.get("total", sum(wall.values()))), float(timings.get(CPU_STAGE, float("nan")))
+
+
 @dataclass
 class RunResult:
     """``trajectory`` of ``T_o_c0`` (ref "o", frame "c0"); ``frames`` per-frame results (empty for external

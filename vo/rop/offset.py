@@ -32,7 +32,7 @@ from vo.estimators.disparity_offset import DisparityOffset, OffsetConfig
 from vo.frontend.stereo import triangulate
 from vo.rop.tracks import KltFourView
 
-MAX_DEPTH_M = 200.0      # birth depths beyond this are too weakly observed to register (0.15 px disparity at KITTI's fb)
+MAX_DEPTH_M = 200.0      # birth depths beyond this are not registered (1.9 px disparity at KITTI's f b = 386 px m)
 
 
 class RopOffset:
