@@ -112,6 +112,14 @@ def test_run_bad_estimator_option_leaves_no_output_folder(estimator, opt, needle
     assert not (tmp_path / "o").exists()
 
 
+def test_run_missing_dataset_folder_is_one_line(tmp_path, capsys):
+    code, _, err = vo_testbed(capsys, "run", "--dataset", tmp_path / "nope", "--estimator", "rop",
+                              "--out", tmp_path / "o")
+    assert_one_line_exit_2(code, err, f"Invalid value for '--dataset': Path '{tmp_path / 'nope'}' does not exist")
+    assert len(err.strip().splitlines()) == 1, err           # no usage block around it
+    assert not (tmp_path / "o").exists()
+
+
 def test_demo_unknown_estimator_refused_before_rendering(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("VO_TESTBED_CACHE", str(tmp_path / "cache"))
     code, out, err = vo_testbed(capsys, "demo", "--scenario", "smoke", "--estimators", "klt-pnp,nosuch",

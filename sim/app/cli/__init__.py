@@ -84,6 +84,9 @@ def main(argv=None):
         cli.main(args=args, prog_name="vo-testbed", standalone_mode=False)
     except click.exceptions.Exit as e:
         sys.exit(e.exit_code)
+    except click.UsageError as e:   # bad arguments: one line, as every other bad input (no usage block)
+        click.echo(f"Error: {e.format_message()}", err=True)
+        sys.exit(e.exit_code)
     except click.ClickException as e:
         e.show()
         sys.exit(e.exit_code)
