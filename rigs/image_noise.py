@@ -42,6 +42,7 @@ from rigs.records import StereoFrame
 from rigs.errors import RecordError
 
 MC_TAG = 0xC0FFEE           # the Monte-Carlo runs' stream tag (sim.app.nees)
+REAL_DRAW_TAG = 0xD2A3      # the noise draws of the real-recording benchmark (sim.app.bench_real)
 TABLE_BITS = 16             # add_quantized_noise: a 16-bit table index per pixel (drawn bytewise)
 MAX_OFFSET = 255            # offsets beyond +-255 grey levels clip alike (merged into +-255)
 _ESCAPE = np.iinfo(np.int16).min

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sim.app.bench_real import bench_real, ground_axes, segment_errors
+from sim.app.bench_real import bench_real, format_rows, ground_axes, segment_errors
 from sim.app.cli import cli, main
+from sim.errors import SimError
 from rigs.trajectory import Trajectory
 
 REPO = Path(__file__).resolve().parents[1]
@@ -84,3 +85,36 @@ def test_bench_real_bad_dataset_is_one_line_and_exit_2(tmp_path, capsys):
         main(["bench", "real", "--dataset", str(tmp_path / "missing")])
     err = capsys.readouterr().err.strip()
     assert e.value.code == 2 and len(err.splitlines()) == 1 and "missing: dataset folder not found" in err
+
+
+@pytest.mark.slow
+def test_bench_real_noise_draws_are_seeded_paired_and_leave_the_recorded_run_alone(tmp_path):
+    """Each draw is a run on the recording with seeded image noise added: the same draws twice give the same
+    drifts to the bit, two draws differ from each other, and the recorded run's figures are those of a bench
+    without draws."""
+    from sim.generate_config import GenerateConfig
+    from sim.generate import generate
+    data = tmp_path / "data"
+    generate(GenerateConfig(scene="campus", rig="cart27", duration_s=2.0, seed=3), data, progress=False)
+    plain = bench_real([data], ("klt-pnp",), progress=False)
+    drawn = bench_real([data], ("klt-pnp",), progress=False, noise_draws=2, noise_sigma=1.0)
+    again = bench_real([data], ("klt-pnp",), progress=False, noise_draws=2, noise_sigma=1.0)
+    assert plain[0].drift_draws_pct == [] and plain[0].noise_sigma == 0.0
+    assert drawn[0].drift_pct == plain[0].drift_pct and drawn[0].ate_rmse_m == plain[0].ate_rmse_m
+    assert len(drawn[0].drift_draws_pct) == 2 and drawn[0].noise_sigma == 1.0
+    assert drawn[0].drift_draws_pct == again[0].drift_draws_pct
+    d0, d1 = drawn[0].drift_draws_pct
+    assert np.isfinite([d0, d1]).all() and d0 != d1
+    assert "under re-drawn image noise" in format_rows(drawn) and "re-drawn" not in format_rows(plain)
+
+
+def test_bench_real_bad_noise_options_are_refused(tmp_path, capsys):
+    for args in (["--noise-draws", "-1"], ["--noise-draws", "2", "--noise-sigma", "0"]):
+        with pytest.raises(SystemExit) as e:
+            main(["bench", "real", "--dataset", str(tmp_path), *args])
+        err = capsys.readouterr().err.strip()
+        assert e.value.code == 2 and len(err.splitlines()) == 1 and "--noise-" in err, err
+    with pytest.raises(SimError, match="noise_sigma"):
+        bench_real([tmp_path], ("klt-pnp",), noise_draws=1, noise_sigma=float("nan"))
+    with pytest.raises(SimError, match="noise_draws"):
+        bench_real([tmp_path], ("klt-pnp",), noise_draws=-2)

@@ -5,6 +5,13 @@ enough, ms per frame, frames by status, and one trajectory plot per recording.
 Every recording is opened with :func:`vo.dataset.open_dataset` (its layout decides the reader) and evaluated
 with the project's one evaluation (:func:`vo.eval.evaluate`, anchored at the true first pose: ``align
 first``), so a real recording is scored exactly as a simulated one.
+
+A recording is one draw of its sensor noise, and on a short one a few matches can decide the drift. With
+``noise_draws`` N each estimator also runs on N copies of each recording with Gaussian image noise of
+``noise_sigma`` grey levels added (:class:`rigs.image_noise.ImageNoiseDataset`, draw ``k`` the stream
+``(k, frame index, REAL_DRAW_TAG)``: the same noise for every estimator, so their draws are paired), and
+the row gives the drift of every draw: whether a difference between two figures exceeds what the noise
+alone moves them.
 """
 from __future__ import annotations
 
@@ -14,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rigs.image_noise import REAL_DRAW_TAG, ImageNoiseDataset
+from sim.errors import SimError
 from vo.dataset import open_dataset
 from vo.errors import DatasetError
 from vo.estimators.registry import check_spec
@@ -22,13 +31,15 @@ from vo.eval.kitti_segments import KITTI_LENGTHS_M, kitti_errors
 from vo.pipeline import prepare_out_dir, run_and_evaluate
 
 DEFAULT_ESTIMATORS = ("rop", "klt-pnp")
+DEFAULT_NOISE_SIGMA = 0.5     # grey levels added per draw: below the sensor noise of a real camera (~1)
 
 
 @dataclass
 class RealBenchRow:
     """One estimator on one recording. ``kitti_*`` are the devkit segment errors over the devkit lengths
     (100-800 m) that fit in the route, NaN (``kitti_segments`` 0) on a route shorter than 100 m;
-    ``rpe_*`` frame-to-frame RMSE; ``status_counts`` frames by estimator status."""
+    ``rpe_*`` frame-to-frame RMSE; ``status_counts`` frames by estimator status; ``drift_draws_pct`` the drift
+    of each noise draw (module docstring; empty without draws), ``noise_sigma`` their added noise (grey levels)."""
 
     recording: str
     estimator: str
@@ -47,6 +58,8 @@ class RealBenchRow:
     status_counts: dict = field(default_factory=dict)
     plot: str = ""
     cpu_ms_per_frame: float = float("nan")   # CPU ms of the estimator's calls (the runner's ``cpu`` stage)
+    noise_sigma: float = 0.0
+    drift_draws_pct: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -112,12 +125,20 @@ def plot_recording(recording: str, gt, estimates: dict, path) -> Path:
 
 
 def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: bool = True, progress: bool = True,
-               max_frames=None, options=None) -> list:
+               max_frames=None, options=None, noise_draws: int = 0, noise_sigma: float | None = None) -> list:
     """Run every estimator on every recording -> list of :class:`RealBenchRow`; with ``out_dir`` one
-    ``<recording>_trajectory.png`` per recording there. A recording without ground truth is refused
-    (:class:`vo.errors.DatasetError` naming it) before anything runs."""
+    ``<recording>_trajectory.png`` per recording there; with ``noise_draws`` also on that many re-noised copies
+    (module docstring). A recording without ground truth is refused (:class:`vo.errors.DatasetError` naming
+    it) before anything runs, as are a negative ``noise_draws`` and draws without positive ``noise_sigma``
+    (None: :data:`DEFAULT_NOISE_SIGMA`)."""
     import cv2
 
+    noise_sigma = DEFAULT_NOISE_SIGMA if noise_sigma is None else noise_sigma
+
+    if int(noise_draws) != noise_draws or noise_draws < 0:
+        raise SimError(f"bench real: noise_draws {noise_draws!r}; must be an integer >= 0")
+    if noise_draws and not (np.isfinite(noise_sigma) and noise_sigma > 0):
+        raise SimError(f"bench real: noise_sigma {noise_sigma!r}; must be a finite number > 0 grey levels")
     for name in estimators:
         check_spec(name)
     opened = []
@@ -140,6 +161,11 @@ def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: 
         for name in estimators:
             res = run_and_evaluate(ds, name, options=options, progress=progress, max_frames=max_frames)
             rows.append(row_of(rec, name, res))
+            for k in range(int(noise_draws)):
+                noisy = ImageNoiseDataset(ds, noise_sigma, (k,), REAL_DRAW_TAG)
+                draw = run_and_evaluate(noisy, name, options=options, progress=progress, max_frames=max_frames)
+                rows[-1].drift_draws_pct.append(float(draw.evaluation.drift.drift_ratio_pct))
+                rows[-1].noise_sigma = float(noise_sigma)
             ests[name], gt = res.evaluation.aligned_est, res.evaluation.gt_matched
         if out is not None and gt is not None:
             plot = str(plot_recording(rec, gt, ests, out / f"{rec}_trajectory.png"))
@@ -158,4 +184,13 @@ def format_rows(rows) -> str:
         lines.append(f"{r.recording:<22}{r.estimator:<10}{r.n_frames:7d}{r.path_length_m:9.1f}{r.drift_pct:9.2f}"
                      f"{r.est_length_m:9.1f}{r.ate_rmse_m:8.3f}{r.rpe_trans_rmse_m:8.3f}{r.rpe_rot_rmse_deg:9.3f}{kt}"
                      f"{r.ms_per_frame:10.1f}{r.cpu_ms_per_frame:8.1f}  {st}")
+    drawn = [r for r in rows if r.drift_draws_pct]
+    if drawn:
+        lines += ["", f"drift % under re-drawn image noise (+{drawn[0].noise_sigma:g} grey levels; draw k the same for "
+                      f"every estimator)",
+                  f"{'recording':<22}{'estimator':<10}{'draws':>6}{'median':>8}{'min':>8}{'max':>8}{'recorded':>10}"]
+        for r in drawn:
+            d = np.asarray(r.drift_draws_pct)
+            lines.append(f"{r.recording:<22}{r.estimator:<10}{len(d):6d}{np.median(d):8.2f}{d.min():8.2f}{d.max():8.2f}"
+                         f"{r.drift_pct:10.2f}")
     return "\n".join(lines)
