@@ -133,12 +133,7 @@ def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: 
     (None: :data:`DEFAULT_NOISE_SIGMA`)."""
     import cv2
 
-    noise_sigma = DEFAULT_NOISE_SIGMA if noise_sigma is None else noise_sigma
-
-    if int(noise_draws) != noise_draws or noise_draws < 0:
-        raise SimError(f"bench real: noise_draws {noise_draws!r}; must be an integer >= 0")
-    if noise_draws and not (np.isfinite(noise_sigma) and noise_sigma > 0):
-        raise SimError(f"bench real: noise_sigma {noise_sigma!r}; must be a finite number > 0 grey levels")
+    noise_sigma = _noise_sigma(noise_draws, DEFAULT_NOISE_SIGMA if noise_sigma is None else noise_sigma)
     for name in estimators:
         check_spec(name)
     opened = []
@@ -161,17 +156,31 @@ def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: 
         for name in estimators:
             res = run_and_evaluate(ds, name, options=options, progress=progress, max_frames=max_frames)
             rows.append(row_of(rec, name, res))
-            for k in range(int(noise_draws)):
+            for k in range(noise_draws):
                 noisy = ImageNoiseDataset(ds, noise_sigma, (k,), REAL_DRAW_TAG)
                 draw = run_and_evaluate(noisy, name, options=options, progress=progress, max_frames=max_frames)
                 rows[-1].drift_draws_pct.append(float(draw.evaluation.drift.drift_ratio_pct))
-                rows[-1].noise_sigma = float(noise_sigma)
+            rows[-1].noise_sigma = noise_sigma if noise_draws else 0.0
             ests[name], gt = res.evaluation.aligned_est, res.evaluation.gt_matched
         if out is not None and gt is not None:
             plot = str(plot_recording(rec, gt, ests, out / f"{rec}_trajectory.png"))
             for r in rows[-len(estimators):]:
                 r.plot = plot
     return rows
+
+
+def _noise_sigma(noise_draws, noise_sigma) -> float:
+    """``noise_sigma`` as a float, once ``noise_draws`` is checked to be an integer >= 0 and, with draws,
+    ``noise_sigma`` a finite number > 0 (else :class:`SimError`, one line naming the argument)."""
+    if isinstance(noise_draws, bool) or not isinstance(noise_draws, (int, np.integer)) or noise_draws < 0:
+        raise SimError(f"bench real: noise_draws {noise_draws!r}; must be an integer >= 0")
+    try:
+        sigma = float(noise_sigma)
+    except (TypeError, ValueError):
+        sigma = float("nan")
+    if noise_draws and not (np.isfinite(sigma) and sigma > 0):
+        raise SimError(f"bench real: noise_sigma {noise_sigma!r}; must be a finite number > 0 grey levels")
+    return sigma
 
 
 def format_rows(rows) -> str:
