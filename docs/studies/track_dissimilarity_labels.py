@@ -21,13 +21,12 @@ from collections import defaultdict
 
 import numpy as np
 
-from sim.app.validation.exact_points import local_depth
 from vo.dataset import open_dataset
 from vo.estimators.runner import run_estimator
 from vo.frontend.patch_check import affine_zncc, zncc
 from vo.vins.truth_segmentation import FeatureLabels
 
-from track_residual_labels import disparity_step, roc_area
+from track_residual_labels import birth_labels, roc_area
 
 WIN = 21
 
@@ -49,12 +48,8 @@ def record(ds, max_frames: int, ages: list[int]) -> dict:
         ids, pts = est.tracker.ids, est.tracker.pts
         new = np.array([int(i) not in birth for i in ids], bool)
         if new.any():
-            depth = np.asarray(ds.depth(k), float)
-            _, ok = local_depth(depth, pts[new])
-            step = disparity_step(depth, pts[new], fb)
-            dyn = labels.dynamic(k, pts[new]) if labels is not None else np.zeros(int(new.sum()), bool)
-            for i, p, d, o, s in zip(ids[new], pts[new], dyn, ok, step):
-                birth[int(i)] = (k, p.copy(), None if d else (0 if o else (2 if s >= 3.0 else 1)))
+            for i, p, d, e, b in zip(ids[new], pts[new], *birth_labels(ds, labels, fb, k, pts[new])):
+                birth[int(i)] = (k, p.copy(), None if d else (2 if b else int(e)))
         for K in ages:
             sel = [j for j, i in enumerate(ids) if birth[int(i)][0] == k - K and birth[int(i)][2] is not None
                    and int(i) in est.landmarks]

@@ -53,6 +53,18 @@ def disparity_step(depth: np.ndarray, px: np.ndarray, fb: float) -> np.ndarray:
     return d.max(axis=1) - d.min(axis=1)
 
 
+def birth_labels(ds, labels, fb: float, k: int, px: np.ndarray) -> tuple:
+    """Truth labels of landmarks born at pixels ``px`` (N,2) of frame ``k`` -> ``(moving, edge, big_step)`` (N,) bool:
+    on a moving actor (``labels``: :class:`FeatureLabels` or None), on a depth edge (``local_depth``'s 0.5 % plane
+    rule fails), and an edge whose 5x5 window spans >= 3 px of disparity."""
+    depth = np.asarray(ds.depth(k), float)
+    _, plane = local_depth(depth, px)
+    step = disparity_step(depth, px, fb)
+    moving = labels.dynamic(k, px) if labels is not None else np.zeros(len(px), bool)
+    edge = ~np.asarray(plane, bool)
+    return np.asarray(moving, bool), edge, edge & (step >= 3.0)
+
+
 def roc_area(pos: np.ndarray, neg: np.ndarray) -> float:
     """P(statistic of a positive > that of a negative) (ties count half)."""
     if not len(pos) or not len(neg):
@@ -81,13 +93,9 @@ def record(ds, max_frames: int, options: dict):
         ids, pts = ids[have], pts[have]
         new = np.array([int(i) not in born for i in ids], bool)
         if new.any():
-            depth = np.asarray(ds.depth(k), float)
-            _, ok = local_depth(depth, pts[new])
-            step = disparity_step(depth, pts[new], fb)
-            dyn = labels.dynamic(k, pts[new]) if labels is not None else np.zeros(int(new.sum()), bool)
-            for i, d, o, s in zip(ids[new], dyn, ok, step):
+            for i, d, e, b in zip(ids[new], *birth_labels(ds, labels, fb, k, pts[new])):
                 born[int(i)] = k
-                lab[int(i)] = (bool(d), not bool(o), bool(not o and s >= 3.0))
+                lab[int(i)] = (bool(d), bool(e), bool(b))
         if result.pose_class != "ok" or not (~new).any():
             return
         old = ids[~new]
