@@ -118,3 +118,19 @@ def test_bench_real_bad_noise_options_are_refused(tmp_path, capsys):
         bench_real([tmp_path], ("klt-pnp",), noise_draws=1, noise_sigma=float("nan"))
     with pytest.raises(SimError, match="noise_draws"):
         bench_real([tmp_path], ("klt-pnp",), noise_draws=-2)
+
+
+@pytest.mark.slow
+def test_the_kitti_excerpt_holds_the_target_over_noise_draws():
+    """The 2 % target on the real turn judged over 4 draws of added image noise (0.5 grey levels), not on the one
+    recording, whose figure a few matches decide (docs/estimators.md, "How far the noise alone moves these
+    figures": over 8 draws `rop` 1.08-1.74 %, `klt-pnp` 0.44-1.22 %, medians 1.24 / 0.79; `rop` without its
+    disparity-offset estimate median 2.25, worst 3.10). The median must meet the target and no draw may pass
+    2.5 %."""
+    seq = REAL / "kitti_turn"
+    if not seq.is_dir():
+        pytest.skip(f"{seq}: real KITTI excerpt not present")
+    rows = bench_real([seq], ("rop", "klt-pnp"), progress=False, noise_draws=4)
+    for r in rows:
+        d = np.asarray(r.drift_draws_pct)
+        assert len(d) == 4 and np.median(d) <= 2.0 and d.max() <= 2.5, (r.estimator, d)
