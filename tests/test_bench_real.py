@@ -88,7 +88,7 @@ def test_bench_real_bad_dataset_is_one_line_and_exit_2(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_bench_real_noise_draws_are_seeded_paired_and_leave_the_recorded_run_alone(tmp_path):
+def test_bench_real_noise_draws_are_seeded_paired_and_leave_the_recorded_run_alone(tmp_path, capsys):
     """Each draw is a run on the recording with seeded image noise added: the same draws twice give the same
     drifts to the bit, two draws differ from each other, and the recorded run's figures are those of a bench
     without draws."""
@@ -97,7 +97,9 @@ def test_bench_real_noise_draws_are_seeded_paired_and_leave_the_recorded_run_alo
     data = tmp_path / "data"
     generate(GenerateConfig(scene="campus", rig="cart27", duration_s=2.0, seed=3), data, progress=False)
     plain = bench_real([data], ("klt-pnp",), progress=False)
-    drawn = bench_real([data], ("klt-pnp",), progress=False, noise_draws=2, noise_sigma=1.0)
+    capsys.readouterr()
+    drawn = bench_real([data], ("klt-pnp",), progress=True, noise_draws=2, noise_sigma=1.0)
+    assert "klt-pnp, noise draw 2 of 2 (+1 grey levels)" in capsys.readouterr().err      # progress names the draw
     again = bench_real([data], ("klt-pnp",), progress=False, noise_draws=2, noise_sigma=1.0)
     assert plain[0].drift_draws_pct == [] and plain[0].noise_sigma == 0.0
     assert drawn[0].drift_pct == plain[0].drift_pct and drawn[0].ate_rmse_m == plain[0].ate_rmse_m

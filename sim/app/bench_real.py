@@ -16,6 +16,7 @@ alone moves them.
 from __future__ import annotations
 
 import re
+import sys
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -157,6 +158,9 @@ def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: 
             res = run_and_evaluate(ds, name, options=options, progress=progress, max_frames=max_frames)
             rows.append(row_of(rec, name, res))
             for k in range(noise_draws):
+                if progress:
+                    print(f"{rec}: {name}, noise draw {k + 1} of {noise_draws} (+{noise_sigma:g} grey levels)",
+                          file=sys.stderr, flush=True)
                 noisy = ImageNoiseDataset(ds, noise_sigma, (k,), REAL_DRAW_TAG)
                 draw = run_and_evaluate(noisy, name, options=options, progress=progress, max_frames=max_frames)
                 rows[-1].drift_draws_pct.append(float(draw.evaluation.drift.drift_ratio_pct))
