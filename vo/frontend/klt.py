@@ -13,7 +13,7 @@ import numpy as np
 
 from vo.errors import VoError
 from vo.frontend.grid import Grid
-from vo.frontend.klt_pyramids import LkPyramids, lk_raw_levels
+from vo.frontend.klt_pyramids import LkPyramids, lk_raw
 from vo.frontend.lk_invariant import lk_illumination_invariant
 from vo.frontend.lk_normalized import PyramidCache, lk_pyramids, normalized_pyramid
 from vo.frontend.epipolar_offset import offset_epipolar_mask
@@ -195,14 +195,7 @@ def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = K
     if config.box:
         pyr0, pyr1 = pyramids if pyramids is not None else (config.pyramid(img0), config.pyramid(img1))
         return lk_pyramids(pyr0, pyr1, p0, config.win, config.lk_iters, config.lk_eps, guess)
-    crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
-    start = None if guess is None else np.asarray(guess, np.float32).reshape(-1, 1, 2).copy()
-    if pyramids is not None:
-        p1, st = lk_raw_levels(*pyramids, p0, config.win, config.lk_iters, config.lk_eps, start)
-    else:
-        p1, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, p0.astype(np.float32).reshape(-1, 1, 2), start,
-                                             winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit,
-                                             flags=0 if guess is None else cv2.OPTFLOW_USE_INITIAL_FLOW)
+    p1, st = lk_raw(img0, img1, p0, config.win, config.max_level, config.lk_iters, config.lk_eps, guess, pyramids)
     p1 = p1.reshape(-1, 2).astype(np.float64)
     h, w = img1.shape[:2]
     ok = st.reshape(-1).astype(bool) & np.all(np.isfinite(p1), axis=1)

@@ -57,6 +57,22 @@ def lk_raw_levels(pyr0: list, pyr1: list, p0: np.ndarray, win: int, iters: int, 
     return nxt, st
 
 
+def lk_raw(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, win: int, max_level: int, iters: int, eps: float,
+           guess: np.ndarray | None = None, pyramids: tuple | None = None) -> tuple:
+    """OpenCV's pyramidal LK of ``p0`` (N,2) or (N,1,2) from the raw image ``img0`` into ``img1``, started at
+    ``guess`` (same shapes; None: zero flow) -> ``(p1 (N,1,2) float32, status (N,1) uint8)``: from the two
+    images' raw pyramids ``pyramids`` (:meth:`LkPyramids.raw`) when given, else ``cv2.calcOpticalFlowPyrLK`` on
+    the images; the same bits either way."""
+    start = None if guess is None else np.array(guess, np.float32).reshape(-1, 1, 2)
+    if pyramids is not None:
+        return lk_raw_levels(*pyramids, p0, win, iters, eps, start)
+    crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, iters, eps)
+    a = np.ascontiguousarray(np.asarray(p0).reshape(-1, 1, 2), np.float32)
+    p1, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, a, start, winSize=(win, win), maxLevel=max_level, criteria=crit,
+                                         flags=0 if start is None else cv2.OPTFLOW_USE_INITIAL_FLOW)
+    return p1, st
+
+
 class LkPyramids:
     """The pyramids of the last ``size`` images seen (by identity, as :class:`PyramidCache`): called with an
     image, its normalised pyramid (``levels``, ``box``); :meth:`raw`, its raw pyramid (:func:`raw_pyramid`)."""

@@ -67,7 +67,7 @@ class RopOffset:
         """Register the tracks of ``view`` born on this frame (raw stereo depth: the stored right points
         ``p2`` plus the tracker's ``shift_px``) at pose ``T_o_c0`` (4,4), observe every track, and return the
         offset to apply from the next match on (px)."""
-        if not self.config.enabled or view is None or view.ids is None or len(view) == 0:
+        if view is None or view.ids is None or len(view) == 0:
             return self.estimate.delta_px
         ids = np.asarray(view.ids, np.int64)
         est = self.estimate

@@ -41,7 +41,7 @@ from vo.frontend.affine_lk import AffineTemplate, affine_template, refine_to
 from vo.frontend.depth_edge import off_edge
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells, stereo_gate
-from vo.frontend.klt_pyramids import LkPyramids, lk_raw_levels
+from vo.frontend.klt_pyramids import LkPyramids, lk_raw
 from vo.frontend.lk_normalized import lk_fb_pyramids
 from vo.frontend.patch_check import NoiseLevel, zncc_mask
 from vo.rop.relative import normalized_points
@@ -123,20 +123,10 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_s
 
 
 def _lk_raw(img0, img1, pts, init, config: KltConfig, pyramids: LkPyramids | None = None) -> tuple:
-    """OpenCV's pyramidal LK of ``pts`` (N,1,2) float32 from ``img0`` into ``img1``, started at ``init``
-    (None: zero flow) -> ``(next (N,1,2) float32, status (N,1))``; from the raw pyramids of ``pyramids`` (for
-    ``config``'s window and levels) when given, to the same bits."""
-    if pyramids is not None:
-        pyr0, pyr1 = (pyramids.raw(im, config.win, config.max_level) for im in (img0, img1))
-        return lk_raw_levels(pyr0, pyr1, pts, config.win, config.lk_iters, config.lk_eps, init)
-    crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iters, config.lk_eps)
-    kw = dict(winSize=(config.win, config.win), maxLevel=config.max_level, criteria=crit)
-    if init is None:
-        b, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, pts, None, **kw)
-    else:
-        b = np.array(init, np.float32).reshape(-1, 1, 2)
-        b, st, _ = cv2.calcOpticalFlowPyrLK(img0, img1, pts, b, flags=cv2.OPTFLOW_USE_INITIAL_FLOW, **kw)
-    return b, st
+    """:func:`~vo.frontend.klt_pyramids.lk_raw` with ``config``'s window, levels and criteria, from the raw
+    pyramids of ``pyramids`` when given."""
+    pyrs = None if pyramids is None else tuple(pyramids.raw(im, config.win, config.max_level) for im in (img0, img1))
+    return lk_raw(img0, img1, pts, config.win, config.max_level, config.lk_iters, config.lk_eps, init, pyrs)
 
 
 class KltFourView:
