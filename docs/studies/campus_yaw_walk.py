@@ -44,7 +44,10 @@ def yaw_split(T_est: np.ndarray, T_true: np.ndarray) -> dict:
         true_step, est_step = inv_T(G[k - 1]) @ G[k], inv_T(T_est[k - 1]) @ T_est[k]
         e = np.degrees(Rotation.from_matrix(true_step[:3, :3].T @ est_step[:3, :3]).as_rotvec())
         turning = abs(np.degrees(Rotation.from_matrix(true_step[:3, :3]).as_rotvec()[1])) > STRAIGHT_DEG
-        turns, straights = (turns + e[1], straights) if turning else (turns, straights + e[1])
+        if turning:
+            turns += e[1]
+        else:
+            straights += e[1]
         errors.append(e)
     return {"drift_pct": 100 * float(np.linalg.norm(T_est[-1][:3, 3] - G[-1][:3, 3])) / path,
             "yaw_straights_deg": straights, "yaw_turns_deg": turns,
