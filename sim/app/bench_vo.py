@@ -5,7 +5,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from sim.scenarios import cached_dataset, get_scenario
+from sim.app.check import scenario_dataset
 from vo.dataset import open_dataset
 from vo.estimators.runner import CPU_STAGE, run_estimator, wall_and_cpu_ms
 from vo.pipeline import evaluate_run, reference_truth
@@ -30,16 +30,18 @@ class VoBenchRow:
 
 
 def bench_estimators(scenarios=("campus", "indoor"), estimators=("rop", "klt-pnp", "orb-pnp"),
-                     one_core: bool = True, progress: bool = True, max_frames=None, options=None) -> list:
+                     one_core: bool = True, progress: bool = True, max_frames=None, options=None,
+                     overrides=()) -> list:
     """Run every estimator on every scenario (datasets cached) -> list of :class:`VoBenchRow`;
-    ``options`` (estimator options, as ``--opt``) go to every estimator."""
+    ``options`` (estimator options, as ``--opt``) go to every estimator, ``overrides`` (``key=value``, as
+    ``--set``: a held-out ``seed=N``, ``render.supersample=3``) to every scenario."""
     import cv2
 
     if one_core:
         cv2.setNumThreads(1)
     rows = []
     for scenario in scenarios:
-        ds = open_dataset(cached_dataset(get_scenario(scenario), progress=progress))
+        ds = open_dataset(scenario_dataset(scenario, overrides, progress=progress))
         for name in estimators:
             run = run_estimator(name, ds, options=options or {}, progress=progress, max_frames=max_frames)
             if len(run.estimated()) < 2:              # never initialised: nothing to score, a row of NaN

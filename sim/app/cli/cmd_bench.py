@@ -41,14 +41,15 @@ def render(scenes, pairs, shadows, as_json):
 @click.option("--max-frames", type=click.IntRange(min=1), default=None)
 @click.option("--no-progress", is_flag=True)
 @opt_option
+@set_option
 @json_option
-def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, estimator_opts, as_json):
+def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, estimator_opts, overrides, as_json):
     """Drift ratio, GCP RMSD, ATE and ms per frame per stage of each estimator on each scenario."""
     from sim.app.bench_vo import bench_estimators, format_rows
     rows = bench_estimators(tuple(scenarios) or ("campus", "indoor"),
                             tuple(estimators) or ("rop", "klt-pnp", "orb-pnp"), one_core=not all_cores,
                             progress=not (no_progress or as_json), max_frames=max_frames,
-                            options=parse_opts(estimator_opts))
+                            options=parse_opts(estimator_opts), overrides=overrides)
     echo_json([r.to_dict() for r in rows]) if as_json else click.echo(format_rows(rows))
 
 
