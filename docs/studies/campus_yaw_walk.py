@@ -23,9 +23,7 @@ import argparse
 import json
 
 import numpy as np
-from scipy.spatial.transform import Rotation
-
-from rigs.geometry import inv_T
+from rigs.geometry import inv_T, so3_log
 from sim.app.validation.truth_tracks import run_oracle
 from vo.dataset import open_dataset
 from vo.estimators.runner import run_estimator
@@ -42,8 +40,8 @@ def yaw_split(T_est: np.ndarray, T_true: np.ndarray) -> dict:
     errors = []
     for k in range(1, len(T_est)):
         true_step, est_step = inv_T(G[k - 1]) @ G[k], inv_T(T_est[k - 1]) @ T_est[k]
-        e = np.degrees(Rotation.from_matrix(true_step[:3, :3].T @ est_step[:3, :3]).as_rotvec())
-        turning = abs(np.degrees(Rotation.from_matrix(true_step[:3, :3]).as_rotvec()[1])) > STRAIGHT_DEG
+        e = np.degrees(so3_log(true_step[:3, :3].T @ est_step[:3, :3]))
+        turning = abs(np.degrees(so3_log(true_step[:3, :3])[1])) > STRAIGHT_DEG
         if turning:
             turns += e[1]
         else:
