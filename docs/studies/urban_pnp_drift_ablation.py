@@ -145,8 +145,8 @@ class ExactTracker(KltTracker):
         super().__init__(width, height, config)
         self.truth = truth
 
-    def track(self, img):
-        ok = super().track(img)
+    def track(self, img, guess=None):
+        ok = super().track(img, guess)
         self.truth.exact_tracks(self)
         return ok
 

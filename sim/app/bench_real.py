@@ -12,6 +12,10 @@ A recording is one draw of its sensor noise, and on a short one a few matches ca
 ``(k, frame index, REAL_DRAW_TAG)``: the same noise for every estimator, so their draws are paired), and
 the row gives the drift of every draw: whether a difference between two figures exceeds what the noise
 alone moves them.
+
+With ``stride`` N every recording is read at 1/N of its frame rate (:class:`vo.dataset.frame_stride.FrameStride`:
+every Nth frame, N times the motion between frames, as a faster drive or a slower camera would give); the
+recording's label then ends in ``-strideN``.
 """
 from __future__ import annotations
 
@@ -25,6 +29,7 @@ import numpy as np
 from rigs.image_noise import REAL_DRAW_TAG, ImageNoiseDataset
 from sim.errors import SimError
 from vo.dataset import open_dataset
+from vo.dataset.frame_stride import FrameStride
 from vo.errors import DatasetError
 from vo.estimators.registry import check_spec
 from vo.estimators.runner import CPU_STAGE
@@ -126,15 +131,18 @@ def plot_recording(recording: str, gt, estimates: dict, path) -> Path:
 
 
 def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: bool = True, progress: bool = True,
-               max_frames=None, options=None, noise_draws: int = 0, noise_sigma: float | None = None) -> list:
+               max_frames=None, options=None, noise_draws: int = 0, noise_sigma: float | None = None,
+               stride: int = 1) -> list:
     """Run every estimator on every recording -> list of :class:`RealBenchRow`; with ``out_dir`` one
     ``<recording>_trajectory.png`` per recording there; with ``noise_draws`` also on that many re-noised copies
-    (module docstring). A recording without ground truth is refused (:class:`vo.errors.DatasetError` naming
-    it) before anything runs, as are a negative ``noise_draws`` and draws without positive ``noise_sigma``
-    (None: :data:`DEFAULT_NOISE_SIGMA`)."""
+    (module docstring); with ``stride`` N > 1 on every Nth frame of each. A recording without ground truth is
+    refused (:class:`vo.errors.DatasetError` naming it) before anything runs, as are a negative ``noise_draws``,
+    draws without positive ``noise_sigma`` (None: :data:`DEFAULT_NOISE_SIGMA`) and a ``stride`` below 1."""
     import cv2
 
     noise_sigma = _noise_sigma(noise_draws, DEFAULT_NOISE_SIGMA if noise_sigma is None else noise_sigma)
+    if isinstance(stride, bool) or not isinstance(stride, (int, np.integer)) or stride < 1:
+        raise SimError(f"bench real: stride {stride!r}; must be an integer >= 1")
     for name in estimators:
         check_spec(name)
     opened = []
@@ -143,13 +151,13 @@ def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: 
         if ds.groundtruth is None:
             raise DatasetError(f"{ds.path}: no ground truth (poses/NN.txt or state_groundtruth_estimate0); "
                                f"bench real needs it")
-        opened.append(ds)
+        opened.append(FrameStride(ds, stride) if stride > 1 else ds)
     out = prepare_out_dir(out_dir) if out_dir is not None else None
     if one_core:
         cv2.setNumThreads(1)
     rows, used = [], set()
     for ds in opened:
-        rec = recording_name(ds)
+        rec = recording_name(ds) + (f"-stride{stride}" if stride > 1 else "")
         while rec in used:
             rec += "_"
         used.add(rec)

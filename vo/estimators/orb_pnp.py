@@ -1,14 +1,14 @@
 """Seed 003's descriptor stereo VO (``orb-pnp``; ``frontend="sift"`` too): descriptor matching of each left image
 against the current keyframe's landmarks, 3-D-to-2-D PnP + RANSAC each frame; the current frame becomes the new
 keyframe when seed 003's criterion fires on its PnP inliers. The frame loop, coasting and timings are those of
-:class:`vo.estimators.pnp.StereoPnpEstimator`."""
+:class:`vo.estimators.stereo_pnp.StereoPnpEstimator`."""
 from __future__ import annotations
 
 import numpy as np
 
 from vo.errors import EstimatorError
 from vo.estimators.base import FrameResult
-from vo.estimators.pnp import StereoPnpEstimator
+from vo.estimators.stereo_pnp import StereoPnpEstimator
 from vo.estimators.stage_timing import timed
 from vo.frontend.descriptors import DescriptorConfig, detect_and_describe, match_descriptors
 from vo.frontend.grid import Grid

@@ -48,7 +48,9 @@ class PnpConfig:
     this far off the other's reprojection (:func:`separated`); ``near_baselines``, ``min_near_inliers``,
     ``calib_tolerance_px``: the close/far split of :mod:`vo.estimators.near_far` (``near_baselines`` 0, the
     default, turns it off: ``klt-pnp`` corrects the disparity offset it guarded against at its cause,
-    :mod:`vo.estimators.disparity_offset`; 40 is ORB-SLAM2's value)."""
+    :mod:`vo.estimators.disparity_offset`; 40 is ORB-SLAM2's value); ``predict_tracks`` (``klt-pnp``) starts the
+    temporal LK at the landmarks' constant-velocity prediction (:mod:`vo.estimators.track_prediction`; not in
+    seed 003; False: seed 003's zero flow)."""
 
     method: Literal[tuple(PNP_METHODS)] = "epnp"
     ransac_reproj_px: float = knob(2.0, gt=0)
@@ -67,6 +69,7 @@ class PnpConfig:
     near_baselines: float = knob(0.0, ge=0)
     min_near_inliers: int = knob(10, ge=6)
     calib_tolerance_px: float = knob(0.5, ge=0)
+    predict_tracks: bool = True
 
     def __post_init__(self):
         check_fields(self, EstimatorError, "pnp.")

@@ -204,12 +204,15 @@ def lk(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = K
 
 
 def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConfig = KltConfig(),
-             pyramid=None, guess: np.ndarray | None = None) -> tuple:
+             pyramid=None, guess: np.ndarray | None = None, mirror: bool = False) -> tuple:
     """LK ``img0 -> img1`` then back; keep points whose round trip ends < ``fb_threshold_px`` from the start
     and whose windows correlate (ZNCC >= ``min_zncc``, :mod:`vo.frontend.patch_check`).
     ``pyramid`` (image -> normalised pyramid, e.g. a :class:`PyramidCache`) defaults to ``config.pyramid``; an
     :class:`LkPyramids` also gives the raw pyramids of the raw-image LK (built once per image);
-    ``guess`` (N,2) start points of the forward LK in ``img1`` (default: zero flow).
+    ``guess`` (N,2) start points of the forward LK in ``img1`` (default: zero flow). The backward LK starts at
+    ``p0`` (a search known to end there, e.g. a stereo match from the previous disparity) or, with ``mirror``,
+    at the guess mirrored through the forward result, ``p1 - (guess - p0)``: as far from ``p0`` as the forward
+    result lies from its guess, so the round trip stays a test of the match (a motion prediction).
 
     Returns ``(p1 (N,2) float64, ok (N,) bool)``.
     """
@@ -223,13 +226,14 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
     if config.illumination_invariant:
         guess = None
     p1, ok_f = lk(img0, img1, p0, config, pyr, guess)
-    p0b, ok_b = lk(img1, img0, np.where(ok_f[:, None], p1, p0), config, None if pyr is None else pyr[::-1],
-                   None if guess is None else p0)
+    back = np.where(ok_f[:, None], p1, p0)
+    start = None if guess is None else (back - (np.asarray(guess, np.float64).reshape(-1, 2) - p0) if mirror else p0)
+    p0b, ok_b = lk(img1, img0, back, config, None if pyr is None else pyr[::-1], start)
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
     if config.box and pyr is not None and config.raw_fallback and not ok.all():
         lost = np.flatnonzero(~ok)
         p1[lost], ok[lost] = track_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
-                                      pyramid, None if guess is None else np.asarray(guess)[lost])
+                                      pyramid, None if guess is None else np.asarray(guess)[lost], mirror)
     return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine)
 
 
@@ -293,15 +297,16 @@ class KltTracker:
         self._ids = TrackIds()
         self.pyramid = LkPyramids(config.levels, config.box) if config.box else None   # of the last images
 
-    def track(self, img: np.ndarray) -> np.ndarray:
+    def track(self, img: np.ndarray, guess: np.ndarray | None = None) -> np.ndarray:
         """Track all points into ``img`` (forward-backward checked); drop failures. Returns the
-        (N_prev,) bool survival mask over the previous points."""
+        (N_prev,) bool survival mask over the previous points. ``guess`` (N,2): predicted positions in ``img``,
+        the forward LK's start points (the backward's mirrored: :func:`track_fb`); default zero flow."""
         if self.image is None or len(self.pts) == 0:
             self.image = img
             ok = np.zeros(len(self.pts), bool)
             self.pts, self.ids = self.pts[ok], self.ids[ok]
             return ok
-        p1, ok = track_fb(self.image, img, self.pts, self.config, self.pyramid)
+        p1, ok = track_fb(self.image, img, self.pts, self.config, self.pyramid, guess, mirror=True)
         self.pts, self.ids, self.image = p1[ok], self.ids[ok], img
         return ok
 

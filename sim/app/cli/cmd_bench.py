@@ -67,17 +67,21 @@ def vo_cmd(scenarios, estimators, all_cores, max_frames, no_progress, estimator_
                    "the drift of every draw: how far the noise alone moves a figure.")
 @click.option("--noise-sigma", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Grey levels of the noise added per draw (default 0.5).")
+@click.option("--stride", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Read every Nth frame of each recording: N times the motion between frames (a faster drive "
+                   "or a slower camera).")
 @click.option("--no-progress", is_flag=True)
 @opt_option
 @json_option
-def real_cmd(datasets, estimators, out_dir, all_cores, max_frames, noise_draws, noise_sigma, no_progress,
+def real_cmd(datasets, estimators, out_dir, all_cores, max_frames, noise_draws, noise_sigma, stride, no_progress,
              estimator_opts, as_json):
     """Drift, ATE, RPE, KITTI segment errors, ms per frame and frames by status of each estimator on each
     recorded dataset (real KITTI odometry / EuRoC), with a trajectory plot per recording."""
     from sim.app.bench_real import DEFAULT_ESTIMATORS, bench_real, format_rows
     rows = bench_real(datasets, tuple(estimators) or DEFAULT_ESTIMATORS, out_dir=out_dir, one_core=not all_cores,
                       progress=not (no_progress or as_json), max_frames=max_frames,
-                      options=parse_opts(estimator_opts), noise_draws=noise_draws, noise_sigma=noise_sigma)
+                      options=parse_opts(estimator_opts), noise_draws=noise_draws, noise_sigma=noise_sigma,
+                      stride=stride)
     echo_json([r.to_dict() for r in rows]) if as_json else click.echo(format_rows(rows))
 
 
