@@ -20,6 +20,7 @@ from rigs.geometry import make_T
 from rigs.rectify import stereo_rectify
 from rigs.trajectory import Trajectory
 from vo.dataset.base import rig_or_error
+from vo.dataset.view import DatasetView
 from rigs.records import StereoFrame
 from vo.errors import DatasetError
 
@@ -33,23 +34,17 @@ def for_estimators(dataset):
     return RectifiedFisheyeView(dataset) if has_fisheye(dataset) else dataset
 
 
-class RectifiedFisheyeView:
+class RectifiedFisheyeView(DatasetView):
     """``dataset`` (a :class:`vo.dataset.base.Dataset` with equidistant cameras) with rectified pinhole frames."""
 
     images_are_rectified = True
 
     def __init__(self, dataset):
-        self._ds = dataset
+        super().__init__(dataset)
         self.rectification = rig_or_error(stereo_rectify, dataset.rig)
         self.rig = self.rectification.rectified_rig(dataset.rig)
         self._maps = self.rectification.maps(cv2.CV_32FC1)
         self.T_c0_r0 = make_T(self.rectification.R0_rect.T, np.zeros(3))
-
-    def __getattr__(self, name):          # kind, name, path, frame_times_ns, imu, gcps, metadata, wheels, ...
-        return getattr(self._ds, name)
-
-    def __len__(self) -> int:
-        return len(self._ds)
 
     def __repr__(self) -> str:
         return f"<RectifiedFisheyeView of {self._ds!r}>"
@@ -59,10 +54,6 @@ class RectifiedFisheyeView:
         left, right = (cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
                        for img, (mx, my) in zip((f.left, f.right), self._maps))
         return StereoFrame(index=f.index, t_ns=f.t_ns, left=left, right=right)
-
-    def frames(self, start: int = 0, stop=None, step: int = 1):
-        for k in range(*slice(start, stop, step).indices(len(self))):
-            yield self.frame(k)
 
     def groundtruth_cam0(self) -> Trajectory:
         """``T_w_r0`` (N,4,4) of the rectified left camera at the frame times."""

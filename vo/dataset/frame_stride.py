@@ -12,15 +12,14 @@ time), the GCPs, the rig and the rest are the recording's own.
 """
 from __future__ import annotations
 
-from typing import Iterator, Optional
-
 import numpy as np
 
 from rigs.records import StereoFrame
+from vo.dataset.view import DatasetView
 from vo.errors import DatasetError
 
 
-class FrameStride:
+class FrameStride(DatasetView):
     """Reader-API view of ``base`` (an opened dataset) holding its frames ``0, step, 2 step, ...``
     (``step`` an integer >= 1; 1 is the recording itself). Index-taking reads (``frame``, ``image_files``,
     ``depth``, ``segmentation``) map view index ``k`` to ``k * step``; everything else is ``base``'s."""
@@ -28,38 +27,32 @@ class FrameStride:
     def __init__(self, base, step: int):
         if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
             raise DatasetError(f"{getattr(base, 'path', base)}: frame stride {step!r}; must be an integer >= 1")
-        self._base, self.step = base, int(step)
+        super().__init__(base)
+        self.step = int(step)
         self.frame_times_ns = np.asarray(base.frame_times_ns, np.int64)[::self.step].copy()
-
-    def __getattr__(self, name):
-        return getattr(self._base, name)
 
     def __len__(self) -> int:
         return len(self.frame_times_ns)
 
     def __repr__(self) -> str:
-        return f"<FrameStride every {self.step} of {self._base!r}: {len(self)} frames>"
+        return f"<FrameStride every {self.step} of {self._ds!r}: {len(self)} frames>"
 
     def _source(self, k: int) -> int:
         """The recording's index of view frame ``k`` (negative ``k`` counts from the end)."""
         if not -len(self) <= k < len(self):
-            raise DatasetError(f"{self._base.path}: frame index {k} out of range [0, {len(self)}) "
-                               f"(every {self.step}th frame)")
+            raise DatasetError(f"{self._ds.path}: frame index {k} out of range [0, {len(self)}) "
+                               f"(stride {self.step})")
         return (k % len(self)) * self.step
 
     def frame(self, k: int) -> StereoFrame:
-        f = self._base.frame(self._source(k))
+        f = self._ds.frame(self._source(k))
         return StereoFrame(index=k % len(self), t_ns=f.t_ns, left=f.left, right=f.right)
 
-    def frames(self, start: int = 0, stop: Optional[int] = None, step: int = 1) -> Iterator[StereoFrame]:
-        for k in range(*slice(start, stop, step).indices(len(self))):
-            yield self.frame(k)
-
     def image_files(self, k: int) -> tuple:
-        return self._base.image_files(self._source(k))
+        return self._ds.image_files(self._source(k))
 
     def depth(self, k: int, cam: int = 0) -> np.ndarray:
-        return self._base.depth(self._source(k), cam)
+        return self._ds.depth(self._source(k), cam)
 
     def segmentation(self, k: int, cam: int = 0) -> tuple:
-        return self._base.segmentation(self._source(k), cam)
+        return self._ds.segmentation(self._source(k), cam)
