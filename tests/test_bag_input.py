@@ -71,12 +71,16 @@ def test_not_a_stereo_bag_names_the_topic(tmp_path):
 def test_run_on_the_bag_gives_the_folders_trajectory(campus_short, tmp_path):
     # `vo-testbed run --dataset file.bag` and the EuRoC folder it was exported from: the same trajectory.
     # Each run in its own process, as a user runs them (OpenCV's RANSAC draws from a process-wide RNG).
+    # klt-pnp with seed 003's zero-flow LK start: its default start, the landmarks' predicted pixels at the last
+    # pose, carries the pose's round-off (the bag's extrinsics differ in the last bit) into the tracks, where a
+    # start a few 1e-6 px apart can flip a forward-backward or RANSAC decision (measured: 2.2 mm by frame 38);
+    # with the start fixed by the data alone, what is compared is the data.
     from test_cli_integration import run_cli
     from rigs.trajfile import read_tum
     export_rosbag(campus_short, tmp_path / "c.bag")
     for name, src in (("folder", campus_short), ("bag", tmp_path / "c.bag")):
         r = run_cli("run", "--dataset", str(src), "--estimator", "klt-pnp", "--max-frames", "40", "--out",
-                    str(tmp_path / name), "--no-progress")
+                    str(tmp_path / name), "--no-progress", "--opt", "pnp_config={predict_tracks: false}")
         assert r.returncode == 0, r.stderr
     a, b = read_tum(tmp_path / "folder/trajectory_tum.txt"), read_tum(tmp_path / "bag/trajectory_tum.txt")
     assert len(a) == len(b) == 40 and np.array_equal(a.t_ns, b.t_ns)
