@@ -211,8 +211,8 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
     :class:`LkPyramids` also gives the raw pyramids of the raw-image LK (built once per image);
     ``guess`` (N,2) start points of the forward LK in ``img1`` (default: zero flow). The backward LK starts at
     ``p0`` (a search known to end there, e.g. a stereo match from the previous disparity) or, with ``mirror``,
-    at the guess mirrored through the forward result, ``p1 - (guess - p0)``: as far from ``p0`` as the forward
-    result lies from its guess, so the round trip stays a test of the match (a motion prediction).
+    at the guess (a motion prediction) mirrored through the forward result, ``p1 - (guess - p0)``: as far from
+    ``p0`` as the forward result lies from its guess, so the round trip stays a test of the match.
 
     Returns ``(p1 (N,2) float64, ok (N,) bool)``.
     """
@@ -227,7 +227,9 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
         guess = None
     p1, ok_f = lk(img0, img1, p0, config, pyr, guess)
     back = np.where(ok_f[:, None], p1, p0)
-    start = None if guess is None else (back - (np.asarray(guess, np.float64).reshape(-1, 2) - p0) if mirror else p0)
+    start = None                                  # the backward LK's start points (docstring)
+    if guess is not None:
+        start = back - (np.asarray(guess, np.float64).reshape(-1, 2) - p0) if mirror else p0
     p0b, ok_b = lk(img1, img0, back, config, None if pyr is None else pyr[::-1], start)
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
     if config.box and pyr is not None and config.raw_fallback and not ok.all():
