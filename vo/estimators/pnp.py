@@ -2,12 +2,10 @@
 
 ``KltPnpEstimator`` ("klt-pnp"): KLT tracks (grid detection, LK forward-backward, epipolar check), new landmarks
 from empty cells on keyframes, seed 003's empty-cell / inlier keyframe criterion (the *next* frame is one).
-``StereoPnpEstimator`` (:mod:`vo.estimators.stereo_pnp`) is the frame loop it shares with ``orb-pnp``. Failure
-handling: too few tracked landmarks -> status ``few_features`` ("N tracked < M"), PnP failure -> ``lost``; the pose
-is coasted (constant velocity, the median translation of the last measured steps, ``coast_velocity``, for
-``max_coast_frames``, then held; ``klt-pnp`` turns the coasted step by the rotation-only fit of its frame-to-frame
-tracks, ``coast_rotation``) and the next frame with a good stereo pair re-initialises a keyframe at the current
-estimate -> ``reinit``. Never NaN. Timings (ms per frame): ``detect``, ``track``, ``stereo``, ``pnp``, ``total``.
+``StereoPnpEstimator`` (:mod:`vo.estimators.stereo_pnp`: (re)initialisation, failure statuses, coasting) is the
+frame loop it shares with ``orb-pnp``; ``klt-pnp`` turns a coasted step by the rotation-only fit of its
+frame-to-frame tracks (``coast_rotation``). Timings (ms per frame): ``detect``, ``track``, ``stereo``, ``pnp``,
+``total``.
 
 Moving objects (our extension): each frame's PnP takes, among the rigid motions the landmarks hold, the one nearest
 the constant-velocity prediction (``pnp_config.consensus="prior"``; ``pnp_core``), not RANSAC's largest consensus.
@@ -179,8 +177,8 @@ class KltPnpEstimator(StereoPnpEstimator):
         (:mod:`vo.estimators.track_prediction`; ``pnp_config.predict_tracks``) -> the survival mask."""
         if not self.pnp_config.predict_tracks or len(self.tracker.pts) == 0:
             return self.tracker.track(left)
-        return self.tracker.track(left, track_guess(self.rig.cameras[0], self.T_o_c0 @ self._T_prev_curr,
-                                                    self.landmarks, self.tracker.ids, self.tracker.pts))
+        return self.tracker.track(left, track_guess(self.rig.cameras[0], self.predicted_T_o_c0, self.landmarks,
+                                                    self.tracker.ids, self.tracker.pts))
 
     def _step(self, t_ns, left, right, timings) -> FrameResult:
         p_prev = self.tracker.pts.copy()

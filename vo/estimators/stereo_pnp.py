@@ -100,6 +100,12 @@ class StereoPnpEstimator(Estimator):
         self._steps.push(T_prev_curr)
         return True
 
+    @property
+    def predicted_T_o_c0(self) -> np.ndarray:
+        """(4,4) the constant-velocity prediction of this frame's pose: the PnP's motion prior, and where
+        ``klt-pnp`` predicts its tracks."""
+        return self.T_o_c0 @ self._T_prev_curr
+
     def _pnp(self, p_o, px_raw, timings, use=None):
         px_raw = np.asarray(px_raw)
         keep = None if self.pnp_select is None else np.asarray(self.pnp_select(px_raw), bool)
@@ -108,10 +114,10 @@ class StereoPnpEstimator(Estimator):
             cam = self.rig.cameras[0]
             if keep is None:
                 T, inl = solve_pnp(p_o, undistort_px(px_raw, cam), cam.K, self.pnp_config,
-                                   T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr)
+                                   T_o_c0_prior=self.predicted_T_o_c0)
             else:
                 T, inl_kept = solve_pnp(np.asarray(p_o)[keep], undistort_px(px_raw[keep], cam), cam.K,
-                                        self.pnp_config, T_o_c0_prior=self.T_o_c0 @ self._T_prev_curr)
+                                        self.pnp_config, T_o_c0_prior=self.predicted_T_o_c0)
                 inl = np.zeros(len(px_raw), bool)
                 inl[keep] = inl_kept
         if self.pnp_observer is not None:
