@@ -32,24 +32,6 @@ def test_prediction_is_the_lens_projection_at_the_predicted_pose():
     np.testing.assert_array_equal(g[2], pts[2])
 
 
-def _texture(h=240, w=480, seed=0):
-    rng = np.random.default_rng(seed)
-    img = cv2.GaussianBlur(rng.uniform(0, 255, (h, w)).astype(np.float32), (0, 0), 2.0)
-    img = cv2.normalize(img, None, 20, 235, cv2.NORM_MINMAX)
-    return img.astype(np.uint8)
-
-
-@pytest.fixture(scope="module")
-def shifted():
-    """A textured image and the same scene shifted 110 px to the right, beyond the 4-level pyramid's reach of a
-    21-px window; corners away from the borders of both."""
-    big = _texture(240, 720)
-    img0, img1 = big[:, 200:680].copy(), big[:, 90:570].copy()       # scene point x -> x + 110 in img1
-    p0 = cv2.goodFeaturesToTrack(img0, 200, 0.01, 10).reshape(-1, 2).astype(np.float64)
-    p0 = p0[(p0[:, 0] > 30) & (p0[:, 0] < 330) & (p0[:, 1] > 20) & (p0[:, 1] < 220)]
-    return img0, img1, p0, p0 + [110.0, 0.0]
-
-
 def test_a_shift_beyond_the_pyramid_is_tracked_from_the_prediction(shifted):
     img0, img1, p0, truth = shifted
     cfg = KltConfig()

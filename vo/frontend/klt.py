@@ -149,6 +149,12 @@ class KltConfig:
         """OpenCV ``maxLevel`` (0-based index of the coarsest level)."""
         return self.levels - 1
 
+    @property
+    def reach_px(self) -> float:
+        """The largest displacement (px) a zero-flow pyramidal LK can find: half the window at the coarsest level,
+        ``2^max_level x win / 2`` (84 px for 4 levels and 21 px)."""
+        return float(2 ** self.max_level * self.win / 2)
+
 
 def is_keyframe(empty_fraction: float, n_inliers: int, config: KltConfig = KltConfig()) -> bool:
     """Seed 003's criterion: the next frame is a keyframe when the empty-cell fraction exceeds

@@ -88,12 +88,16 @@ def lk_pyramids(pyr0: list, pyr1: list, p0: np.ndarray, win: int, iters: int, ep
 
 
 def lk_fb_pyramids(pyr0: list, pyr1: list, p0: np.ndarray, win: int, iters: int, eps: float, fb_threshold_px: float,
-                   guess: np.ndarray | None = None) -> tuple:
-    """:func:`lk_pyramids` forward, then back from the result (started at ``p0``); ``ok`` where both converge
-    and the round trip ends < ``fb_threshold_px`` from ``p0`` -> ``(p1 (N,2), ok (N,))``."""
+                   guess: np.ndarray | None = None, mirror: bool = False) -> tuple:
+    """:func:`lk_pyramids` forward, then back from the result (started at ``p0``, or with ``mirror`` and a
+    ``guess`` at the guess mirrored through the forward result, ``p1 - (guess - p0)``: see
+    :func:`vo.frontend.klt.track_fb`); ``ok`` where both converge and the round trip ends < ``fb_threshold_px``
+    from ``p0`` -> ``(p1 (N,2), ok (N,))``."""
     p0 = np.asarray(p0, np.float64).reshape(-1, 2)
     p1, ok_f = lk_pyramids(pyr0, pyr1, p0, win, iters, eps, guess)
     if len(p0) == 0:
         return p1, ok_f
-    pb, ok_b = lk_pyramids(pyr1, pyr0, np.where(ok_f[:, None], p1, p0), win, iters, eps, p0)
+    back = np.where(ok_f[:, None], p1, p0)
+    start = back - (np.asarray(guess, np.float64).reshape(-1, 2) - p0) if mirror and guess is not None else p0
+    pb, ok_b = lk_pyramids(pyr1, pyr0, back, win, iters, eps, start)
     return p1, ok_f & ok_b & (np.linalg.norm(pb - p0, axis=1) < fb_threshold_px)

@@ -13,7 +13,8 @@ Our extensions (each documented in its module, figures in docs/estimators.md):
   of the keyframe's, so the essential-matrix directions are solved with a parallax comparable to the
   baseline instead of one frame's few pixels.
 * Front-end: one set of four-view KLT tracks gives all four ROPs (:mod:`vo.rop.tracks`, seed 003's
-  grid and LK); ``frontend="orb"|"sift"`` matches the four pairs instead (:mod:`vo.rop.matching`).
+  grid and LK; a track its temporal LK loses searched again from its predicted pixel, ``predict_tracks``,
+  :mod:`vo.rop.track_start`); ``frontend="orb"|"sift"`` matches the four pairs instead (:mod:`vo.rop.matching`).
 * Moving objects: the tracks of the rigid motion nearest the motion prior when several compete
   (``moving_objects``, :mod:`vo.rop.moving`). The prior is the constant-velocity prediction of the track
   filter's own PnP poses (``moving_prior="pnp"``), so that one wrong ROP step does not move the prediction
@@ -41,8 +42,8 @@ Our extensions (each documented in its module, figures in docs/estimators.md):
   rotation sigma ``3 max(parallax, 0.1 px) / (f sqrt(n))``, position sigma
   ``baseline x max(parallax, min_parallax / 2) / median disparity`` per axis.
 
-Every solved frame appends an :class:`~vo.rop.epochs.EpochRecord` to ``self.epochs`` (Fig. 5 check).
-Timings (ms): detect, track, stereo, essential, initial, adjust (covariance included), total.
+Every solved frame appends an :class:`~vo.rop.epochs.EpochRecord` to ``self.epochs`` (Fig. 5 check). Timings (ms):
+detect, track, stereo, essential, initial, adjust (covariance included), total.
 """
 from __future__ import annotations
 
@@ -69,6 +70,7 @@ from vo.rop.offset import RopOffset
 from vo.rop.ropset import PAIRS
 from vo.rop.rotation_only import MIN_ROTATION_TRACKS, rotation_only, rotation_only_step
 from vo.rop.rotation_test import RotationTester, readjusted_step
+from vo.rop.track_start import predicted_left
 from vo.rop.tracks import KltFourView
 from vo.rop.uncertainty import Step, UncertaintyModel
 from vo.rop.weak_frame import rotation_miss, weak_frame_pose
@@ -125,10 +127,9 @@ class RopEstimator(Estimator):
         self._kf_imgs = None          # (left, right) of the keyframe; None before the first frame
         self._t_kf, self._n_kf = None, 0
         self._T_kf_cur, self._last_motion = np.eye(4), np.eye(4)
-        self._lost, self._n_coast = False, 0
+        self._lost, self._n_coast, self._n_solved = False, 0, 0
         self._filter = TrackFilter(None)                       # the track filter's verdict on this frame
         self._T_kf_pnp, self._pnp_motion = np.eye(4), np.eye(4)   # PnP chain: pose in the keyframe, last step
-        self._n_solved = 0
         self.epochs: list[EpochRecord] = []   # one per frame solved against its keyframe (Fig. 5 check)
 
     # ------------------------------------------------------------------------------ front-end
@@ -142,7 +143,7 @@ class RopEstimator(Estimator):
     def _pairs(self, left, right, timings) -> tuple:
         """-> ({pair: (x_i, x_j)}, usable features, median keyframe disparity (px), FourView or None)."""
         if self.klt is not None:
-            v = self.klt.track(left, right, timings)
+            v = self.klt.track(left, right, timings, self._track_guess())
             v = self._rigid_tracks(self._static_tracks(v, timings), timings)
             disp = np.median(np.linalg.norm(v.x1 - v.x2, axis=1)) * self.focal if len(v) else 0.0
             return {p: v.pair(p) for p in PAIRS}, int(v.ok4.sum()), float(disp), v
@@ -157,6 +158,14 @@ class RopEstimator(Estimator):
         if self.config.moving_prior == "pnp":
             return self._T_kf_pnp @ self._pnp_motion
         return self._T_kf_cur @ self._last_motion
+
+    def _track_guess(self):
+        """Indices -> those tracks' left pixels at :meth:`_prior` (``predict_tracks``, :mod:`vo.rop.track_start`)."""
+        v, f, T = self.klt.view, self.track_filter_config, self._prior()
+        if not self.config.predict_tracks or self._n_solved == 0 or v is None:
+            return None
+        return lambda i: predicted_left(self.rig, T, v.p1[i], v.x1[i], v.p2[i], v.p3[i], f.max_depth,
+                                        f.max_triangulation_px)
 
     def _static_tracks(self, v, timings):
         """With ``moving_objects="prior"``: drop the tracks of rigid motions other than the one nearest the
@@ -193,10 +202,9 @@ class RopEstimator(Estimator):
         return v
 
     def _pnp_pose(self) -> np.ndarray | None:
-        """The track filter's PnP pose ``T_kf_c`` when it may stand for the frame's: >=
-        :data:`MIN_COAST_PNP_INLIERS` inliers and within ``moving_prior_gate_m`` of the prediction (unless
-        that rests on no solved frame or on a held pose: the first frame, or after the coasting limit) - a
-        car's motion as the only candidate (crossing traffic) is far from it. Else None."""
+        """The track filter's PnP pose ``T_kf_c`` when it may stand for the frame's: >= :data:`MIN_COAST_PNP_INLIERS`
+        inliers and within ``moving_prior_gate_m`` of the prediction (unless that rests on no solved frame or on a
+        held pose) - a car's motion as the only candidate (crossing traffic) is far from it. Else None."""
         trusted = self._n_solved > 0 and self._n_coast < MAX_COAST_FRAMES
         return self._filter.frame_pose(trusted, self.config.moving_prior_gate_m, MIN_COAST_PNP_INLIERS)
 
@@ -205,19 +213,15 @@ class RopEstimator(Estimator):
         conditioned and near the prediction (:mod:`vo.rop.weak_frame`; before a rotation-only fit); else None."""
         if self.klt is None or self.klt.view is None or self._n_solved == 0:
             return None
-        w = weak_frame_pose(self.klt.view, self.rig, self._prior(), self.config.moving_reproj_px,
-                            self.config.moving_prior_gate_m)
+        c = self.config
+        w = weak_frame_pose(self.klt.view, self.rig, self._prior(), c.moving_reproj_px, c.moving_prior_gate_m)
         return w.T_kf_c if w is not None and w.ok else None
 
     def _step_miss(self, T_kf_c: np.ndarray) -> str:
-        """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): the track filter saw competing rigid
-        motions and the step lies farther than ``moving_step_gate_m`` from the filter's PnP pose of the same
-        tracks. With one rigid motion among the tracks (:attr:`TrackFilter.keep` None) the ROPs and the PnP
-        fit the same motion and no moving object can pull them apart; they then differ only where the
-        stereo depth and the four-view geometry disagree in scale (a calibration error: on the real KITTI
-        turn the PnP steps ran 8-16 % long against ROP steps within 3 % of the truth), and the ROP step
-        stands (docs/estimators.md, "Real recordings") unless it is off by more than half the step
-        (:data:`vo.rop.moving.GROSS_STEP_FRACTION`): a gross ROP solution."""
+        """Why the ROP step ``T_kf_c`` is suspect ("" when it is not): farther than ``moving_step_gate_m`` from the
+        track filter's PnP pose of the same tracks when the filter saw competing rigid motions; with one rigid
+        motion (a scale disagreement only, e.g. a calibration error: docs/estimators.md, "Real recordings"),
+        only when also off by more than :data:`vo.rop.moving.GROSS_STEP_FRACTION` of the step."""
         if self.config.moving_objects == "none":
             return ""
         return self._filter.step_miss(T_kf_c, self._pnp_pose(), self.config.moving_step_gate_m)
@@ -225,19 +229,16 @@ class RopEstimator(Estimator):
     def _rotation_miss(self, T_kf_c: np.ndarray, cov_step: np.ndarray) -> str:
         """Why the ROP step's rotation is suspect ("" when it is not): it differs from the track filter's PnP pose
         of the same tracks beyond ``pnp_rotation_test`` (:class:`vo.rop.rotation_test.RotationTester` in both
-        fits' covariances, or :func:`vo.rop.weak_frame.rotation_miss` in degrees); the frame then takes that pose
-        and becomes a keyframe (status ``keyframe``, not lost: its pose is measured)."""
+        fits' covariances, or :func:`vo.rop.weak_frame.rotation_miss` in degrees)."""
         if self.config.moving_objects == "none":
             return ""
         if self.config.pnp_rotation_test == "degrees":
             return rotation_miss(T_kf_c, self._pnp_pose(), self.config.pnp_rotation_gate_deg)
-        return self.rotation_tester.miss(T_kf_c, cov_step, self._pnp_pose(), self.klt.view if self.klt else None,
-                                         self.rig)
+        return self.rotation_tester.miss(T_kf_c, cov_step, self._pnp_pose(), self.klt and self.klt.view, self.rig)
 
     def _advance_prior(self, T_kf_c: np.ndarray) -> None:
         """Extend the PnP chain of the prediction by this frame (its PnP pose, else the frame's own)."""
-        T_pnp = self._pnp_pose()
-        T = T_pnp if T_pnp is not None else T_kf_c
+        T = T_pnp if (T_pnp := self._pnp_pose()) is not None else T_kf_c
         self._pnp_motion, self._T_kf_pnp = inv_T(self._T_kf_pnp) @ T, T.copy()
 
     # ------------------------------------------------------------------------------- solving

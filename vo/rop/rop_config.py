@@ -72,7 +72,8 @@ class RopConfig:
     (:func:`vo.rop.weak_frame.rotation_miss`); ``pnp_rotation_action`` what such a step becomes: "direction" the PnP
     rotation and translation direction with the length of seed 000's translation step re-solved for that rotation,
     "rotation" the PnP rotation with that re-solved translation (:func:`vo.rop.rotation_test.readjusted_step`),
-    "pose" the PnP pose and a new keyframe.
+    "pose" the PnP pose and a new keyframe; ``predict_tracks`` searches a track the zero-flow temporal LK loses
+    again from its predicted pixel (:mod:`vo.rop.track_start`; not in seed 000 or 003).
     Experimental (:data:`EXPERIMENTAL`, given as ``experimental.<field>``): ``weights``, ``klt_refine``,
     ``rop_loss``, ``moving_prior``."""
 
@@ -105,6 +106,7 @@ class RopConfig:
     pnp_rotation_prob: float = knob(0.99, gt=0, lt=1)
     pnp_rotation_action: Literal[ROTATION_ACTIONS] = "direction"
     pnp_rotation_gate_deg: float = knob(0.2, gt=0)
+    predict_tracks: bool = True
 
     def __post_init__(self):
         check_fields(self, EstimatorError, "rop.")

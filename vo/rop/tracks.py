@@ -87,8 +87,9 @@ class FourView:
 
 
 def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_snr: float = 0.0,
-          noise=None) -> tuple[np.ndarray, np.ndarray]:
-    """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``); ``ok``
+          noise=None, mirror: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``, or with
+    ``mirror`` at the guess mirrored through the forward result: :func:`vo.frontend.klt.track_fb`); ``ok``
     where both directions converge inside the image, the round trip ends < ``fb_threshold_px`` from
     ``p0`` and the two windows correlate (ZNCC >= ``config.min_zncc``, or the affine fit with ``config.zncc_affine``:
     :mod:`vo.frontend.patch_check`; with ``texture_snr`` > 0 only on windows whose texture is below
@@ -103,17 +104,19 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_s
     if config.box:
         pyramid = pyramid or config.pyramid
         p1, ok = lk_fb_pyramids(pyramid(img0), pyramid(img1), p0, config.win, config.lk_iters,
-                                config.lk_eps, config.fb_threshold_px, guess)
+                                config.lk_eps, config.fb_threshold_px, guess, mirror)
         if config.raw_fallback and not ok.all():       # the lost points: brightness constancy on the raw images
             lost = np.flatnonzero(~ok)
             p1[lost], ok[lost] = lk_fb(img0, img1, p0[lost], replace(config, normalize_box=0, min_zncc=-1.0),
-                                       None if guess is None else np.asarray(guess)[lost], pyramid)
+                                       None if guess is None else np.asarray(guess)[lost], pyramid, mirror=mirror)
         return p1, zncc_mask(img0, img1, p0, p1, ok, config.win, config.min_zncc, config.zncc_affine, texture_snr,
                              noise)
     a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
     raws = pyramid if isinstance(pyramid, LkPyramids) else None
     b, st = _lk_raw(img0, img1, a, guess, config, raws)
-    a2, st2 = _lk_raw(img1, img0, b, a, config, raws)
+    back_start = a if not mirror or guess is None else \
+        (b.reshape(-1, 2) - (np.asarray(guess, np.float64).reshape(-1, 2) - p0)).astype(np.float32).reshape(-1, 1, 2)
+    a2, st2 = _lk_raw(img1, img0, b, back_start, config, raws)
     p1 = b.reshape(-1, 2).astype(np.float64)
     h, w = img1.shape[:2]
     ok = (st.ravel() == 1) & (st2.ravel() == 1) & np.all(np.isfinite(p1), axis=1)
@@ -202,12 +205,22 @@ class KltFourView:
         timings["stereo"] = timings.get("stereo", 0.0) + (cv2.getTickCount() - t1) * f
         return len(p1)
 
-    def track(self, left, right, timings: dict) -> FourView:
-        """Track the keyframe features into the current stereo frame -> the current :class:`FourView`."""
+    def track(self, left, right, timings: dict, predict=None) -> FourView:
+        """Track the keyframe features into the current stereo frame -> the current :class:`FourView`. ``predict``
+        (indices (M,) -> predicted left pixels (M,2) of those tracks, :mod:`vo.rop.track_start`): a track the
+        zero-flow search loses is searched again from its prediction (its backward check from the prediction
+        mirrored, :func:`lk_fb`) when that lies beyond the zero-flow search's reach (:attr:`KltConfig.reach_px`)."""
         v = self.view
         t0 = cv2.getTickCount()
         p3, ok = lk_fb(self._prev_left, left, v.p3, self.config, pyramid=self._pyramid,
                        texture_snr=self.texture_snr, noise=self._noise)
+        if predict is not None and not ok.all():
+            lost = np.flatnonzero(~ok)
+            guess = predict(lost)
+            far = np.linalg.norm(guess - v.p3[lost], axis=1) > self.config.reach_px
+            r = lost[far]
+            p3[r], ok[r] = lk_fb(self._prev_left, left, v.p3[r], self.config, guess[far], self._pyramid,
+                                 self.texture_snr, self._noise, mirror=True)
         A3, A4 = self._warps(v)
         t3, t4 = self._templates(v)
         if t3 is not None and ok.any():

@@ -69,8 +69,8 @@ class OracleFourView(KltFourView):
         self._X = {tuple(p): X for p, X in zip(p1, X_w)}
         return len(p1)
 
-    def track(self, left, right, timings: dict) -> FourView:
-        v = super().track(left, right, timings)
+    def track(self, left, right, timings: dict, predict=None) -> FourView:
+        v = super().track(left, right, timings, predict)
         T_w_c0, T_w_c1 = self._poses()
         X_w = np.array([self._X[tuple(p)] for p in v.p1]).reshape(-1, 3)
         p3, p4 = project(self.cams[0], T_w_c0, X_w)[0], project(self.cams[1], T_w_c1, X_w)[0]
