@@ -15,7 +15,7 @@ from vo.errors import VoError
 from vo.frontend.grid import Grid
 from vo.frontend.klt_pyramids import LkPyramids, lk_raw
 from vo.frontend.lk_invariant import lk_illumination_invariant
-from vo.frontend.lk_normalized import PyramidCache, lk_pyramids, normalized_pyramid
+from vo.frontend.lk_normalized import PyramidCache, lk_pyramids, mirrored_start, normalized_pyramid
 from vo.frontend.epipolar_offset import offset_epipolar_mask
 from vo.frontend.patch_check import zncc_mask
 from vo.frontend.stereo import epipolar_mask
@@ -235,7 +235,7 @@ def track_fb(img0: np.ndarray, img1: np.ndarray, p0: np.ndarray, config: KltConf
     back = np.where(ok_f[:, None], p1, p0)
     start = None                                  # the backward LK's start points (docstring)
     if guess is not None:
-        start = back - (np.asarray(guess, np.float64).reshape(-1, 2) - p0) if mirror else p0
+        start = mirrored_start(back, guess, p0) if mirror else p0
     p0b, ok_b = lk(img1, img0, back, config, None if pyr is None else pyr[::-1], start)
     ok = ok_f & ok_b & (np.linalg.norm(p0b - p0, axis=1) < config.fb_threshold_px)
     if config.box and pyr is not None and config.raw_fallback and not ok.all():

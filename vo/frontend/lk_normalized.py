@@ -87,17 +87,25 @@ def lk_pyramids(pyr0: list, pyr1: list, p0: np.ndarray, win: int, iters: int, ep
     return p1, ok
 
 
+def mirrored_start(p1: np.ndarray, guess: np.ndarray, p0: np.ndarray) -> np.ndarray:
+    """The backward LK's start for a forward search started at a prediction ``guess`` (N,2) from ``p0`` (N,2) that
+    ended at ``p1`` (N,2): the guess mirrored through the forward result, ``p1 - (guess - p0)``, as far from ``p0``
+    as ``p1`` lies from its guess, so that the round trip stays a test of the match -> (N,2) float64. Used by
+    :func:`vo.frontend.klt.track_fb` and the four-view front-end of ``rop``."""
+    return np.asarray(p1, np.float64).reshape(-1, 2) - (np.asarray(guess, np.float64).reshape(-1, 2)
+                                                          - np.asarray(p0, np.float64).reshape(-1, 2))
+
+
 def lk_fb_pyramids(pyr0: list, pyr1: list, p0: np.ndarray, win: int, iters: int, eps: float, fb_threshold_px: float,
                    guess: np.ndarray | None = None, mirror: bool = False) -> tuple:
     """:func:`lk_pyramids` forward, then back from the result (started at ``p0``, or with ``mirror`` and a
-    ``guess`` at the guess mirrored through the forward result, ``p1 - (guess - p0)``: see
-    :func:`vo.frontend.klt.track_fb`); ``ok`` where both converge and the round trip ends < ``fb_threshold_px``
+    ``guess`` at :func:`mirrored_start`); ``ok`` where both converge and the round trip ends < ``fb_threshold_px``
     from ``p0`` -> ``(p1 (N,2), ok (N,))``."""
     p0 = np.asarray(p0, np.float64).reshape(-1, 2)
     p1, ok_f = lk_pyramids(pyr0, pyr1, p0, win, iters, eps, guess)
     if len(p0) == 0:
         return p1, ok_f
     back = np.where(ok_f[:, None], p1, p0)
-    start = back - (np.asarray(guess, np.float64).reshape(-1, 2) - p0) if mirror and guess is not None else p0
+    start = mirrored_start(back, guess, p0) if mirror and guess is not None else p0
     pb, ok_b = lk_pyramids(pyr1, pyr0, back, win, iters, eps, start)
     return p1, ok_f & ok_b & (np.linalg.norm(pb - p0, axis=1) < fb_threshold_px)

@@ -122,8 +122,7 @@ class RopEstimator(Estimator):
                                                  min_model_fraction=c.moving_min_fraction)
         self.rotation_tester = RotationTester(c.pnp_rotation_prob, c.moving_reproj_px, f.max_depth,
                                               f.max_triangulation_px)
-        self.T_o_c0, self.cov = np.eye(4), np.zeros((6, 6))
-        self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6))
+        self.T_o_c0, self.cov, self.T_o_kf, self.cov_kf = np.eye(4), np.zeros((6, 6)), np.eye(4), np.zeros((6, 6))
         self._kf_imgs = None          # (left, right) of the keyframe; None before the first frame
         self._t_kf, self._n_kf = None, 0
         self._T_kf_cur, self._last_motion = np.eye(4), np.eye(4)
@@ -162,7 +161,7 @@ class RopEstimator(Estimator):
     def _track_guess(self):
         """Indices -> those tracks' left pixels at :meth:`_prior` (``predict_tracks``, :mod:`vo.rop.track_start`)."""
         v, f, T = self.klt.view, self.track_filter_config, self._prior()
-        if not self.config.predict_tracks or self._n_solved == 0 or v is None:
+        if not (self.config.predict_tracks and self._n_solved and v is not None):
             return None
         return lambda i: predicted_left(self.rig, T, v.p1[i], v.x1[i], v.p2[i], v.p3[i], f.max_depth,
                                         f.max_triangulation_px)
@@ -234,7 +233,8 @@ class RopEstimator(Estimator):
             return ""
         if self.config.pnp_rotation_test == "degrees":
             return rotation_miss(T_kf_c, self._pnp_pose(), self.config.pnp_rotation_gate_deg)
-        return self.rotation_tester.miss(T_kf_c, cov_step, self._pnp_pose(), self.klt and self.klt.view, self.rig)
+        view = self.klt.view if self.klt else None
+        return self.rotation_tester.miss(T_kf_c, cov_step, self._pnp_pose(), view, self.rig)
 
     def _advance_prior(self, T_kf_c: np.ndarray) -> None:
         """Extend the PnP chain of the prediction by this frame (its PnP pose, else the frame's own)."""

@@ -9,8 +9,8 @@ pose ``T_kf_c`` (the estimator's motion prior, ``RopEstimator._prior``) through 
 second start for the tracks that seed 003's zero-flow search loses where the prediction lies beyond that search's
 reach (:attr:`vo.frontend.klt.KltConfig.reach_px`), and its mirror the backward search's
 (:meth:`vo.rop.tracks.KltFourView.track`). Every track the zero-flow search holds stays as it is, and where the flow
-stays within reach nothing changes (``klt-pnp``'s full predicted start, used here, moved ``rop``'s figures on the
-indoor routes: docs/estimators.md, "Frame rate"). A track whose pair does not triangulate within ``max_depth``
+stays within reach nothing changes (starting every track at its prediction, as ``klt-pnp`` does, moves ``rop``'s
+indoor figures: docs/estimators.md, "Frame rate"). A track whose pair does not triangulate within ``max_depth``
 (far, or a bad pair) is predicted on its keyframe ray at ``max_depth``: as a far point moves, by the rotation.
 
 Shapes: ``p1``, ``p2`` (N,2) raw keyframe pixels (right corrected, :class:`vo.rop.tracks.KltFourView`); ``p3``

@@ -42,7 +42,7 @@ from vo.frontend.depth_edge import off_edge
 from vo.frontend.grid import Grid
 from vo.frontend.klt import KltConfig, TrackIds, detect_in_empty_cells, stereo_gate
 from vo.frontend.klt_pyramids import LkPyramids, lk_raw
-from vo.frontend.lk_normalized import lk_fb_pyramids
+from vo.frontend.lk_normalized import lk_fb_pyramids, mirrored_start
 from vo.frontend.patch_check import NoiseLevel, zncc_mask
 from vo.rop.relative import normalized_points
 from rigs.geometry.pinhole import to_normalized
@@ -89,7 +89,7 @@ class FourView:
 def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_snr: float = 0.0,
           noise=None, mirror: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal LK ``img0 -> img1`` (optionally seeded with ``guess``) and back (seeded with ``p0``, or with
-    ``mirror`` at the guess mirrored through the forward result: :func:`vo.frontend.klt.track_fb`); ``ok``
+    ``mirror`` at :func:`~vo.frontend.lk_normalized.mirrored_start`); ``ok``
     where both directions converge inside the image, the round trip ends < ``fb_threshold_px`` from
     ``p0`` and the two windows correlate (ZNCC >= ``config.min_zncc``, or the affine fit with ``config.zncc_affine``:
     :mod:`vo.frontend.patch_check`; with ``texture_snr`` > 0 only on windows whose texture is below
@@ -114,8 +114,7 @@ def lk_fb(img0, img1, p0, config: KltConfig, guess=None, pyramid=None, texture_s
     a = np.ascontiguousarray(p0, np.float32).reshape(-1, 1, 2)
     raws = pyramid if isinstance(pyramid, LkPyramids) else None
     b, st = _lk_raw(img0, img1, a, guess, config, raws)
-    back_start = a if not mirror or guess is None else \
-        (b.reshape(-1, 2) - (np.asarray(guess, np.float64).reshape(-1, 2) - p0)).astype(np.float32).reshape(-1, 1, 2)
+    back_start = mirrored_start(b, guess, p0) if mirror and guess is not None else a
     a2, st2 = _lk_raw(img1, img0, b, back_start, config, raws)
     p1 = b.reshape(-1, 2).astype(np.float64)
     h, w = img1.shape[:2]
