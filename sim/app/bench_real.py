@@ -29,7 +29,7 @@ import numpy as np
 from rigs.image_noise import REAL_DRAW_TAG, ImageNoiseDataset
 from sim.errors import SimError
 from vo.dataset import open_dataset
-from vo.dataset.frame_stride import FrameStride
+from vo.dataset.frame_stride import FrameStride, valid_step
 from vo.errors import DatasetError
 from vo.estimators.registry import check_spec
 from vo.estimators.runner import CPU_STAGE
@@ -141,7 +141,7 @@ def bench_real(datasets, estimators=DEFAULT_ESTIMATORS, out_dir=None, one_core: 
     import cv2
 
     noise_sigma = _noise_sigma(noise_draws, DEFAULT_NOISE_SIGMA if noise_sigma is None else noise_sigma)
-    if isinstance(stride, bool) or not isinstance(stride, (int, np.integer)) or stride < 1:
+    if not valid_step(stride):
         raise SimError(f"bench real: stride {stride!r}; must be an integer >= 1")
     for name in estimators:
         check_spec(name)

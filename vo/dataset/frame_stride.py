@@ -19,13 +19,18 @@ from vo.dataset.view import DatasetView
 from vo.errors import DatasetError
 
 
+def valid_step(step) -> bool:
+    """Whether ``step`` is a frame stride: an integer (not a bool) >= 1."""
+    return not isinstance(step, bool) and isinstance(step, (int, np.integer)) and step >= 1
+
+
 class FrameStride(DatasetView):
     """Reader-API view of ``base`` (an opened dataset) holding its frames ``0, step, 2 step, ...``
     (``step`` an integer >= 1; 1 is the recording itself). Index-taking reads (``frame``, ``image_files``,
     ``depth``, ``segmentation``) map view index ``k`` to ``k * step``; everything else is ``base``'s."""
 
     def __init__(self, base, step: int):
-        if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
+        if not valid_step(step):
             raise DatasetError(f"{getattr(base, 'path', base)}: frame stride {step!r}; must be an integer >= 1")
         super().__init__(base)
         self.step = int(step)
