@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from foreground import foreground_sigint
 from vo.estimators.base import Estimator, FrameResult
 from vo.estimators.isolation import available_tool
 
@@ -99,7 +100,8 @@ def check_process(cache_root, *args, path_env=None, wait=True, timeout=300):
     argv = [sys.executable, "-c", "from sim.app.cli import main; main()", "check", "--scenario", "smoke",
             "--no-progress", *args]
     if not wait:
-        return subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        return subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                preexec_fn=foreground_sigint)
     return subprocess.run(argv, env=env, capture_output=True, text=True, timeout=timeout)
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from foreground import foreground_sigint
 from sim.app.cli import main
 from sim.writers.common import MARKER, OWNER
 from sim.writers.locking import LOCK_NAME, FolderBusy, FolderLock, holder_pid
@@ -30,7 +31,7 @@ def env(**extra) -> dict:
 
 def spawn(args, **extra) -> subprocess.Popen:
     return subprocess.Popen(args, cwd=REPO, env=env(**extra), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, preexec_fn=foreground_sigint)
 
 
 def wait_for(predicate, proc: subprocess.Popen, what: str, timeout_s: float = 120.0, step_s: float = 0.01) -> None:

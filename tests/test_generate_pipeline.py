@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from foreground import foreground_sigint
 from sim.generate_config import GenerateConfig
 from sim.frame_pipeline import FramePipeline
 from rigs.image_noise import _offset_table, add_quantized_noise, offset_probabilities
@@ -121,7 +122,8 @@ def test_run_interrupted_by_sigint_resumes_byte_identically(tmp_path, workers):
     cfg = GenerateConfig(scene="indoor", rig="stereo27", duration_s=3.0, seed=3)
     broken = tmp_path / "broken"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    child = subprocess.Popen([sys.executable, "-c", CHILD, str(broken), str(workers)], env=env, cwd=ROOT)
+    child = subprocess.Popen([sys.executable, "-c", CHILD, str(broken), str(workers)], env=env, cwd=ROOT,
+                             preexec_fn=foreground_sigint)
     rows = broken / "mav0" / "cam0" / "data.csv"
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and child.poll() is None:

@@ -19,6 +19,7 @@ import pytest
 
 pytest.importorskip("dask.distributed")
 
+from foreground import foreground_sigint                          # noqa: E402
 from sim.app.sweep.cell import record_path                       # noqa: E402
 from sim.app.sweep.driver import run_sweep                       # noqa: E402
 from sim.app.sweep.fingerprint import code_fingerprint           # noqa: E402
@@ -211,9 +212,8 @@ def test_sigint_interrupted_sweep_resumes(tmp_path):
     args = [str(Path(sys.executable).with_name("vo-testbed")), "sweep", "--scenario", "smoke", "--set", "duration_s=0.5",
             "--grid", "scene.texture_richness=0.2,0.4,0.6,0.8", "--estimator", "klt-pnp", "--seeds", "0:1",
             "--workers", "1", "--no-progress", "--out", str(out)]
-    # SIGINT back to its default in the child: a suite started as a background job inherits it ignored
     proc = subprocess.Popen(args, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                            start_new_session=True, preexec_fn=foreground_sigint)
     try:
         assert _wait_for(out / "cells", 120) and _first_record(out / "cells", 120), "no cell finished"
         os.killpg(proc.pid, signal.SIGINT)      # as Ctrl-C does: the whole process group
