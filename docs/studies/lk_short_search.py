@@ -127,7 +127,8 @@ def moving(dataset: str, n_frames: int) -> None:
     for lo, hi in ((0.0, 0.5), (0.5, 5.0), (5.0, np.inf)):
         m = ok & (dist > lo) & (dist <= hi)
         share = dyn[m].mean() if m.any() else float("nan")
-        print(f"  1-level search ends {lo}-{hi} px from the product's: {m.mean():.4f} of the tracks, {share:.3f} moving")
+        print(f"  1-level search ends {lo}-{hi} px from the product's: {m.mean():.4f} of the tracks, "
+              f"{share:.3f} moving")
     print(f"  1-level search fails: {(~ok).mean():.4f} of the tracks")
 
 
