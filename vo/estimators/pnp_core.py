@@ -13,7 +13,8 @@ the points the earlier models left over) and, among those with at least
 ``max(min_pnp_inliers, min_model_fraction * N)`` inliers, keeps the one whose camera position is nearest
 the motion prior (constant velocity); LM started at the prior adds one more candidate (RANSAC's models can
 mix the world with a slow car). When another candidate holds mostly other points, the chosen motion is
-refitted on the points it explains better than the others. Without a prior it is RANSAC's answer.
+refitted on the points it explains better than the others; a candidate with fewer such points of its own than a
+motion needs is not a motion and leaves the choice. Without a prior it is RANSAC's answer.
 """
 from __future__ import annotations
 
@@ -118,15 +119,23 @@ def _inliers(T_c0_o: np.ndarray, p_o: np.ndarray, x: np.ndarray, K: np.ndarray, 
     return reprojection_errors(T_c0_o, p_o, x, K) < thr
 
 
-def _exclusive_refit(chosen: tuple, others: list, p_o, x, K, config: PnpConfig) -> tuple:
-    """Refit the chosen motion on the points it explains better than every other candidate motion: points
-    of a moving car that also fall inside the chosen motion's gate (near the focus of expansion) would
-    otherwise pull the LM fit. Returns ``(T_c0_o, inliers)``; the chosen fit when too few points remain."""
+def _own_points(chosen: tuple, others: list, p_o, x, K) -> np.ndarray:
+    """(N,) bool: the inliers of the chosen motion ``(T_c0_o, inliers)`` that it explains better than every other
+    candidate motion of ``others`` explaining them."""
     T, inl = chosen
     err = reprojection_errors(T, p_o, x, K)
     own = inl.copy()
     for T_other, inl_other in others:
         own &= ~(inl_other & (reprojection_errors(T_other, p_o, x, K) < err))
+    return own
+
+
+def _exclusive_refit(chosen: tuple, own: np.ndarray, p_o, x, K, config: PnpConfig) -> tuple:
+    """Refit the chosen motion on ``own`` (:func:`_own_points`), the points it explains better than every other
+    candidate: points of a moving car that also fall inside the chosen motion's gate (near the focus of
+    expansion) would otherwise pull the LM fit. Returns ``(T_c0_o, inliers)``; the chosen fit when too few
+    points remain."""
+    T = chosen[0]
     if own.sum() < max(6, config.min_pnp_inliers):
         return chosen
     obj = np.ascontiguousarray(p_o[own], dtype=np.float64).reshape(-1, 1, 3)
@@ -207,9 +216,12 @@ def choose_motion(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: 
     """The candidate motion (:func:`candidate_motions`, plus the one LM reaches from the prior) whose camera
     position is nearest the prior's -> ``(T_c0_o, inliers, competing)`` or None; ``competing`` when another
     candidate is a different rigid motion (:func:`separated`), and then the chosen one is refitted on the
-    points it explains better than those. Without competition the first (RANSAC's) candidate: picking the
-    fit nearest the prior among fits of one motion would pull every frame towards constant velocity
-    (urban-kitti klt-pnp 0.70 -> 0.99 % drift)."""
+    points it explains better than those (:func:`_own_points`). A candidate needs as many points of its own as a
+    motion needs inliers (``max(min_pnp_inliers, min_model_fraction * N)``): one whose points the other motions
+    explain better is a refit of theirs (on a short baseline, the far points' leftovers of RANSAC's fit land a
+    few mm from the prior) and leaves the choice, which is made again among the others. Without competition the
+    first (RANSAC's) candidate: picking the fit nearest the prior among fits of one motion would pull every frame
+    towards constant velocity (urban-kitti klt-pnp 0.70 -> 0.99 % drift)."""
     p_o, x = np.asarray(p_o, float), np.asarray(x_undist, float)
     need = max(config.min_pnp_inliers, config.min_model_fraction * len(p_o))
     models = [m for m in candidate_motions(p_o, x, K, config) if m[1].sum() >= config.min_pnp_inliers]
@@ -218,11 +230,17 @@ def choose_motion(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: 
     if not models:
         return None
     c_prior = np.asarray(T_o_c0_prior, float)[:3, 3]
-    i = int(np.argmin([np.linalg.norm(inv_T(T)[:3, 3] - c_prior) for T, _ in models]))
-    others = [m for j, m in enumerate(models) if j != i and separated(models[i], m, p_o, x, K, config, need)]
-    if not others:                  # one rigid motion: RANSAC's fit, exactly as without a prior
-        return (*models[0], False)
-    return (*_exclusive_refit(models[i], others, p_o, x, K, config), True)
+    live = list(models)             # the candidates that are motions of their own
+    while live:
+        i = int(np.argmin([np.linalg.norm(inv_T(T)[:3, 3] - c_prior) for T, _ in live]))
+        others = [m for j, m in enumerate(live) if j != i and separated(live[i], m, p_o, x, K, config, need)]
+        if not others:              # one rigid motion: RANSAC's fit, exactly as without a prior
+            break
+        own = _own_points(live[i], others, p_o, x, K)
+        if own.sum() >= need:
+            return (*_exclusive_refit(live[i], own, p_o, x, K, config), True)
+        del live[i]                 # the other motions explain its points: not a motion, out of the choice
+    return (*models[0], False)
 
 
 def solve_pnp(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: PnpConfig,
