@@ -245,7 +245,8 @@ def choose_motion(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: 
 
 def solve_pnp(p_o: np.ndarray, x_undist: np.ndarray, K: np.ndarray, config: PnpConfig,
               T_o_c0_prior: np.ndarray | None = None) -> tuple:
-    """3-D landmarks ``p_o`` (N,3) seen at undistorted pixels ``x_undist`` (N,2) -> ``(T_o_c0 | None, inliers (N,) bool)``.
+    """3-D landmarks ``p_o`` (N,3) seen at undistorted pixels ``x_undist`` (N,2) -> ``(T_o_c0 | None,
+    inliers (N,) bool)``.
 
     ``cv2.solvePnPRansac`` (minimal solver ``config.method``) then ``cv2.solvePnPRefineLM`` on the inliers;
     with ``config.consensus == "prior"`` and a prior pose ``T_o_c0_prior``, :func:`choose_motion`.
