@@ -8,13 +8,16 @@ a constant-velocity prior (5 cm, 0.3 deg off the truth, as after a gentle accele
 """
 from __future__ import annotations
 
+from pathlib import Path
+
+import cv2
 import numpy as np
 import pytest
 
 from rigs.geometry import inv_T, make_T, rot_x, rot_y, transform_points
 from rigs.geometry.pinhole import project
 from vo.errors import EstimatorError
-from vo.estimators.pnp_core import PnpConfig, candidate_motions, solve_pnp
+from vo.estimators.pnp_core import PnpConfig, _own_points, candidate_motions, choose_motion, separated, solve_pnp
 
 K = np.array([[460.0, 0, 319.5], [0, 460.0, 199.5], [0, 0, 1]])
 W, H = 640, 400
@@ -273,10 +276,6 @@ def test_a_candidate_whose_points_other_motions_explain_better_is_not_chosen():
     a refit of the static world's motion, not a moving object, and leaves the choice: the rest are one rigid motion,
     so the result is RANSAC's fit (as without a prior), which keeps the scene's tracks (>= 80 %) and lies within 6 mm
     of the true camera position (measured 5.7 mm; the candidate left out: 11 mm)."""
-    import cv2
-    from pathlib import Path
-    from vo.estimators.pnp_core import _own_points, choose_motion, separated
-
     d = np.load(Path(__file__).parent / "data" / "short_baseline_motions.npz")
     p, x, K, prior = d["p_kf"], d["x_undist"], d["K"], d["T_kf_c_prior"]
     cfg = PnpConfig(ransac_reproj_px=2.0, min_model_fraction=0.1)

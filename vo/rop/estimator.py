@@ -160,10 +160,10 @@ class RopEstimator(Estimator):
 
     def _track_guess(self):
         """Indices -> those tracks' left pixels at :meth:`_prior` (``predict_tracks``, :mod:`vo.rop.track_start`)."""
-        v, f, T = self.klt.view, self.track_filter_config, self._prior()
+        v, f = self.klt.view, self.track_filter_config
         if not (self.config.predict_tracks and self._n_solved and v is not None):
             return None
-        return lambda i: predicted_left(self.rig, T, v.p1[i], v.x1[i], v.p2[i], v.p3[i], f.max_depth,
+        return lambda i: predicted_left(self.rig, self._prior(), v.p1[i], v.x1[i], v.p2[i], v.p3[i], f.max_depth,
                                         f.max_triangulation_px)
 
     def _static_tracks(self, v, timings):
