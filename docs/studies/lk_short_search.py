@@ -19,6 +19,7 @@ from the product's 4-level result, and which of those tracks lie on moving actor
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from dataclasses import replace
 
@@ -26,6 +27,7 @@ import cv2
 import numpy as np
 
 from vo.dataset import open_dataset
+from vo.errors import DatasetError, VoError
 from vo.estimators.pnp import KltPnpEstimator
 from vo.frontend.klt import KltConfig, KltTracker, track_fb
 from vo.frontend.lk_normalized import lk_pyramids
@@ -113,7 +115,7 @@ def moving(dataset: str, n_frames: int) -> None:
     ds = open_dataset(dataset)
     labels = FeatureLabels.of(ds)
     if labels is None:
-        raise SystemExit(f"{dataset}: no segmentation (generate with --segmentation)")
+        raise DatasetError(f"{dataset}: no segmentation (generate with --segmentation)")
     cam = ds.rig.cameras[0]
     tracker = ComparingTracker(cam.width, cam.height)
     est = KltPnpEstimator(ds.rig, tracker=tracker)
@@ -140,12 +142,18 @@ def main() -> None:
     ap.add_argument("--levels", type=int, default=2)
     ap.add_argument("--frames", type=int, default=None)
     a = ap.parse_args()
-    if a.mode == "drift":
-        drift(a.dataset, a.out, a.levels)
-    elif a.mode == "cpu":
-        cpu(a.dataset, a.levels, a.frames or 200)
-    else:
-        moving(a.dataset, a.frames or 150)
+    if a.mode == "drift" and a.out is None:
+        ap.error("drift needs OUT, the run's output folder")
+    try:
+        if a.mode == "drift":
+            drift(a.dataset, a.out, a.levels)
+        elif a.mode == "cpu":
+            cpu(a.dataset, a.levels, a.frames or 200)
+        else:
+            moving(a.dataset, a.frames or 150)
+    except VoError as e:                                    # bad input: one line, exit code 2
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
 
 
 if __name__ == "__main__":
