@@ -11,7 +11,9 @@ moving objects are out) on a dataset written with ``--segmentation --depth`` and
   point, from its birth pixel and exact depth, into the true camera; ``exact+px`` adds N(0, sigma_px) per axis);
 * ``depth_ok``: ``valid`` keeps only landmarks whose exact depth is valid (no depth edge in the 5x5 window
   around the left pixel), also for the product's stereo depth: the same landmark set as the exact-depth
-  ablations; ``finite`` drops only those with sky (no depth) in that window; ``all`` keeps every one.
+  ablations; ``finite`` drops only those with sky (no depth) in that window; ``all`` keeps every one; ``pixel``
+  keeps the landmarks on depth edges too, with the exact depth of the pixel nearest the left point (one side of
+  the edge: the best a stereo matcher could give them).
 
 Prints, per ablation: the orientation error at the last frame as a rotation vector in the current camera
 frame (roll = about the optical axis z, pitch = about x, yaw = about y; deg), the mean signed per-step
@@ -48,7 +50,7 @@ class Ablation:
     name: str
     depth: str = "stereo"          # stereo | exact | exact+disp
     tracks: str = "klt"            # klt | exact | exact+px
-    depth_ok: str = "valid"        # all | valid | finite
+    depth_ok: str = "valid"        # all | valid | finite | pixel
 
 
 ABLATIONS = (
@@ -61,6 +63,7 @@ ABLATIONS = (
     Ablation("(c) exact + measured noise", depth="exact+disp", tracks="exact+px"),
     Ablation("(c') exact depth + measured px noise", depth="exact", tracks="exact+px"),
     Ablation("(c'') measured disparity noise + exact tracks", depth="exact+disp", tracks="exact"),
+    Ablation("(d) exact depth, edge landmarks kept at their pixel's depth", depth="exact", depth_ok="pixel"),
 )
 
 
@@ -81,7 +84,12 @@ class TruthInputs:
         """-> (true p_c0, exact depth valid, which landmarks the ablation keeps)."""
         cam, depth = self.rig.cameras[0], self.ds.depth(self.k, 0)
         z, ok = local_depth(depth, p_l)
-        keep = {"valid": ok, "all": np.ones(len(ok), bool)}.get(self.abl.depth_ok)
+        if self.abl.depth_ok == "pixel":       # edge landmarks at the depth of their nearest pixel
+            ij = np.clip(np.round(p_l).astype(int), 0, [depth.shape[1] - 1, depth.shape[0] - 1])
+            z_px = depth[ij[:, 1], ij[:, 0]].astype(float)
+            edge = ~ok & np.isfinite(z_px) & (z_px > 0.1)
+            z, ok = np.where(edge, z_px, z), ok | edge
+        keep = {"valid": ok, "all": np.ones(len(ok), bool), "pixel": ok}.get(self.abl.depth_ok)
         if keep is None:        # "finite": only landmarks with sky (inf depth) in the 5x5 window are dropped
             ij = np.clip(np.round(p_l).astype(int), 2, [depth.shape[1] - 3, depth.shape[0] - 3])
             keep = np.all([np.isfinite(depth[ij[:, 1] + j, ij[:, 0] + i]) for i in range(-2, 3) for j in range(-2, 3)], 0)

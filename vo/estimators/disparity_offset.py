@@ -273,9 +273,13 @@ class DisparityOffset:
         pulls it 0-15 % short: the real KITTI turn 1.46 against 1.31 px), the two measure different things and
         nothing is applied."""
         mean, self.se_px, significant = self._significant(self.fits)
+        self.delta_px = mean if significant and self._pose_tracks_agree(mean) else 0.0
+
+    def _pose_tracks_agree(self, mean: float) -> bool:
+        """Whether the mean of the fits on the pose tracks alone passes :meth:`_significant` and agrees with
+        ``mean`` (px), the mean of all: the same sign and at least ``pose_share`` of its size."""
         pose_mean, _, pose_significant = self._significant(self.pose_fits)
-        agree = pose_mean * mean > 0 and abs(pose_mean) >= self.config.pose_share * abs(mean)
-        self.delta_px = mean if significant and pose_significant and agree else 0.0
+        return pose_significant and pose_mean * mean > 0 and abs(pose_mean) >= self.config.pose_share * abs(mean)
 
     def _significant(self, fits) -> tuple:
         """``(mean, se, significant)`` of keyframe fits ``[(delta, variance)]``: the weighted mean, its standard
