@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -39,6 +40,9 @@ from vo.estimators.pnp import KltPnpEstimator
 from vo.frontend.stereo import triangulate
 from vo.pipeline import run_dataset
 from vo.vins.truth_segmentation import FeatureLabels
+
+sys.path.insert(0, str(Path(__file__).parent))
+from urban_pnp_drift_ablation import pixel_depth  # noqa: E402
 
 GAMMA_C, GAMMA_P, HALF, ITERATIONS = 10.0, 10.0, 10, 10
 
@@ -83,7 +87,7 @@ class SupportWeightKltPnp(KltPnpEstimator):
         p_c0, ok = self._stereo_landmarks(left, right, ids, p_l)
         if not ok.any():
             return p_c0, ok
-        fb = float(self.rig.cameras[0].K[0, 0]) * float(np.linalg.norm(self.rig.T_c0_c1[:3, 3]))
+        fb = float(self.rig.cameras[0].K[0, 0]) * self.rig.baseline
         d0 = fb / p_c0[ok, 2]
         d = refine(left, right, p_l[ok], d0)
         use = np.isfinite(d) & (d > 0) & (np.abs(d - d0) < self.max_move)
@@ -113,13 +117,11 @@ def errors(dataset: str, n_frames: int) -> None:
             p_c0, ok = self._stereo_landmarks(left, right, ids, p_l)
             sel = ok & ~labels.dynamic(k[0], p_l)
             if sel.any():
-                fb = float(self.rig.cameras[0].K[0, 0]) * float(np.linalg.norm(self.rig.T_c0_c1[:3, 3]))
+                fb = float(self.rig.cameras[0].K[0, 0]) * self.rig.baseline
                 d0 = fb / p_c0[sel, 2]
                 depth = ds.depth(k[0], 0)
                 z, plane = local_depth(depth, p_l[sel])
-                ij = np.clip(np.round(p_l[sel]).astype(int), 0, [depth.shape[1] - 1, depth.shape[0] - 1])
-                z_px = depth[ij[:, 1], ij[:, 0]].astype(float)
-                d_true = np.where(plane, fb / z, np.where(np.isfinite(z_px) & (z_px > 0.1), fb / z_px, np.nan))
+                d_true = np.where(plane, fb / z, fb / pixel_depth(depth, p_l[sel]))
                 rows.append(np.c_[plane, d0 - d_true, refine(left, right, p_l[sel], d0) - d_true])
             return p_c0, ok
 

@@ -67,6 +67,14 @@ ABLATIONS = (
 )
 
 
+def pixel_depth(depth: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(N,) exact depth (m) of the pixel nearest each point ``p`` (N,2) of the depth map (H,W); NaN where nothing
+    is in range (sky) or nearer than 0.1 m. On a depth edge: the depth of one side."""
+    ij = np.clip(np.round(p).astype(int), 0, [depth.shape[1] - 1, depth.shape[0] - 1])
+    z = depth[ij[:, 1], ij[:, 0]].astype(float)
+    return np.where(np.isfinite(z) & (z > 0.1), z, np.nan)
+
+
 class TruthInputs:
     """The ablation's inputs from the truth, handed to ``klt-pnp`` through its constructor: :meth:`landmarks` is
     its ``landmark_source`` (the depth of new landmarks), :class:`ExactTracker` its ``tracker`` (exact tracks);
@@ -85,9 +93,8 @@ class TruthInputs:
         cam, depth = self.rig.cameras[0], self.ds.depth(self.k, 0)
         z, ok = local_depth(depth, p_l)
         if self.abl.depth_ok == "pixel":       # edge landmarks at the depth of their nearest pixel
-            ij = np.clip(np.round(p_l).astype(int), 0, [depth.shape[1] - 1, depth.shape[0] - 1])
-            z_px = depth[ij[:, 1], ij[:, 0]].astype(float)
-            edge = ~ok & np.isfinite(z_px) & (z_px > 0.1)
+            z_px = pixel_depth(depth, p_l)
+            edge = ~ok & np.isfinite(z_px)
             z, ok = np.where(edge, z_px, z), ok | edge
         keep = {"valid": ok, "all": np.ones(len(ok), bool), "pixel": ok}.get(self.abl.depth_ok)
         if keep is None:        # "finite": only landmarks with sky (inf depth) in the 5x5 window are dropped
